@@ -1,0 +1,47 @@
+"""zentf: tf2 coordinate transforms for processes that talk over Zenoh.
+
+The core (time, messages, math, buffer) imports no Zenoh; transport names (Node,
+TransformListener, ...) load lazily on first use so `import zentf` stays light.
+"""
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from .exceptions import (ConnectivityException, ExtrapolationException, InvalidArgumentException,
+                         LookupException, TimeoutException, TransformException, TypeException)
+from .messages import (Header, Point, PointStamped, Pose, PoseStamped, Quaternion, TFMessage,
+                       Transform, TransformStamped, Vector3, Vector3Stamped)
+from .time import Duration, Time
+
+__version__ = "0.1.0"
+
+# name -> module that defines it; filled in as layers land (core first, transport on top).
+_LAZY: dict[str, str] = {
+    "BufferCore": "zentf.buffer_core",
+    "Buffer": "zentf.buffer",
+    "Node": "zentf.node",
+    "TransformListener": "zentf.listener",
+    "TransformBroadcaster": "zentf.broadcaster",
+    "StaticTransformBroadcaster": "zentf.broadcaster",
+    "MessageFilter": "zentf.message_filter",
+    "Clock": "zentf.clock",
+    "Rate": "zentf.clock",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'zentf' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+__all__ = [
+    "Time", "Duration", "Header", "Point", "PointStamped", "Pose", "PoseStamped", "Quaternion",
+    "TFMessage", "Transform", "TransformStamped", "Vector3", "Vector3Stamped",
+    "TransformException", "LookupException", "ConnectivityException", "ExtrapolationException",
+    "InvalidArgumentException", "TimeoutException", "TypeException", *_LAZY,
+]
