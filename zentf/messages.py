@@ -216,3 +216,101 @@ class TFMessage(Message):
 class Clock(Message):
     TYPE_NAME: ClassVar[str] = "rosgraph_msgs/msg/Clock"
     clock: Time = field(default_factory=Time)
+
+
+# --- Messages used by the demo node programs (nodes/) -------------------------------------------
+
+
+@register
+@dataclass(slots=True)
+class Twist(Message):
+    TYPE_NAME: ClassVar[str] = "geometry_msgs/msg/Twist"
+    linear: Vector3 = field(default_factory=Vector3)
+    angular: Vector3 = field(default_factory=Vector3)
+
+
+@register
+@dataclass(slots=True)
+class TurtlePose(Message):
+    """turtlesim's own Pose (planar), not geometry_msgs/Pose."""
+
+    TYPE_NAME: ClassVar[str] = "turtlesim/msg/Pose"
+    x: float = 0.0
+    y: float = 0.0
+    theta: float = 0.0
+    linear_velocity: float = 0.0
+    angular_velocity: float = 0.0
+
+
+@register
+@dataclass(slots=True)
+class SpawnRequest(Message):
+    """turtlesim's Spawn request; an empty name asks the simulator to pick one."""
+
+    TYPE_NAME: ClassVar[str] = "turtlesim/srv/Spawn_Request"
+    x: float = 0.0
+    y: float = 0.0
+    theta: float = 0.0
+    name: str = ""
+
+
+@register
+@dataclass(slots=True)
+class SpawnResponse(Message):
+    TYPE_NAME: ClassVar[str] = "turtlesim/srv/Spawn_Response"
+    name: str = ""
+
+
+@register
+@dataclass(slots=True)
+class ColorRGBA(Message):
+    TYPE_NAME: ClassVar[str] = "std_msgs/msg/ColorRGBA"
+    r: float = 0.0
+    g: float = 0.0
+    b: float = 0.0
+    a: float = 0.0
+
+
+@register
+@dataclass(slots=True)
+class Marker(Message):
+    """visualization_msgs/Marker without the mesh/texture fields nobody here draws."""
+
+    TYPE_NAME: ClassVar[str] = "visualization_msgs/msg/Marker"
+    ARROW: ClassVar[int] = 0
+    CUBE: ClassVar[int] = 1
+    SPHERE: ClassVar[int] = 2
+    CYLINDER: ClassVar[int] = 3
+    LINE_STRIP: ClassVar[int] = 4
+    LINE_LIST: ClassVar[int] = 5
+    CUBE_LIST: ClassVar[int] = 6
+    SPHERE_LIST: ClassVar[int] = 7
+    POINTS: ClassVar[int] = 8
+    TEXT_VIEW_FACING: ClassVar[int] = 9
+    ADD: ClassVar[int] = 0
+    MODIFY: ClassVar[int] = 0
+    DELETE: ClassVar[int] = 2
+    DELETEALL: ClassVar[int] = 3
+    header: Header = field(default_factory=Header)
+    ns: str = ""
+    id: int = 0
+    type: int = 0
+    action: int = 0
+    pose: Pose = field(default_factory=Pose)
+    scale: Vector3 = field(default_factory=Vector3)
+    color: ColorRGBA = field(default_factory=ColorRGBA)
+    lifetime: Duration = field(default_factory=Duration)
+    frame_locked: bool = False
+    points: list[Point] = field(default_factory=list)
+    colors: list[ColorRGBA] = field(default_factory=list)
+    text: str = ""
+
+
+@register
+@dataclass(slots=True)
+class MarkerArray(Message):
+    TYPE_NAME: ClassVar[str] = "visualization_msgs/msg/MarkerArray"
+    markers: list[Marker] = field(default_factory=list)
+
+
+__all__ += ["Twist", "TurtlePose", "SpawnRequest", "SpawnResponse", "ColorRGBA", "Marker", "MarkerArray"]
