@@ -1,0 +1,168 @@
+"""Unit tests of the CLI's pure renderers: tf echo block, frame tree text, view_frames DOT, graph DOT."""
+from __future__ import annotations
+
+import math
+import shutil
+import subprocess
+
+import pytest
+
+from zentf.cli.format import (FrameStat, NodeDesc, format_echo, format_frame_tree, format_hz,
+                              format_node_graph, format_stamp, frame_trees, frames_dot,
+                              matrix_from_quaternion, node_graph_dot, parse_frames_yaml,
+                              rpy_from_quaternion)
+
+
+def _yaw_q(yaw: float) -> tuple[float, float, float, float]:
+    return (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
+
+
+def test_echo_block_camera_laser_with_yaw() -> None:
+    text = format_echo(1_700_000_000_000_000_005, (0.9, 0.0, -0.2), _yaw_q(0.5))
+    lines = text.splitlines()
+    assert lines[0] == "At time 1700000000.000000005"
+    assert lines[1] == "- Translation: [0.900, 0.000, -0.200]"
+    assert lines[2] == "- Rotation: in Quaternion (xyzw) [0.000, 0.000, 0.247, 0.969]"
+    assert lines[3] == "- Rotation: in RPY (radian) [0.000, -0.000, 0.500]"
+    assert lines[4] == "- Rotation: in RPY (degree) [0.000, -0.000, 28.648]"
+    assert lines[5] == "- Matrix:"
+    assert lines[6].split() == ["0.878", "-0.479", "0.000", "0.900"]
+    assert lines[9].split() == ["0.000", "0.000", "0.000", "1.000"]
+    assert len(lines) == 10
+
+
+def test_echo_precision() -> None:
+    text = format_echo(0, (1.0, 2.0, 3.0), (0, 0, 0, 1), precision=5)
+    assert "- Translation: [1.00000, 2.00000, 3.00000]" in text
+    assert text.startswith("At time 0.000000000\n")
+
+
+@pytest.mark.parametrize("rpy", [(0.1, 0.2, 0.3), (-1.0, 0.5, 2.5), (0.0, 0.0, -3.0), (3.0, -1.2, 0.4)])
+def test_rpy_round_trip(rpy: tuple[float, float, float]) -> None:
+    r, p, y = rpy
+    cr, sr, cp, sp, cy, sy = (math.cos(r / 2), math.sin(r / 2), math.cos(p / 2), math.sin(p / 2),
+                              math.cos(y / 2), math.sin(y / 2))
+    q = (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy,
+         cr * cp * cy + sr * sp * sy)
+    assert rpy_from_quaternion(q) == pytest.approx(rpy, abs=1e-12)
+    m = matrix_from_quaternion(q)
+    # R = Rz(y) Ry(p) Rx(r): first column is (cy cp, sy cp, -sp)
+    assert [m[0][0], m[1][0], m[2][0]] == pytest.approx([math.cos(y) * math.cos(p), math.sin(y) * math.cos(p),
+                                                         -math.sin(p)], abs=1e-12)
+
+
+def test_rpy_gimbal_lock_is_finite() -> None:
+    q = (0.0, math.sin(math.pi / 4), 0.0, math.cos(math.pi / 4))  # pitch +90 deg
+    r, p, y = rpy_from_quaternion(q)
+    assert p == pytest.approx(math.pi / 2) and all(math.isfinite(v) for v in (r, p, y))
+
+
+def test_stamp_zero_padded() -> None:
+    assert format_stamp(5) == "0.000000005"
+    assert format_stamp(12_500_000_000) == "12.500000000"
+
+
+_YAML = """\
+av1: 
+  parent: 'world'
+  broadcaster: '/frames_publisher'
+  rate: 50.000
+  most_recent_transform: 101.000
+  oldest_transform: 91.000
+  buffer_length: 10.000
+av2: 
+  parent: 'world'
+  broadcaster: '/frames_publisher'
+  rate: 50.000
+  most_recent_transform: 101.000
+  oldest_transform: 91.000
+  buffer_length: 10.000
+laser: 
+  parent: 'base_link'
+  broadcaster: '/static_laser'
+  rate: 10000.000
+  most_recent_transform: 0.000
+  oldest_transform: 0.000
+  buffer_length: 0.000
+"""
+
+
+def test_parse_frames_yaml() -> None:
+    stats = parse_frames_yaml(_YAML)
+    assert [s.child for s in stats] == ["av1", "av2", "laser"]
+    assert stats[0].parent == "world" and stats[0].rate == 50.0 and not stats[0].is_static
+    assert stats[2].is_static and stats[2].broadcaster == "/static_laser"
+    assert parse_frames_yaml("{}") == [] and parse_frames_yaml("[]") == [] and parse_frames_yaml("") == []
+
+
+def test_frame_trees_and_text_tree_show_disconnected_trees() -> None:
+    stats = parse_frames_yaml(_YAML) + [FrameStat("camera", "base_link", "/static_cam", 10000.0),
+                                        FrameStat("lens", "camera", "/static_cam", 10000.0)]
+    trees = frame_trees(stats)
+    assert [root for root, _ in trees] == ["base_link", "world"]
+    assert [e.child for e in trees[0][1]] == ["camera", "lens", "laser"]
+    text = format_frame_tree(stats)
+    assert text.splitlines() == [
+        "base_link",
+        "├── camera  (static, /static_cam)",
+        "│   └── lens  (static, /static_cam)",
+        "└── laser  (static, /static_laser)",
+        "",
+        "world",
+        "├── av1  (50.0 Hz, /frames_publisher)",
+        "└── av2  (50.0 Hz, /frames_publisher)",
+    ]
+
+
+def test_frame_trees_survive_a_loop() -> None:
+    stats = [FrameStat("b", "a"), FrameStat("a", "b"), FrameStat("c", "x")]
+    trees = frame_trees(stats)
+    covered = {e.child for _, edges in trees for e in edges}
+    assert covered == {"a", "b", "c"}
+    assert "c" in format_frame_tree(stats)
+
+
+def test_frames_dot_edges_labels_and_clusters() -> None:
+    dot = frames_dot(parse_frames_yaml(_YAML), recorded_at=101.5)
+    assert '"world" -> "av1"' in dot and '"world" -> "av2"' in dot and '"base_link" -> "laser"' in dot
+    assert dot.count("subgraph cluster_") == 3  # two trees + legend
+    assert "Broadcaster: /frames_publisher\\nAverage rate: 50.000 Hz" in dot
+    assert "Most recent transform: 101.000 ( 0.500 sec old)" in dot
+    assert "Oldest transform: 91.000" in dot and "Buffer length: 10.000 sec" in dot
+    assert "Recorded at time: 101.500" in dot
+
+
+def test_frames_dot_empty_and_quoting() -> None:
+    assert "No tf data received" in frames_dot([])
+    dot = frames_dot([FrameStat('we"ird', "a", 'b"c')])
+    assert '"a" -> "we\\"ird"' in dot and 'Broadcaster: b\\"c' in dot
+
+
+@pytest.mark.skipif(shutil.which("dot") is None, reason="graphviz not installed")
+def test_frames_dot_is_valid_graphviz() -> None:
+    for dot in (frames_dot(parse_frames_yaml(_YAML), 1.0), frames_dot([]),
+                node_graph_dot([NodeDesc("/a", {"/tf": "tf2_msgs/msg/TFMessage"}, {})])):
+        proc = subprocess.run(["dot", "-Tsvg"], input=dot, capture_output=True, text=True, timeout=30)
+        assert proc.returncode == 0, proc.stderr
+        assert "<svg" in proc.stdout
+
+
+def test_node_graph_dot_and_text() -> None:
+    nodes = [NodeDesc("/talker", {"/chatter": "std_msgs/msg/String"}, {}),
+             NodeDesc("/listener", {}, {"/chatter": "std_msgs/msg/String"})]
+    dot = node_graph_dot(nodes)
+    assert '"n:/talker" -> "t:/chatter"' in dot and '"t:/chatter" -> "n:/listener"' in dot
+    assert dot.count("shape=box") == 1
+    text = format_node_graph(nodes)
+    assert text.splitlines() == ["/listener", "  <- /chatter [std_msgs/msg/String]",
+                                 "/talker", "  -> /chatter [std_msgs/msg/String]"]
+    assert format_node_graph([]) == "No nodes found"
+
+
+def test_format_hz() -> None:
+    assert format_hz([1.0]) is None
+    text = format_hz([0.0, 0.02, 0.04, 0.06])
+    assert text is not None
+    first, second = text.splitlines()
+    assert first == "average rate: 50.000"
+    assert "min: 0.020s max: 0.020s" in second and "window: 4" in second

@@ -1,0 +1,4 @@
+"""`python -m zentf.cli`."""
+from zentf.cli import run
+
+run()

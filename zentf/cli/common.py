@@ -1,0 +1,191 @@
+"""Shared CLI plumbing: Zenoh/node options on every command, one-line errors, spinners on a TTY."""
+from __future__ import annotations
+
+import functools
+import os
+import re
+import sys
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterator, Optional
+
+import click
+
+__all__ = ["CliError", "CliOptions", "CONTEXT_SETTINGS", "with_options", "open_node", "open_session",
+           "node_options", "status", "cli_node_name", "clean_error"]
+
+
+class CliError(Exception):
+    """A user-facing failure: printed as one line, exit code `code`, no traceback."""
+
+    def __init__(self, message: str, code: int = 1) -> None:
+        super().__init__(message)
+        self.code = code
+
+
+CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
+
+
+@dataclass
+class CliOptions:
+    """The namespace + Zenoh options every command accepts (flags win over ZENTF_* env vars)."""
+
+    namespace: Optional[str] = None
+    zenoh_config: Optional[Path] = None
+    connect: list[str] = field(default_factory=list)
+    listen: list[str] = field(default_factory=list)
+    mode: Optional[str] = None
+    no_multicast: bool = False
+    debug: bool = False
+
+    def argv(self) -> list[str]:
+        """The same options as a node command line (architecture contract), for child programs."""
+        out: list[str] = []
+        if self.namespace is not None:
+            out += ["--namespace", self.namespace]
+        if self.zenoh_config is not None:
+            out += ["--zenoh-config", str(self.zenoh_config)]
+        for ep in self.connect:
+            out += ["--connect", ep]
+        for ep in self.listen:
+            out += ["--listen", ep]
+        if self.mode:
+            out += ["--mode", self.mode]
+        if self.no_multicast:
+            out.append("--no-multicast")
+        return out
+
+
+_SHARED = [
+    click.option("--namespace", "-n", default=None, metavar="NS",
+                 help="Namespace of the graph (topic 'tf' is key 'NS/tf'). [env ZENTF_NAMESPACE]"),
+    click.option("--zenoh-config", type=click.Path(dir_okay=False, path_type=Path), default=None,
+                 metavar="FILE", help="Zenoh JSON5 config file. [env ZENTF_ZENOH_CONFIG]"),
+    click.option("--connect", multiple=True, metavar="EP",
+                 help="Endpoint to connect to, e.g. tcp/10.0.0.2:7447 (repeat). [env ZENTF_CONNECT]"),
+    click.option("--listen", multiple=True, metavar="EP",
+                 help="Endpoint to listen on (repeat). [env ZENTF_LISTEN]"),
+    click.option("--mode", type=click.Choice(["peer", "client", "router"]), default=None,
+                 help="Zenoh mode. [env ZENTF_MODE]"),
+    click.option("--no-multicast", is_flag=True, default=False,
+                 help="Turn multicast scouting off. [env ZENTF_NO_MULTICAST=1]"),
+    click.option("--debug", is_flag=True, default=False, help="Show tracebacks and debug logs."),
+]
+_SHARED_NAMES = ("namespace", "zenoh_config", "connect", "listen", "mode", "no_multicast", "debug")
+
+
+def with_options(func: Callable[..., Any]) -> Callable[..., Any]:
+    """Add the shared namespace/Zenoh/--debug options to a click command; it receives `opts`."""
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        shared = {name: kwargs.pop(name, None) for name in _SHARED_NAMES}
+        opts = CliOptions(
+            namespace=shared["namespace"], zenoh_config=shared["zenoh_config"],
+            connect=list(shared["connect"] or ()), listen=list(shared["listen"] or ()),
+            mode=shared["mode"], no_multicast=bool(shared["no_multicast"]), debug=bool(shared["debug"]))
+        if opts.debug:
+            _enable_debug()
+        return func(*args, opts=opts, **kwargs)
+
+    for deco in reversed(_SHARED):
+        wrapper = deco(wrapper)
+    return wrapper
+
+
+def _enable_debug() -> None:
+    import logging
+
+    os.environ["ZENTF_DEBUG"] = "1"
+    logging.getLogger().setLevel(logging.DEBUG)
+
+
+def cli_node_name(tool: str) -> str:
+    """Hidden ('_' prefix, like ros2cli) unique node name for a CLI tool process."""
+    return f"_zentf_{tool}_{os.getpid()}"
+
+
+def node_options(opts: CliOptions, name: str) -> Any:
+    """Resolve flags > ZENTF_* env > defaults through the one shared options helper (zentf.options)."""
+    from zentf.options import NodeOptions, OptionsError, ZenohOptions
+
+    try:
+        base = NodeOptions.from_env()
+        base.name = name
+        if opts.namespace is not None:
+            base.namespace = opts.namespace
+        base.zenoh = ZenohOptions.from_values(
+            str(opts.zenoh_config) if opts.zenoh_config is not None else None,
+            opts.connect, opts.listen, opts.mode, opts.no_multicast)
+        base._check()
+    except OptionsError as exc:
+        raise CliError(str(exc), code=2) from exc
+    return base
+
+
+def open_node(opts: CliOptions, tool: str) -> Any:
+    """A (hidden) Node for a CLI tool; an unreachable endpoint or bad config is one CliError line."""
+    from zentf.node import Node
+
+    node_opts = node_options(opts, cli_node_name(tool))
+    try:
+        return Node.from_options(node_opts)
+    except CliError:
+        raise
+    except Exception as exc:  # zenoh raises plain ZError / Exception here
+        if opts.debug:
+            raise
+        raise CliError(f"cannot open a Zenoh session{_where(opts)}: {clean_error(exc)}") from exc
+
+
+def open_session(opts: CliOptions) -> Any:
+    """A bare Zenoh session (no node token) for tools that only look at the graph."""
+    node_opts = node_options(opts, cli_node_name("graph"))
+    try:
+        return node_opts.zenoh.open_session()
+    except Exception as exc:
+        if opts.debug:
+            raise
+        raise CliError(f"{clean_error(exc)}{_where(opts, ' (endpoint ')}") from exc
+
+
+def _where(opts: CliOptions, prefix: str = " to ") -> str:
+    eps = ", ".join(opts.connect) or os.environ.get("ZENTF_CONNECT", "")
+    if not eps:
+        return ""
+    return f"{prefix}{eps})" if prefix.endswith("(endpoint ") else f"{prefix}{eps}"
+
+
+_RS_LOCATION = re.compile(r"\s+at\s+\S+\.rs:\d+\.?\s*$")
+
+
+def clean_error(exc: BaseException) -> str:
+    """First line of an error, without zenoh's Rust source location suffix."""
+    text = str(exc).strip() or type(exc).__name__
+    first = next((ln for ln in text.splitlines() if ln.strip()), text)
+    return _RS_LOCATION.sub("", " ".join(first.split()))
+
+
+class _Status:
+    """Handle to update a spinner's text (no-op when stderr is not a terminal)."""
+
+    def __init__(self, live: Any) -> None:
+        self._live = live
+
+    def update(self, text: str) -> None:
+        if self._live is not None:
+            self._live.update(text)
+
+
+@contextmanager
+def status(text: str) -> Iterator[_Status]:
+    """A rich spinner on stderr while a long wait runs, only when stderr is a TTY."""
+    if not sys.stderr.isatty():
+        yield _Status(None)
+        return
+    from rich.console import Console
+
+    with Console(stderr=True).status(text) as live:
+        yield _Status(live)

@@ -1,0 +1,22 @@
+"""`zentf static-transform-publisher`: the node program from nodes/, under the CLI."""
+from __future__ import annotations
+
+import click
+
+from .common import CliError
+
+__all__ = ["static_transform_publisher"]
+
+
+@click.command("static-transform-publisher", add_help_option=False,
+               context_settings={"ignore_unknown_options": True, "allow_extra_args": True, "help_option_names": []},
+               short_help="Publish a static transform.")
+@click.pass_context
+def static_transform_publisher(ctx: click.Context) -> int:
+    """tf2_ros static_transform_publisher: flags or positional forms, plus the node options."""
+    try:
+        from nodes.static_transform_publisher import main as node_main
+    except ImportError as exc:
+        raise CliError(f"static-transform-publisher is not available: {exc}") from exc
+    rv = node_main(list(ctx.args))
+    return rv if isinstance(rv, int) else 0
