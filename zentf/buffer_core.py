@@ -1,0 +1,1108 @@
+"""BufferCore: tf2's transform tree with the exact semantics of ROS 1 tf2 (geometry2 0.7.x).
+
+The differential tests hold this module to Debian's python3-tf2 (the "oracle"), op by op. Where
+the behaviour follows ROS 1 and ROS 2 differs, the ROS 1 choice is kept and said so in a comment:
+the first cache type of a frame is kept on a static/dynamic switch, a repeated stamp is refused
+(TF_REPEATED_DATA, the first sample wins), old samples are pruned right after an insert, and
+messages use ROS 1 wording (times with 9 decimals, "Ds into the future").
+
+Storage is compact: each dynamic frame keeps parallel ``array.array`` columns (int64 stamps in
+ns, int32 parent ids, 7 float64 values per sample), oldest first, searched with ``bisect``.
+Frames are integer ids; one lock guards everything so a listener thread may insert while user
+threads look up.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import threading
+from array import array
+from bisect import bisect_left, bisect_right
+from enum import IntEnum
+from typing import Any, Callable, Iterable, Optional, Sequence, Union
+
+from .exceptions import (ConnectivityException, ExtrapolationException, InvalidArgumentException,
+                         LookupException, TransformException)
+from .messages import Header, Quaternion, Transform, TransformStamped, Vector3
+from .time import NSEC_PER_SEC, Duration, Time
+
+__all__ = ["BufferCore", "TransformableResult", "NEVER_TRANSFORMABLE", "DEFAULT_CACHE_TIME",
+           "MAX_GRAPH_DEPTH"]
+
+logger = logging.getLogger("zentf.buffer_core")
+
+DEFAULT_CACHE_TIME = 10.0
+MAX_GRAPH_DEPTH = 1000
+#: Handle returned by add_transformable_request when the request can never succeed (tf2 value).
+NEVER_TRANSFORMABLE = 0xFFFFFFFFFFFFFFFF
+
+_OK, _OLD, _REPEATED = 0, 1, 2
+
+TimeArg = Union[Time, int, float]
+
+
+class TransformableResult(IntEnum):
+    """Outcome passed to a transformable-request callback (tf2 ``TransformableResult``)."""
+
+    TransformAvailable = 0
+    TransformFailure = 1
+
+
+def _ns(t: Any) -> int:
+    """Time or seconds -> integer ns (0 = latest)."""
+    if type(t) is Time:
+        return t._ns
+    if isinstance(t, Time):
+        return t.nanoseconds
+    if isinstance(t, bool) or not isinstance(t, (int, float)):
+        raise TypeError(f"time must be a Time or seconds, got {type(t).__name__}")
+    if isinstance(t, int):
+        ns = t * NSEC_PER_SEC
+    else:
+        if not math.isfinite(t):
+            raise ValueError(f"time must be finite, got {t!r}")
+        ns = round(t * NSEC_PER_SEC)
+    if ns < 0:
+        raise ValueError(f"time cannot be negative ({t!r})")
+    return ns
+
+
+def _fmt_time(ns: int) -> str:
+    """ros::Time / ros::Duration stream format (seconds with 9 decimals)."""
+    if ns < 0:
+        return "-" + _fmt_time(-ns)
+    return f"{ns // NSEC_PER_SEC}.{ns % NSEC_PER_SEC:09d}"
+
+
+# ------------------------------------------------------------------------------- caches
+
+class _TimeCache:
+    """Samples of one dynamic frame, oldest first (tf2 TimeCache)."""
+
+    __slots__ = ("stamps", "parents", "data", "start", "max_ns", "latest", "newest")
+    is_static = False
+
+    def __init__(self, max_ns: int) -> None:
+        self.stamps = array("q")
+        self.parents = array("i")
+        self.data = array("d")
+        self.start = 0          # logical first index (lazy pruning, compacted now and then)
+        self.max_ns = max_ns
+        self.latest: Optional[tuple] = None  # newest sample: (parent, tx, ty, tz, qx, qy, qz, qw)
+        self.newest = -1                     # its stamp (-1 when empty)
+
+    def __len__(self) -> int:
+        return len(self.stamps) - self.start
+
+    def _sample(self, i: int) -> tuple:
+        d = self.data
+        k = 7 * i
+        return (self.parents[i], d[k], d[k + 1], d[k + 2], d[k + 3], d[k + 4], d[k + 5], d[k + 6])
+
+    def insert(self, stamp: int, parent: int, values: tuple) -> int:
+        st = self.stamps
+        n = len(st)
+        start = self.start
+        if n > start:
+            newest = st[n - 1]
+            if newest > stamp + self.max_ns:
+                return _OLD
+            if stamp > newest:
+                st.append(stamp)
+                self.parents.append(parent)
+                self.data.extend(values)
+                self.latest = (parent, *values)
+                self.newest = newest = stamp
+            else:
+                i = bisect_left(st, stamp, start, n)
+                if st[i] == stamp:
+                    return _REPEATED
+                st.insert(i, stamp)
+                self.parents.insert(i, parent)
+                k = 7 * i
+                self.data[k:k] = array("d", values)
+            # prune after insert (ROS 1 order; ROS 2 prunes before): oldest + max < newest
+            limit = newest - self.max_ns
+            if st[start] < limit:
+                start = bisect_left(st, limit, start, len(st))
+                self.start = start
+                if start > 32 and 2 * start > len(st):
+                    del st[:start]
+                    del self.parents[:start]
+                    del self.data[:7 * start]
+                    self.start = 0
+        else:
+            if n:
+                self.clear()
+            st.append(stamp)
+            self.parents.append(parent)
+            self.data.extend(values)
+            self.latest = (parent, *values)
+            self.newest = stamp
+        return _OK
+
+    def clear(self) -> None:
+        self.stamps = array("q")
+        self.parents = array("i")
+        self.data = array("d")
+        self.start = 0
+        self.latest = None
+        self.newest = -1
+
+    def get(self, t: int) -> Optional[tuple]:
+        """(parent, tx, ty, tz, qx, qy, qz, qw) at t, interpolated; None if not available."""
+        latest = self.latest
+        if latest is None:
+            return None
+        newest = self.newest
+        if t == 0 or t == newest:
+            return latest
+        st = self.stamps
+        n = len(st)
+        start = self.start
+        if n - start == 1 or t > newest:
+            return None
+        oldest = st[start]
+        if t <= oldest:
+            return self._sample(start) if t == oldest else None
+        i = bisect_right(st, t, start, n) - 1
+        parents = self.parents
+        p = parents[i]
+        d = self.data
+        k = 7 * i
+        if parents[i + 1] != p:
+            # different parents: no interpolation, the older sample applies
+            return (p, d[k], d[k + 1], d[k + 2], d[k + 3], d[k + 4], d[k + 5], d[k + 6])
+        t0 = st[i]
+        if t0 == t:  # ratio 0 still goes through slerp in tf2; same value within 1 ulp
+            pass
+        r = (t - t0) / (st[i + 1] - t0)
+        s = 1.0 - r
+        x0, y0, z0, w0 = d[k + 3], d[k + 4], d[k + 5], d[k + 6]
+        x1, y1, z1, w1 = d[k + 10], d[k + 11], d[k + 12], d[k + 13]
+        dot = x0 * x1 + y0 * y1 + z0 * z1 + w0 * w1
+        c = (-dot if dot < 0 else dot) / math.sqrt(
+            (x0 * x0 + y0 * y0 + z0 * z0 + w0 * w0) * (x1 * x1 + y1 * y1 + z1 * z1 + w1 * w1))
+        theta = math.acos(1.0 if c > 1.0 else c)
+        if theta != 0.0:
+            sin = math.sin
+            dd = 1.0 / sin(theta)
+            s0 = sin(s * theta) * dd
+            s1 = sin(r * theta) * dd
+            if dot < 0:
+                s1 = -s1
+            x0, y0, z0, w0 = x0 * s0 + x1 * s1, y0 * s0 + y1 * s1, z0 * s0 + z1 * s1, w0 * s0 + w1 * s1
+        return (p, s * d[k] + r * d[k + 7], s * d[k + 1] + r * d[k + 8], s * d[k + 2] + r * d[k + 9],
+                x0, y0, z0, w0)
+
+    def parent_at(self, t: int) -> int:
+        """Parent id of the sample that applies at t (the older one), 0 if none (tf2 getParent)."""
+        latest = self.latest
+        if latest is None:
+            return 0
+        newest = self.newest
+        if t == 0 or t == newest:
+            return latest[0]
+        st = self.stamps
+        n = len(st)
+        start = self.start
+        if n - start == 1 or t > newest:
+            return 0
+        oldest = st[start]
+        if t <= oldest:
+            return self.parents[start] if t == oldest else 0
+        return self.parents[bisect_right(st, t, start, n) - 1]
+
+    def error(self, t: int) -> str:
+        """The text tf2's findClosest gives for a failed query at t (empty cache: no text)."""
+        n = len(self)
+        if n == 0:
+            return ""
+        st = self.stamps
+        newest, oldest = st[-1], st[self.start]
+        if n == 1:
+            return (f"Lookup would require extrapolation at time {_fmt_time(t)}, "
+                    f"but only time {_fmt_time(newest)} is in the buffer")
+        if t > newest:
+            return (f"Lookup would require extrapolation {_fmt_time(t - newest)}s into the future.  "
+                    f"Requested time {_fmt_time(t)} but the latest data is at time {_fmt_time(newest)}")
+        return (f"Lookup would require extrapolation {_fmt_time(oldest - t)}s into the past.  "
+                f"Requested time {_fmt_time(t)} but the earliest data is at time {_fmt_time(oldest)}")
+
+    def latest_stamp_parent(self) -> tuple[int, int]:
+        latest = self.latest
+        if latest is None:
+            return 0, 0
+        return self.newest, latest[0]
+
+    def newest_stamp(self) -> int:
+        return 0 if self.latest is None else self.newest
+
+    def oldest_stamp(self) -> int:
+        return self.stamps[self.start] if self.latest is not None else 0
+
+    def nbytes(self) -> int:
+        return (self.stamps.buffer_info()[1] * 8 + self.parents.buffer_info()[1] * 4
+                + self.data.buffer_info()[1] * 8)
+
+
+class _StaticCache:
+    """The single sample of a static frame, valid at every time (tf2 StaticCache)."""
+
+    __slots__ = ("sample",)
+    is_static = True
+
+    def __init__(self) -> None:
+        self.sample: tuple = (0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+
+    def __len__(self) -> int:
+        return 1
+
+    def insert(self, stamp: int, parent: int, values: tuple) -> int:
+        self.sample = (parent, *values)
+        return _OK
+
+    def clear(self) -> None:
+        """Static frames survive clear() in tf2."""
+
+    def get(self, t: int) -> tuple:
+        return self.sample
+
+    def parent_at(self, t: int) -> int:
+        return self.sample[0]
+
+    def error(self, t: int) -> str:
+        return ""
+
+    def latest_stamp_parent(self) -> tuple[int, int]:
+        return 0, self.sample[0]
+
+    def newest_stamp(self) -> int:
+        return 0
+
+    def oldest_stamp(self) -> int:
+        return 0
+
+    def nbytes(self) -> int:
+        return 64
+
+
+def _make_ts(target: str, source: str, stamp: int, tx: float, ty: float, tz: float,
+             qx: float, qy: float, qz: float, qw: float) -> TransformStamped:
+    """Build a TransformStamped without dataclass __init__ overhead (hot path)."""
+    tm = object.__new__(Time)
+    tm._ns = stamp
+    h = object.__new__(Header)
+    h.stamp = tm
+    h.frame_id = target
+    v = object.__new__(Vector3)
+    v.x, v.y, v.z = tx, ty, tz
+    q = object.__new__(Quaternion)
+    q.x, q.y, q.z, q.w = qx, qy, qz, qw
+    tr = object.__new__(Transform)
+    tr.translation = v
+    tr.rotation = q
+    ts = object.__new__(TransformStamped)
+    ts.header = h
+    ts.child_frame_id = source
+    ts.transform = tr
+    return ts
+
+
+class _Request:
+    __slots__ = ("handle", "cb", "target", "source", "time")
+
+    def __init__(self, handle: int, cb: Callable, target: str, source: str, time: int) -> None:
+        self.handle, self.cb, self.target, self.source, self.time = handle, cb, target, source, time
+
+
+# --------------------------------------------------------------------------- BufferCore
+
+class BufferCore:
+    """tf2's BufferCore: stores the tree over time and answers lookups (thread-safe)."""
+
+    def __init__(self, cache_time: Union[Duration, float, int] = DEFAULT_CACHE_TIME) -> None:
+        if isinstance(cache_time, Duration):
+            self._cache_ns = cache_time.nanoseconds
+        else:
+            self._cache_ns = _ns(cache_time)
+        self._lock = threading.Lock()
+        # frame id 0 is tf2's "NO_PARENT" sentinel; it never has a cache
+        self._ids: dict[str, int] = {"NO_PARENT": 0}
+        self._names: list[str] = ["NO_PARENT"]
+        self._caches: list[Any] = [None]
+        self._authority: dict[int, str] = {}
+        self._requests: list[_Request] = []
+        self._request_counter = 0
+        self._insert_callbacks: list[Callable[[], None]] = []
+
+    @property
+    def cache_time(self) -> Duration:
+        return Duration(nanoseconds=self._cache_ns)
+
+    # ------------------------------------------------------------------------ insert
+
+    def set_transform(self, transform: TransformStamped, authority: str, is_static: bool = False) -> bool:
+        """Insert one sample (tf2 setTransform); False, with a logged reason, if it was refused."""
+        h = transform.header
+        tr = transform.transform
+        v = tr.translation
+        q = tr.rotation
+        return self.set_transform_raw(h.frame_id, transform.child_frame_id, h.stamp.nanoseconds,
+                                      v.x, v.y, v.z, q.x, q.y, q.z, q.w, authority, is_static)
+
+    def set_transform_static(self, transform: TransformStamped, authority: str) -> bool:
+        """tf2_py spelling of set_transform(..., is_static=True)."""
+        return self.set_transform(transform, authority, True)
+
+    def set_transform_raw(self, parent: str, child: str, stamp_ns: int, tx: float, ty: float, tz: float,
+                          qx: float, qy: float, qz: float, qw: float, authority: str,
+                          is_static: bool = False) -> bool:
+        """set_transform without building a message (listener fast path); same semantics."""
+        ok = self._insert(parent, child, stamp_ns, tx, ty, tz, qx, qy, qz, qw, authority, is_static)
+        if ok:
+            self._after_insert()
+        return ok
+
+    def set_transforms_raw(self, samples: Iterable[Sequence[Any]], authority: str, is_static: bool = False) -> int:
+        """Insert many (parent, child, stamp_ns, tx, ty, tz, qx, qy, qz, qw) tuples; returns how many
+        were accepted. Callbacks and transformable requests run once at the end."""
+        accepted = 0
+        ins = self._insert
+        for s in samples:
+            if ins(s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8], s[9], authority, is_static):
+                accepted += 1
+        if accepted:
+            self._after_insert()
+        return accepted
+
+    def _insert(self, parent: str, child: str, stamp: int, tx: float, ty: float, tz: float,
+                qx: float, qy: float, qz: float, qw: float, authority: str, is_static: bool) -> bool:
+        if parent[:1] == "/":
+            parent = parent[1:]
+        if child[:1] == "/":
+            child = child[1:]
+        err = False
+        if child == parent:
+            logger.error('TF_SELF_TRANSFORM: Ignoring transform from authority "%s" with frame_id and '
+                         'child_frame_id  "%s" because they are the same', authority, child)
+            err = True
+        if not child:
+            logger.error('TF_NO_CHILD_FRAME_ID: Ignoring transform from authority "%s" because '
+                         'child_frame_id not set ', authority)
+            err = True
+        if not parent:
+            logger.error('TF_NO_FRAME_ID: Ignoring transform with child_frame_id "%s"  from authority '
+                         '"%s" because frame_id not set', child, authority)
+            err = True
+        if tx != tx or ty != ty or tz != tz or qx != qx or qy != qy or qz != qz or qw != qw:
+            logger.error('TF_NAN_INPUT: Ignoring transform for child_frame_id "%s" from authority "%s" '
+                         'because of a nan value in the transform (%f %f %f) (%f %f %f %f)',
+                         child, authority, tx, ty, tz, qx, qy, qz, qw)
+            err = True
+        if not abs(qx * qx + qy * qy + qz * qz + qw * qw - 1.0) < 0.01:
+            logger.error('TF_DENORMALIZED_QUATERNION: Ignoring transform for child_frame_id "%s" from '
+                         'authority "%s" because of an invalid quaternion in the transform '
+                         '(%f %f %f %f)', child, authority, qx, qy, qz, qw)
+            err = True
+        if err:
+            return False
+        if type(stamp) is not int:
+            stamp = int(stamp)
+        if stamp < 0:
+            logger.error('Ignoring transform for child_frame_id "%s" from authority "%s" because its '
+                         'stamp is negative (%d ns)', child, authority, stamp)
+            return False
+        values = (float(tx), float(ty), float(tz), float(qx), float(qy), float(qz), float(qw))
+        with self._lock:
+            ids = self._ids
+            cid = ids.get(child)
+            if cid is None:
+                cid = self._add_frame(child)
+            pid = ids.get(parent)
+            if pid is None:
+                pid = self._add_frame(parent)
+            if cid == 0:
+                return True  # tf2 stores a child named NO_PARENT in a slot nobody can read
+            cache = self._caches[cid]
+            if cache is None:
+                # ROS 1: the type chosen here is kept forever (ROS 2 replaces the cache on a switch)
+                cache = _StaticCache() if is_static else _TimeCache(self._cache_ns)
+                self._caches[cid] = cache
+            res = cache.insert(stamp, pid, values)
+            if res == _OK:
+                self._authority[cid] = authority
+                return True
+        if res == _OLD:
+            logger.warning("TF_OLD_DATA ignoring data from the past (Possible reasons are listed at "
+                           "http://wiki.ros.org/tf/Errors%%20explained) for frame %s at time %.6f "
+                           "according to authority %s", child, stamp / 1e9, authority)
+        else:
+            logger.warning("TF_REPEATED_DATA ignoring data with redundant timestamp for frame %s at "
+                           "time %.6f according to authority %s", child, stamp / 1e9, authority)
+        return False
+
+    def _add_frame(self, name: str) -> int:
+        fid = len(self._names)
+        self._ids[name] = fid
+        self._names.append(name)
+        self._caches.append(None)
+        return fid
+
+    def _after_insert(self) -> None:
+        if self._requests:
+            self._test_transformable_requests()
+        for cb in self._insert_callbacks:
+            try:
+                cb()
+            except Exception:  # a broken callback must not break inserts
+                logger.exception("insert callback %r failed", cb)
+
+    def add_insert_callback(self, cb: Callable[[], None]) -> None:
+        """Run ``cb()`` after every successful insert (outside the lock; used to wake waiters)."""
+        self._insert_callbacks.append(cb)
+
+    def remove_insert_callback(self, cb: Callable[[], None]) -> None:
+        try:
+            self._insert_callbacks.remove(cb)
+        except ValueError:
+            pass
+
+    def clear(self) -> None:
+        """Forget all dynamic data; static frames, frame names and pending requests stay (tf2)."""
+        with self._lock:
+            for cache in self._caches:
+                if cache is not None:
+                    cache.clear()
+
+    # ------------------------------------------------------------------------ lookups
+
+    def lookup_transform(self, target_frame: str, source_frame: str, time: TimeArg) -> TransformStamped:
+        """Transform mapping data in source_frame into target_frame at time (0 = latest common)."""
+        t = time._ns if type(time) is Time else _ns(time)
+        with self._lock:
+            r = self._lookup(target_frame, source_frame, t)
+        return _make_ts(target_frame, source_frame, *r)
+
+    def lookup_transform_core(self, target_frame: str, source_frame: str, time: TimeArg) -> TransformStamped:
+        """tf2_py spelling."""
+        return self.lookup_transform(target_frame, source_frame, time)
+
+    def _lookup(self, target: str, source: str, t: int) -> tuple:
+        """(stamp, tx, ty, tz, qx, qy, qz, qw) or a tf2 exception; call with the lock held."""
+        if target == source:
+            if t == 0:
+                cid = self._ids.get(target)
+                cache = self._caches[cid] if cid is not None else None
+                if cache is not None:
+                    t = cache.newest_stamp()
+            return (t, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+        target_id = self._validate("lookupTransform argument target_frame", target)
+        source_id = self._validate("lookupTransform argument source_frame", source)
+        if t == 0:
+            t = self._latest_common_time(target_id, source_id)
+        caches = self._caches
+
+        # source walk: accumulate source -> top
+        frame = source_id
+        top = frame
+        depth = 0
+        sx = sy = sz = sqx = sqy = sqz = 0.0
+        sqw = 1.0
+        extrap_frame = 0
+        while frame:
+            cache = caches[frame]
+            if cache is None:
+                top = frame
+                break
+            s = cache.get(t)
+            if s is None:
+                top = frame
+                extrap_frame = frame
+                break
+            if frame == target_id:
+                return (t, sx, sy, sz, sqx, sqy, sqz, sqw)
+            p, px, py, pz, x, y, z, w = s
+            if depth:
+                # v = quatRotate(q, v) + p ; q_acc = q * q_acc
+                ax = w * sx + y * sz - z * sy
+                ay = w * sy + z * sx - x * sz
+                az = w * sz + x * sy - y * sx
+                aw = -x * sx - y * sy - z * sz
+                sx = -aw * x + ax * w - ay * z + az * y + px
+                sy = -aw * y + ay * w - az * x + ax * z + py
+                sz = -aw * z + az * w - ax * y + ay * x + pz
+                sqx, sqy, sqz, sqw = (w * sqx + x * sqw + y * sqz - z * sqy,
+                                      w * sqy + y * sqw + z * sqx - x * sqz,
+                                      w * sqz + z * sqw + x * sqy - y * sqx,
+                                      w * sqw - x * sqx - y * sqy - z * sqz)
+            else:
+                sx, sy, sz, sqx, sqy, sqz, sqw = px, py, pz, x, y, z, w
+            top = frame
+            frame = p
+            depth += 1
+            if depth > MAX_GRAPH_DEPTH:
+                raise LookupException(self._loop_message())
+
+        # target walk: accumulate target -> top
+        frame = target_id
+        depth = 0
+        tx = ty = tz = tqx = tqy = tqz = 0.0
+        tqw = 1.0
+        while frame != top:
+            cache = caches[frame]
+            if cache is None:
+                break
+            s = cache.get(t)
+            if s is None:
+                raise ExtrapolationException(
+                    f"{cache.error(t)}, when looking up transform from frame [{source}] to frame [{target}]")
+            p, px, py, pz, x, y, z, w = s
+            if frame == source_id:
+                # source is an ancestor of target: result = inverse(target -> source)
+                return (t, *_inverse(tx, ty, tz, tqx, tqy, tqz, tqw))
+            if depth:
+                ax = w * tx + y * tz - z * ty
+                ay = w * ty + z * tx - x * tz
+                az = w * tz + x * ty - y * tx
+                aw = -x * tx - y * ty - z * tz
+                tx = -aw * x + ax * w - ay * z + az * y + px
+                ty = -aw * y + ay * w - az * x + ax * z + py
+                tz = -aw * z + az * w - ax * y + ay * x + pz
+                tqx, tqy, tqz, tqw = (w * tqx + x * tqw + y * tqz - z * tqy,
+                                      w * tqy + y * tqw + z * tqx - x * tqz,
+                                      w * tqz + z * tqw + x * tqy - y * tqx,
+                                      w * tqw - x * tqx - y * tqy - z * tqz)
+            else:
+                tx, ty, tz, tqx, tqy, tqz, tqw = px, py, pz, x, y, z, w
+            frame = p
+            depth += 1
+            if depth > MAX_GRAPH_DEPTH:
+                raise LookupException(self._loop_message())
+        if frame != top:
+            if extrap_frame:
+                raise ExtrapolationException(
+                    f"{caches[extrap_frame].error(t)}, when looking up transform from frame [{source}] "
+                    f"to frame [{target}]")
+            raise ConnectivityException(self._connectivity_message(source_id, target_id))
+
+        # full path: inverse(target -> top) * (source -> top)
+        ix, iy, iz, iqx, iqy, iqz, iqw = _inverse(tx, ty, tz, tqx, tqy, tqz, tqw)
+        x, y, z, w = iqx, iqy, iqz, iqw
+        ax = w * sx + y * sz - z * sy
+        ay = w * sy + z * sx - x * sz
+        az = w * sz + x * sy - y * sx
+        aw = -x * sx - y * sy - z * sz
+        return (t,
+                -aw * x + ax * w - ay * z + az * y + ix,
+                -aw * y + ay * w - az * x + ax * z + iy,
+                -aw * z + az * w - ax * y + ay * x + iz,
+                w * sqx + x * sqw + y * sqz - z * sqy,
+                w * sqy + y * sqw + z * sqx - x * sqz,
+                w * sqz + z * sqw + x * sqy - y * sqx,
+                w * sqw - x * sqx - y * sqy - z * sqz)
+
+    def lookup_transform_full(self, target_frame: str, target_time: TimeArg, source_frame: str,
+                              source_time: TimeArg, fixed_frame: str) -> TransformStamped:
+        """Source at source_time -> fixed frame -> target at target_time (tf2 advanced lookup)."""
+        tt = _ns(target_time)
+        st = _ns(source_time)
+        with self._lock:
+            self._validate("lookupTransform argument target_frame", target_frame)
+            self._validate("lookupTransform argument source_frame", source_frame)
+            self._validate("lookupTransform argument fixed_frame", fixed_frame)
+            a = self._lookup(fixed_frame, source_frame, st)
+            b = self._lookup(target_frame, fixed_frame, tt)
+        # tf2 composes these as tf2::Transform (rotation matrices), then converts back to a quaternion
+        from .math3d import matrix_from_quaternion, quaternion_from_matrix
+        ma = matrix_from_quaternion(a[4:8])
+        mb = matrix_from_quaternion(b[4:8])
+        m = [[mb[i][0] * ma[0][j] + mb[i][1] * ma[1][j] + mb[i][2] * ma[2][j] for j in range(3)]
+             for i in range(3)]
+        o = [mb[i][0] * a[1] + mb[i][1] * a[2] + mb[i][2] * a[3] + b[1 + i] for i in range(3)]
+        q = quaternion_from_matrix(m)
+        return _make_ts(target_frame, source_frame, b[0], o[0], o[1], o[2], *q)
+
+    def lookup_transform_full_core(self, target_frame: str, target_time: TimeArg, source_frame: str,
+                                   source_time: TimeArg, fixed_frame: str) -> TransformStamped:
+        """tf2_py spelling."""
+        return self.lookup_transform_full(target_frame, target_time, source_frame, source_time, fixed_frame)
+
+    def can_transform(self, target_frame: str, source_frame: str, time: TimeArg,
+                      return_debug_tuple: bool = False) -> Union[bool, tuple[bool, str]]:
+        """Whether lookup_transform would succeed; (bool, reason) if return_debug_tuple."""
+        t = _ns(time)
+        with self._lock:
+            ok, msg = self._can(target_frame, source_frame, t, "canTransform")
+        return (ok, msg) if return_debug_tuple else ok
+
+    def can_transform_core(self, target_frame: str, source_frame: str, time: TimeArg) -> tuple[bool, str]:
+        """tf2_py spelling: always (bool, reason)."""
+        return self.can_transform(target_frame, source_frame, time, True)  # type: ignore[return-value]
+
+    def can_transform_full(self, target_frame: str, target_time: TimeArg, source_frame: str,
+                           source_time: TimeArg, fixed_frame: str,
+                           return_debug_tuple: bool = False) -> Union[bool, tuple[bool, str]]:
+        """Advanced can_transform: target<-fixed at target_time and fixed<-source at source_time."""
+        tt = _ns(target_time)
+        st = _ns(source_time)
+        with self._lock:
+            ok, msg = False, ""
+            if not (self._warn_frame_id("canTransform argument target_frame", target_frame)
+                    or self._warn_frame_id("canTransform argument source_frame", source_frame)
+                    or self._warn_frame_id("canTransform argument fixed_frame", fixed_frame)):
+                # tf2 asks the first half without an error string, so only the second half explains
+                ok, _ = self._can(target_frame, fixed_frame, tt, "canTransform")
+                if ok:
+                    ok, msg = self._can(fixed_frame, source_frame, st, "canTransform")
+        return (ok, msg) if return_debug_tuple else ok
+
+    def can_transform_full_core(self, target_frame: str, target_time: TimeArg, source_frame: str,
+                                source_time: TimeArg, fixed_frame: str) -> tuple[bool, str]:
+        """tf2_py spelling: always (bool, reason)."""
+        return self.can_transform_full(target_frame, target_time, source_frame, source_time,  # type: ignore[return-value]
+                                       fixed_frame, True)
+
+    def _can(self, target: str, source: str, t: int, fn: str) -> tuple[bool, str]:
+        if target == source:
+            return True, ""
+        if self._warn_frame_id(f"{fn} argument target_frame", target):
+            return False, ""
+        if self._warn_frame_id(f"{fn} argument source_frame", source):
+            return False, ""
+        target_id = self._ids.get(target, 0)
+        source_id = self._ids.get(source, 0)
+        if not target_id or not source_id:
+            parts = []
+            if not target_id:
+                parts.append(f"{fn}: target_frame {target} does not exist.")
+            if not source_id:
+                parts.append(f"{fn}: source_frame {source} does not exist.")
+            return False, " ".join(parts)
+        return self._can_ids(target_id, source_id, t)
+
+    def _can_ids(self, target_id: int, source_id: int, t: int) -> tuple[bool, str]:
+        """tf2 canTransformNoLock: the lookup walk on parents only."""
+        if not target_id or not source_id:
+            return False, ""
+        if target_id == source_id:
+            return True, ""
+        try:
+            if t == 0:
+                t = self._latest_common_time(target_id, source_id)
+        except TransformException as e:
+            return False, str(e)
+        caches = self._caches
+        frame = source_id
+        top = frame
+        depth = 0
+        extrap_frame = 0
+        while frame:
+            cache = caches[frame]
+            if cache is None:
+                top = frame
+                break
+            p = cache.parent_at(t)
+            if not p:
+                top = frame
+                extrap_frame = frame
+                break
+            if frame == target_id:
+                return True, ""
+            top = frame
+            frame = p
+            depth += 1
+            if depth > MAX_GRAPH_DEPTH:
+                return False, self._loop_message()
+        frame = target_id
+        depth = 0
+        while frame != top:
+            cache = caches[frame]
+            if cache is None:
+                break
+            p = cache.parent_at(t)
+            if not p:
+                return False, (f"{cache.error(t)}, when looking up transform from frame "
+                               f"[{self._names[source_id]}] to frame [{self._names[target_id]}]")
+            if frame == source_id:
+                return True, ""
+            frame = p
+            depth += 1
+            if depth > MAX_GRAPH_DEPTH:
+                return False, self._loop_message()
+        if frame != top:
+            if extrap_frame:
+                return False, (f"{caches[extrap_frame].error(t)}, when looking up transform from frame "
+                               f"[{self._names[source_id]}] to frame [{self._names[target_id]}]")
+            return False, self._connectivity_message(source_id, target_id)
+        return True, ""
+
+    # ------------------------------------------------------------------------ latest common time
+
+    def get_latest_common_time(self, target_frame: str, source_frame: str) -> Time:
+        """Newest time at which the whole chain has data (0 if every link is static)."""
+        with self._lock:
+            tid = self._validate("get_latest_common_time", target_frame)
+            sid = self._validate("get_latest_common_time", source_frame)
+            return Time(nanoseconds=self._latest_common_time(tid, sid))
+
+    def _latest_common_time(self, target_id: int, source_id: int) -> int:
+        caches = self._caches
+        if source_id == target_id:
+            cache = caches[source_id]
+            return cache.newest_stamp() if cache is not None else 0
+        big = 1 << 62
+        # walk up from the source, recording (newest stamp, parent) per link
+        lct: list[tuple[int, int]] = []
+        frame = source_id
+        depth = 0
+        common = big
+        while frame:
+            cache = caches[frame]
+            if cache is None:
+                break
+            stamp, parent = cache.latest_stamp_parent()
+            if not parent:
+                break
+            if stamp and stamp < common:
+                common = stamp
+            lct.append((stamp, parent))
+            frame = parent
+            if frame == target_id:
+                return 0 if common == big else common
+            depth += 1
+            if depth > MAX_GRAPH_DEPTH:
+                raise LookupException(self._loop_message())
+        # walk up from the target until a parent is common with the source's chain
+        frame = target_id
+        depth = 0
+        common = big
+        common_parent = 0
+        source_parents = {p for _, p in lct}
+        while True:
+            cache = caches[frame]
+            if cache is None:
+                break
+            stamp, parent = cache.latest_stamp_parent()
+            if not parent:
+                break
+            if stamp and stamp < common:
+                common = stamp
+            if parent in source_parents:
+                common_parent = parent
+                break
+            frame = parent
+            if frame == source_id:
+                return 0 if common == big else common
+            depth += 1
+            if depth > MAX_GRAPH_DEPTH:
+                raise LookupException(self._loop_message())
+        if not common_parent:
+            raise ConnectivityException(self._connectivity_message(source_id, target_id))
+        for stamp, parent in lct:
+            if stamp and stamp < common:
+                common = stamp
+            if parent == common_parent:
+                break
+        return 0 if common == big else common
+
+    # ------------------------------------------------------------------------ helpers
+
+    def _validate(self, what: str, frame: str) -> int:
+        if not frame:
+            raise InvalidArgumentException(f"Invalid argument passed to {what} in tf2 frame_ids cannot be empty")
+        if frame[0] == "/":
+            raise InvalidArgumentException(
+                f"Invalid argument \"{frame}\" passed to {what} in tf2 frame_ids cannot start with a '/' like: ")
+        fid = self._ids.get(frame, 0)
+        if not fid:
+            raise LookupException(f"\"{frame}\" passed to {what} does not exist. ")
+        return fid
+
+    def _warn_frame_id(self, what: str, frame: str) -> bool:
+        if not frame:
+            logger.warning("Invalid argument passed to %s in tf2 frame_ids cannot be empty", what)
+            return True
+        if frame[0] == "/":
+            logger.warning("Invalid argument \"%s\" passed to %s in tf2 frame_ids cannot start with a '/' like: ",
+                           frame, what)
+            return True
+        return False
+
+    def _connectivity_message(self, source_id: int, target_id: int) -> str:
+        return (f"Could not find a connection between '{self._names[target_id]}' and "
+                f"'{self._names[source_id]}' because they are not part of the same tree."
+                "Tf has two or more unconnected trees.")
+
+    def _loop_message(self) -> str:
+        return f"The tf tree is invalid because it contains a loop.\n{self._frames_as_string()}\n"
+
+    # ------------------------------------------------------------------------ introspection
+
+    def all_frames_as_string(self) -> str:
+        """'Frame CHILD exists with parent PARENT.' per frame with a cache, first-seen order."""
+        with self._lock:
+            return self._frames_as_string()
+
+    def _frames_as_string(self) -> str:
+        names = self._names
+        out = []
+        for fid in range(1, len(self._caches)):
+            cache = self._caches[fid]
+            if cache is None:
+                continue
+            s = cache.get(0)
+            out.append(f"Frame {names[fid]} exists with parent {names[s[0] if s else 0]}.\n")
+        return "".join(out)
+
+    def all_frames_as_yaml(self, current_time: Optional[TimeArg] = None) -> str:
+        """tf2's YAML frame report (parent, broadcaster, rate, most recent, oldest, buffer length)."""
+        now = _ns(current_time) if current_time is not None else 0
+        with self._lock:
+            infos = self._frame_info()
+        if not infos:
+            return "{}"  # ROS 1 prints {} for an empty buffer (ROS 2 prints [])
+        out = []
+        for i in infos:
+            newest = i["most_recent_transform"].to_sec()
+            oldest = i["oldest_transform"].to_sec()
+            out.append(f"{i['frame']}: \n  parent: '{i['parent']}'\n  broadcaster: '{i['broadcaster']}'\n"
+                       f"  rate: {i['rate']:.3f}\n  most_recent_transform: {newest:.3f}\n"
+                       f"  oldest_transform: {oldest:.3f}\n")
+            if now:
+                out.append(f"  transform_delay: {(now - i['most_recent_transform'].nanoseconds) / 1e9:.3f}\n")
+            out.append(f"  buffer_length: {(i['most_recent_transform'] - i['oldest_transform']).to_sec():.3f}\n")
+        return "".join(out)
+
+    def frame_info(self) -> list[dict[str, Any]]:
+        """Per child frame with data: frame, parent, broadcaster (authority), static, samples,
+        most_recent_transform and oldest_transform (Time), rate (Hz, as tf2 computes it)."""
+        with self._lock:
+            return self._frame_info()
+
+    def _frame_info(self) -> list[dict[str, Any]]:
+        names = self._names
+        out = []
+        for fid in range(1, len(self._caches)):
+            cache = self._caches[fid]
+            if cache is None:
+                continue
+            s = cache.get(0)
+            if s is None:
+                continue
+            newest, oldest, n = cache.newest_stamp(), cache.oldest_stamp(), len(cache)
+            out.append({
+                "frame": names[fid], "parent": names[s[0]],
+                "broadcaster": self._authority.get(fid, "no recorded authority"),
+                "static": cache.is_static, "samples": n,
+                "most_recent_transform": Time(nanoseconds=newest),
+                "oldest_transform": Time(nanoseconds=oldest),
+                "rate": n / max(newest / 1e9 - oldest / 1e9, 0.0001),
+            })
+        return out
+
+    def get_frames(self) -> list[str]:
+        """Every frame name ever seen, as child or parent (tf2 _getFrameStrings)."""
+        with self._lock:
+            return self._names[1:]
+
+    def frame_exists(self, frame_id: str) -> bool:
+        with self._lock:
+            return self._ids.get(frame_id, 0) != 0
+
+    _frameExists = frame_exists
+
+    def get_parent(self, frame_id: str, time: TimeArg = 0) -> Optional[str]:
+        """Parent of frame_id at time, or None (root, unknown frame or no data at that time)."""
+        t = _ns(time)
+        with self._lock:
+            fid = self._ids.get(frame_id, 0)
+            cache = self._caches[fid] if fid else None
+            if cache is None:
+                return None
+            p = cache.parent_at(t)
+            return self._names[p] if p else None
+
+    def chain_as_vector(self, target_frame: str, target_time: TimeArg, source_frame: str,
+                        source_time: TimeArg, fixed_frame: str) -> list[str]:
+        """Frame names from source to target through fixed (tf2 _chainAsVector; used by monitors)."""
+        st, tt = _ns(source_time), _ns(target_time)
+        with self._lock:
+            tid = self._validate("chainAsVector argument target_frame", target_frame)
+            sid = self._validate("chainAsVector argument source_frame", source_frame)
+            fid = self._validate("chainAsVector argument fixed_frame", fixed_frame)
+            first = self._path(fid, sid, st)       # source ... fixed
+            second = self._path(tid, fid, tt)      # fixed ... target
+        if not first:
+            return second
+        if not second:
+            return first
+        # join at the fixed frame, dropping frames walked back and forth
+        chain = first + second[1:]
+        while True:
+            for i in range(1, len(chain) - 1):
+                if chain[i - 1] == chain[i + 1]:
+                    del chain[i:i + 2]
+                    break
+            else:
+                return chain
+
+    _chainAsVector = chain_as_vector
+
+    def _path(self, target_id: int, source_id: int, t: int) -> list[str]:
+        """Frame names from source up to the common ancestor and down to target, at time t."""
+        if target_id == source_id:
+            return []
+        if t == 0:
+            t = self._latest_common_time(target_id, source_id)
+        ok, msg = self._can_ids(target_id, source_id, t)
+        if not ok:
+            if "loop" in msg:
+                raise LookupException(msg)
+            if msg.startswith("Could not find a connection"):
+                raise ConnectivityException(msg)
+            raise ExtrapolationException(msg)
+        up_s = self._ancestors(source_id, t)
+        up_t = self._ancestors(target_id, t)
+        in_t = {f: i for i, f in enumerate(up_t)}
+        for i, f in enumerate(up_s):
+            if f in in_t:
+                ids = up_s[:i + 1] + list(reversed(up_t[:in_t[f]]))
+                return [self._names[x] for x in ids]
+        raise ConnectivityException(self._connectivity_message(source_id, target_id))
+
+    def _ancestors(self, frame: int, t: int) -> list[int]:
+        out = [frame]
+        for _ in range(MAX_GRAPH_DEPTH + 1):
+            cache = self._caches[frame]
+            if cache is None:
+                break
+            p = cache.parent_at(t)
+            if not p:
+                break
+            out.append(p)
+            frame = p
+        return out
+
+    def _all_frames_as_dot(self, current_time: Optional[TimeArg] = None) -> str:
+        """Graphviz text like tf2's _allFramesAsDot (view_frames)."""
+        now = _ns(current_time) if current_time is not None else 0
+        infos = self.frame_info()
+        lines = ["digraph G {"]
+        if not infos:
+            lines.append('"no tf data recieved"')
+        children = set()
+        for i in infos:
+            children.add(i["frame"])
+            newest = i["most_recent_transform"]
+            age = f"( {(now - newest.nanoseconds) / 1e9:.3f} sec old)" if now else ""
+            lines.append(
+                f'"{i["parent"]}" -> "{i["frame"]}"[label="Broadcaster: {i["broadcaster"]}\\n'
+                f'Average rate: {i["rate"]:.3f} Hz\\nMost recent transform: {newest.to_sec():.3f} {age}\\n'
+                f'Buffer length: {(newest - i["oldest_transform"]).to_sec():.3f} sec\\n"];')
+        for root in sorted({i["parent"] for i in infos} - children):
+            lines.append("edge [style=invis];")
+            lines.append(' subgraph cluster_legend { style=bold; color=black; label ="view_frames Result";\n'
+                         + (f'"Recorded at time: {now / 1e9:.3f}"[ shape=plaintext ] ;\n ' if now else "")
+                         + f'}}->"{root}";')
+        lines.append("}")
+        return "\n".join(lines)
+
+    def memory_bytes(self) -> int:
+        """Bytes held in sample storage (arrays), for the memory benchmark."""
+        with self._lock:
+            return sum(c.nbytes() for c in self._caches if c is not None)
+
+    # ------------------------------------------------------------------------ transformable requests
+
+    def add_transformable_request(self, cb: Callable[[int, str, str, Time, TransformableResult], None],
+                                  target_frame: str, source_frame: str, time: TimeArg) -> int:
+        """Ask to be called back once target<-source is transformable at time (tf2 1.13).
+
+        Returns 0 if it already is (or target == source; cb is NOT called), NEVER_TRANSFORMABLE
+        if the time is older than the cache can ever hold, else a handle. Later, right after an
+        insert, ``cb(handle, target, source, time, TransformableResult)`` runs once (outside the
+        lock) with TransformAvailable, or TransformFailure once the time fell out of the cache.
+        """
+        t = _ns(time)
+        if target_frame == source_frame:
+            return 0
+        with self._lock:
+            tid = self._ids.get(target_frame, 0)
+            sid = self._ids.get(source_frame, 0)
+            if self._can_ids(tid, sid, t)[0]:
+                return 0
+            if tid and sid:
+                try:
+                    latest = self._latest_common_time(tid, sid)
+                except TransformException:
+                    latest = 0
+                if latest and t + self._cache_ns < latest:
+                    return NEVER_TRANSFORMABLE
+            self._request_counter += 1
+            if self._request_counter >= NEVER_TRANSFORMABLE:
+                self._request_counter = 1
+            handle = self._request_counter
+            self._requests.append(_Request(handle, cb, target_frame, source_frame, t))
+            return handle
+
+    def cancel_transformable_request(self, handle: int) -> None:
+        with self._lock:
+            self._requests = [r for r in self._requests if r.handle != handle]
+
+    def _test_transformable_requests(self) -> None:
+        fire: list[tuple[_Request, TransformableResult]] = []
+        with self._lock:
+            keep = []
+            for req in self._requests:
+                tid = self._ids.get(req.target, 0)
+                sid = self._ids.get(req.source, 0)
+                latest = 0
+                if tid and sid:
+                    try:
+                        latest = self._latest_common_time(tid, sid)
+                    except TransformException:
+                        latest = 0
+                if latest and req.time + self._cache_ns < latest:
+                    fire.append((req, TransformableResult.TransformFailure))
+                elif self._can_ids(tid, sid, req.time)[0]:
+                    fire.append((req, TransformableResult.TransformAvailable))
+                else:
+                    keep.append(req)
+            self._requests = keep
+        for req, result in fire:
+            try:
+                req.cb(req.handle, req.target, req.source, Time(nanoseconds=req.time), result)
+            except Exception:
+                logger.exception("transformable request callback failed")
+
+    # ------------------------------------------------------------------------ data helpers
+
+    def transform(self, obj: Any, target_frame: str, new_type: Any = None) -> Any:
+        """Transform a stamped message into target_frame at its own stamp (see zentf.geometry)."""
+        from .geometry import transform as _transform
+        return _transform(self, obj, target_frame, new_type)
+
+    def transform_points(self, points: Any, target_frame: str, source_frame: str, time: TimeArg) -> Any:
+        """points[N,3] given in source_frame -> target_frame at time, one numpy pass."""
+        from .geometry import transform_points as _tp
+        return _tp(self, points, target_frame, source_frame, time)
+
+    def lookup_transforms(self, target_frame: str, source_frame: str, times: Any) -> Any:
+        """Vectorized lookup_transform over times[N]: (translations[N,3], quaternions[N,4])."""
+        from .geometry import lookup_transforms as _lt
+        return _lt(self, target_frame, source_frame, times)
+
+
+def _inverse(tx: float, ty: float, tz: float, x: float, y: float, z: float, w: float) -> tuple:
+    """Inverse of (t, q) as tf2 computes it: q⁻¹ = conjugate, t' = quatRotate(q⁻¹, −t)."""
+    x, y, z = -x, -y, -z
+    vx, vy, vz = -tx, -ty, -tz
+    ax = w * vx + y * vz - z * vy
+    ay = w * vy + z * vx - x * vz
+    az = w * vz + x * vy - y * vx
+    aw = -x * vx - y * vy - z * vz
+    return (-aw * x + ax * w - ay * z + az * y,
+            -aw * y + ay * w - az * x + ax * z,
+            -aw * z + az * w - ax * y + ay * x,
+            x, y, z, w)
