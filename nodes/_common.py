@@ -1,0 +1,128 @@
+"""What every demo node program shares: option parsing, node creation, parameters, clean exits."""
+from __future__ import annotations
+
+import argparse
+import logging
+import math
+import os
+import signal
+import sys
+from typing import Any, Callable, Sequence
+
+from zentf.options import NodeOptions, OptionsError, add_node_arguments
+
+__all__ = ["OptionsError", "main", "run", "split_node_options", "make_node", "say", "param",
+           "param_float", "param_positive", "param_bool", "make_message_filter"]
+
+log = logging.getLogger("nodes")
+
+
+def say(line: str) -> None:
+    """One human-facing result line on stdout, flushed at once (tests and pipes read it live)."""
+    print(line, flush=True)
+
+
+def _parser(prog: str, description: str | None) -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog=prog, description=(description or "").split("\n\n")[0],
+                                     allow_abbrev=False)
+    parser.add_argument("--debug", action="store_true", help="debug logging and full tracebacks")
+    add_node_arguments(parser)
+    return parser
+
+
+def split_node_options(prog: str, argv: Sequence[str]) -> tuple[NodeOptions, list[str]]:
+    """Shared node/Zenoh options out of argv; returns them and the program's own arguments."""
+    parser = argparse.ArgumentParser(prog=prog, add_help=False, allow_abbrev=False)
+    parser.add_argument("--debug", action="store_true")
+    add_node_arguments(parser)
+    args, rest = parser.parse_known_args(list(argv))
+    opts = NodeOptions.from_args(args)
+    opts._debug = bool(args.debug)  # type: ignore[attr-defined]
+    return opts, rest
+
+
+def main(prog: str, argv: Sequence[str] | None, body: Callable[[NodeOptions], None],
+         description: str | None = None) -> int:
+    """Parse the shared options strictly and run body(opts) as a node program."""
+    parser = _parser(prog, description)
+    args = parser.parse_args(list(sys.argv[1:] if argv is None else argv))
+    opts = NodeOptions.from_args(args, parser=parser)
+    opts._debug = bool(args.debug)  # type: ignore[attr-defined]
+    return run(lambda: body(opts), prog, opts)
+
+
+def _setup_logging(debug: bool) -> None:
+    level = logging.DEBUG if debug else getattr(logging, os.environ.get("ZENTF_LOG_LEVEL", "INFO").upper(),
+                                                logging.INFO)
+    logging.basicConfig(level=level, stream=sys.stderr,
+                        format="[%(levelname)s] [%(name)s]: %(message)s")
+
+
+def run(body: Callable[[], None], prog: str, opts: NodeOptions | None = None) -> int:
+    """Run a node body: SIGTERM/SIGINT stop it cleanly, errors become one line (traceback with --debug)."""
+    debug = bool(getattr(opts, "_debug", False))
+    _setup_logging(debug)
+
+    def on_term(signum: int, _frame: object) -> None:
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, on_term)
+    try:
+        body()
+    except KeyboardInterrupt:
+        return 0
+    except (OptionsError, ValueError) as e:  # bad options/parameters, duplicate node name, ...
+        if debug:
+            raise
+        text = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        print(f"{prog}: error: {text}", file=sys.stderr, flush=True)
+        return 1
+    except Exception as e:  # a user sees one line, a developer asks for --debug
+        if debug:
+            raise
+        text = str(e).strip().splitlines()[0] if str(e).strip() else ""
+        print(f"{prog}: {type(e).__name__}: {text}", file=sys.stderr, flush=True)
+        return 1
+    return 0
+
+
+def make_node(opts: NodeOptions, default_name: str) -> Any:
+    """A Node with the identity and Zenoh options from the command line / environment."""
+    from zentf.node import Node
+
+    return Node(default_name, options=opts)
+
+
+def param(node: Any, name: str, default: Any) -> Any:
+    """A parameter's value, or default when it was not given."""
+    return node.declare_parameter(name, default).value
+
+
+def param_float(node: Any, name: str, default: float) -> float:
+    """A finite number parameter; OptionsError names the parameter otherwise."""
+    value = param(node, name, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise OptionsError(f"parameter {name} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def param_positive(node: Any, name: str, default: float) -> float:
+    value = param_float(node, name, default)
+    if value <= 0:
+        raise OptionsError(f"parameter {name} must be positive, got {value!r}")
+    return value
+
+
+def param_bool(node: Any, name: str, default: bool) -> bool:
+    value = param(node, name, default)
+    if isinstance(value, str) and value.strip().lower() in ("true", "false", "1", "0", "yes", "no"):
+        return value.strip().lower() in ("true", "1", "yes")
+    if not isinstance(value, bool):
+        raise OptionsError(f"parameter {name} must be true or false, got {value!r}")
+    return value
+
+
+def make_message_filter(cls: Any, node: Any, topic: str, msg_type: Any, buffer: Any, target: str,
+                        queue_size: int, timeout: float) -> Any:
+    """MessageFilter over a fresh subscription (the filter registers its own callback on it)."""
+    return cls(node, topic, msg_type, buffer, target, queue_size=queue_size, timeout=timeout)

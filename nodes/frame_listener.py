@@ -1,0 +1,54 @@
+"""Every second, look up where the laser is as seen from the camera, and print it.
+
+Parameters: `target_frame` (default `camera`), `source_frame` (default `laser`), `period`
+(seconds, default 1.0). Prints
+`laser in camera: translation (x, y, z) rotation (qx, qy, qz, qw)` per successful lookup, and
+logs why a lookup failed otherwise.
+"""
+from __future__ import annotations
+
+import logging
+import sys
+from typing import Sequence
+
+log = logging.getLogger("frame_listener")
+
+PROG = "frame_listener"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    from nodes import _common
+
+    return _common.main(PROG, argv, _run, __doc__)
+
+
+def _run(opts: object) -> None:
+    from nodes import _common
+    from zentf.buffer import Buffer
+    from zentf.exceptions import TransformException
+    from zentf.listener import TransformListener
+    from zentf.time import Time
+
+    with _common.make_node(opts, PROG) as node:
+        target = str(_common.param(node, "target_frame", "camera"))
+        source = str(_common.param(node, "source_frame", "laser"))
+        period = _common.param_positive(node, "period", 1.0)
+        buffer = Buffer()
+        listener = TransformListener(buffer, node)  # noqa: F841  (kept alive by this frame)
+
+        def tick() -> None:
+            try:
+                ts = buffer.lookup_transform(target, source, Time())
+            except TransformException as e:
+                log.warning("could not transform %s to %s: %s", source, target, e)
+                return
+            t, q = ts.transform.translation, ts.transform.rotation
+            _common.say(f"{source} in {target}: translation ({t.x:.3f}, {t.y:.3f}, {t.z:.3f}) "
+                        f"rotation ({q.x:.3f}, {q.y:.3f}, {q.z:.3f}, {q.w:.3f})")
+
+        node.create_timer(period, tick)
+        node.spin()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

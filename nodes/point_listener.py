@@ -1,0 +1,56 @@
+"""Print each obstacle point in `base_link`, delivered by a MessageFilter once it is transformable.
+
+Subscribes `laser_point` (PointStamped), waits through a MessageFilter (target `base_link`, queue
+10) and prints `obstacle in base_link: (x, y, z)` for every point. Parameters: `topic` (default
+`laser_point`), `target_frame` (default `base_link`), `queue_size` (default 10), `timeout`
+(seconds a message may wait for its transform, default 1.0).
+"""
+from __future__ import annotations
+
+import logging
+import sys
+from typing import Sequence
+
+log = logging.getLogger("point_listener")
+
+PROG = "point_listener"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    from nodes import _common
+
+    return _common.main(PROG, argv, _run, __doc__)
+
+
+def _run(opts: object) -> None:
+    from nodes import _common
+    from zentf.buffer import Buffer
+    from zentf.exceptions import TransformException
+    from zentf.listener import TransformListener
+    from zentf.message_filter import MessageFilter
+    from zentf.messages import PointStamped
+
+    with _common.make_node(opts, PROG) as node:
+        topic = str(_common.param(node, "topic", "laser_point"))
+        target = str(_common.param(node, "target_frame", "base_link"))
+        queue_size = int(_common.param_positive(node, "queue_size", 10))
+        timeout = _common.param_positive(node, "timeout", 1.0)
+        buffer = Buffer()
+        listener = TransformListener(buffer, node)  # noqa: F841  (kept alive by this frame)
+
+        def on_point(msg: PointStamped) -> None:
+            try:
+                p = buffer.transform(msg, target)
+            except TransformException as e:
+                log.warning("could not transform the obstacle: %s", e)
+                return
+            _common.say(f"obstacle in {target}: ({p.point.x:.3f}, {p.point.y:.3f}, {p.point.z:.3f})")
+
+        flt = _common.make_message_filter(MessageFilter, node, topic, PointStamped, buffer, target,
+                                          queue_size, timeout)
+        flt.register_callback(on_point)
+        node.spin()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

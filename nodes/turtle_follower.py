@@ -1,0 +1,85 @@
+"""Spawn turtle2 and steer it toward turtle1 using only a tf lookup, like the tf2 turtle tutorial.
+
+Every 1/`rate` s (default 10 Hz) looks up `target_frame` (default turtle1) in the follower's frame
+(`turtlename`, default turtle2) and publishes `<turtlename>/cmd_vel` with angular
+4*atan2(y, x) and linear 0.5*sqrt(x^2 + y^2). Spawn requests (at `spawn_x`, `spawn_y`,
+`spawn_theta`, default 4, 2, 0) go on `spawn` until the new turtle's pose is seen.
+Prints `distance to <target>: d` once per second (`print_period`).
+"""
+from __future__ import annotations
+
+import logging
+import math
+import sys
+import time
+from typing import Sequence
+
+log = logging.getLogger("turtle_follower")
+
+PROG = "turtle_follower"
+
+
+def follow_command(x: float, y: float) -> tuple[float, float]:
+    """(linear, angular) toward a target at (x, y) in the follower's frame."""
+    return 0.5 * math.sqrt(x * x + y * y), 4.0 * math.atan2(y, x)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    from nodes import _common
+
+    return _common.main(PROG, argv, _run, __doc__)
+
+
+def _run(opts: object) -> None:
+    from nodes import _common
+    from zentf.buffer import Buffer
+    from zentf.exceptions import TransformException
+    from zentf.listener import TransformListener
+    from zentf.messages import SpawnRequest, TurtlePose, Twist, Vector3
+    from zentf.time import Time
+
+    with _common.make_node(opts, PROG) as node:
+        me = str(_common.param(node, "turtlename", "turtle2"))
+        target = str(_common.param(node, "target_frame", "turtle1"))
+        rate = _common.param_positive(node, "rate", 10.0)
+        print_period = _common.param_positive(node, "print_period", 1.0)
+        spawn = SpawnRequest(x=_common.param_float(node, "spawn_x", 4.0),
+                             y=_common.param_float(node, "spawn_y", 2.0),
+                             theta=_common.param_float(node, "spawn_theta", 0.0), name=me)
+        buffer = Buffer()
+        listener = TransformListener(buffer, node)  # noqa: F841  (kept alive by this frame)
+        cmd = node.create_publisher(f"{me}/cmd_vel", Twist)
+        spawner = node.create_publisher("spawn", SpawnRequest)
+        spawned = [False]
+        last_print = [-math.inf]
+
+        def on_my_pose(_msg: TurtlePose) -> None:
+            if not spawned[0]:
+                spawned[0] = True
+                _common.say(f"{me} is alive")
+
+        node.create_subscription(f"{me}/pose", TurtlePose, on_my_pose)
+
+        def tick() -> None:
+            if not spawned[0]:
+                spawner.publish(spawn)
+                return
+            try:
+                ts = buffer.lookup_transform(me, target, Time())
+            except TransformException as e:
+                log.info("could not transform %s to %s: %s", target, me, e)
+                return
+            x, y = ts.transform.translation.x, ts.transform.translation.y
+            linear, angular = follow_command(x, y)
+            cmd.publish(Twist(linear=Vector3(linear, 0.0, 0.0), angular=Vector3(0.0, 0.0, angular)))
+            now = time.monotonic()
+            if now - last_print[0] >= print_period:
+                last_print[0] = now
+                _common.say(f"distance to {target}: {math.hypot(x, y):.3f}")
+
+        node.create_timer(1.0 / rate, tick)
+        node.spin()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
