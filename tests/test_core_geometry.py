@@ -1,0 +1,132 @@
+"""do_transform_*, transform(), and the vectorized extras against loops of single lookups."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from zentf import ConnectivityException, ExtrapolationException, LookupException, TypeException
+from zentf.buffer_core import BufferCore
+from zentf.geometry import (do_transform_point, do_transform_pose, do_transform_vector3, lookup_transforms,
+                            transform, transform_full, transform_points, transform_points_series)
+from zentf.messages import (Header, Point, PointStamped, Pose, PoseStamped, Quaternion, Transform,
+                            TransformStamped, Vector3, Vector3Stamped)
+from zentf.time import Time
+
+S = 1_000_000_000
+FLIP_X = (1.0, 0.0, 0.0, 0.0)  # 180 degrees about x
+
+
+def edge(parent: str, child: str, sec: float, t, q) -> TransformStamped:
+    return TransformStamped(Header(Time.from_sec(sec), parent), child, Transform(Vector3(*t), Quaternion(*q)))
+
+
+def test_do_transform_known_values_from_tf2_geometry_msgs() -> None:
+    t = edge("A", "B", 2, (10, 20, 30), FLIP_X)
+    p = do_transform_point(PointStamped(Header(Time(2), "B"), Point(1, 2, 3)), t)
+    assert (p.point.x, p.point.y, p.point.z) == pytest.approx((11, 18, 27))
+    assert p.header.frame_id == "A" and p.header.stamp == Time(2)
+    v = do_transform_vector3(Vector3Stamped(Header(Time(2), "B"), Vector3(1, 2, 3)), t)
+    assert (v.vector.x, v.vector.y, v.vector.z) == pytest.approx((1, -2, -3))
+    assert do_transform_vector3(Vector3(1, 0, 0), edge("a", "b", 0, (1, 2, 3), (0, 1, 0, 0))).x == pytest.approx(-1)
+    pose = do_transform_pose(Pose(Point(1, 2, 3), Quaternion(0, 0, 0, 1)), t)
+    assert (pose.position.x, pose.position.y, pose.position.z) == pytest.approx((11, 18, 27))
+    assert (pose.orientation.x, pose.orientation.w) == pytest.approx((1, 0))
+
+
+def test_transform_through_buffer_and_type_errors() -> None:
+    core = BufferCore()
+    core.set_transform(edge("A", "B", 2, (10, 20, 30), FLIP_X), "x")
+    p = transform(core, PointStamped(Header(Time(2), "A"), Point(1, 2, 3)), "B")
+    assert (p.point.x, p.point.y, p.point.z) == pytest.approx((-9, 18, 27))
+    assert p.header.frame_id == "B"
+    pose = core.transform(PoseStamped(Header(Time(2), "A"), Pose(Point(1, 2, 3))), "B")
+    assert (pose.pose.position.x, pose.pose.position.y) == pytest.approx((-9, 18))
+    full = transform_full(core, PointStamped(Header(Time(2), "A"), Point(1, 2, 3)), "B", Time(2), "A")
+    assert (full.point.x, full.point.y, full.point.z) == pytest.approx((-9, 18, 27))
+    with pytest.raises(TypeException, match="not loaded or supported"):
+        transform(core, Point(1, 2, 3), "B")
+    with pytest.raises(TypeException):
+        transform(core, PointStamped(Header(Time(2), "A")), "B", new_type=PoseStamped)
+    with pytest.raises(ExtrapolationException):
+        transform(core, PointStamped(Header(Time(5), "A")), "B")
+
+
+def moving_tree() -> BufferCore:
+    """w -> a -> b -> c with rotating edges at 10 Hz over 5 s; c switches parent b -> w at 3 s."""
+    core = BufferCore()
+    rng = np.random.default_rng(7)
+    for k in range(51):
+        stamp = 100 * S + k * S // 10
+        for parent, child in [("w", "a"), ("a", "b")]:
+            q = Rotation.from_rotvec(rng.normal(size=3)).as_quat()
+            core.set_transform_raw(parent, child, stamp, *rng.uniform(-2, 2, 3), *q, "x")
+        parent = "b" if k < 30 else "w"
+        core.set_transform_raw(parent, "c", stamp, *rng.uniform(-2, 2, 3),
+                               *Rotation.from_rotvec(rng.normal(size=3)).as_quat(), "x")
+    core.set_transform_raw("c", "cam", 0, 0.1, 0.0, 0.2, 0, 0, 0, 1, "x", True)
+    return core
+
+
+def loop(core: BufferCore, target: str, source: str, times_ns) -> tuple[np.ndarray, np.ndarray]:
+    v, q = [], []
+    for t in times_ns:
+        r = core.lookup_transform(target, source, Time(nanoseconds=int(t))).transform
+        v.append((r.translation.x, r.translation.y, r.translation.z))
+        q.append((r.rotation.x, r.rotation.y, r.rotation.z, r.rotation.w))
+    return np.array(v), np.array(q)
+
+
+@pytest.mark.parametrize("target,source", [("w", "cam"), ("cam", "w"), ("a", "cam"), ("cam", "b"),
+                                           ("b", "a"), ("a", "b"), ("c", "c"), ("cam", "c")])
+def test_lookup_transforms_equals_single_lookups(target: str, source: str) -> None:
+    core = moving_tree()
+    rng = np.random.default_rng(8)
+    times = np.concatenate([rng.integers(100 * S, 105 * S, 300), [100 * S, 105 * S, 0, 103 * S]])
+    v, q = lookup_transforms(core, target, source, times)
+    wv, wq = loop(core, target, source, times)
+    assert np.abs(v - wv).max() < 1e-9
+    assert np.minimum(np.abs(q - wq).max(1), np.abs(q + wq).max(1)).max() < 1e-9
+
+
+def test_lookup_transforms_connectivity_over_a_parent_switch() -> None:
+    core = moving_tree()
+    core.set_transform_raw("z", "lost", 100 * S, 0, 0, 0, 0, 0, 0, 1, "x")
+    core.set_transform_raw("w", "lost", 102 * S, 0, 0, 0, 0, 0, 0, 1, "x")
+    ok = np.array([102 * S, 102 * S])
+    assert np.allclose(lookup_transforms(core, "a", "lost", ok)[0], loop(core, "a", "lost", ok)[0])
+    with pytest.raises(ConnectivityException):
+        lookup_transforms(core, "a", "lost", np.array([102 * S, 101 * S]))
+
+
+def test_lookup_transforms_raises_first_error_like_single_lookup() -> None:
+    core = moving_tree()
+    times = np.array([101 * S, 99 * S, 106 * S])
+    with pytest.raises(ExtrapolationException) as vec:
+        lookup_transforms(core, "w", "cam", times)
+    with pytest.raises(ExtrapolationException) as one:
+        core.lookup_transform("w", "cam", Time(99))
+    assert str(vec.value) == str(one.value)
+    with pytest.raises(LookupException):
+        lookup_transforms(core, "w", "nope", times)
+    seconds = lookup_transforms(core, "w", "cam", [101.05, Time(nanoseconds=101 * S)])
+    assert seconds[0].shape == (2, 3) and seconds[1].shape == (2, 4)
+
+
+def test_transform_points_and_series() -> None:
+    core = moving_tree()
+    pts = np.random.default_rng(9).normal(size=(1000, 3))
+    out = transform_points(core, pts, "w", "cam", 102.5)
+    t = core.lookup_transform("w", "cam", 102.5).transform
+    rot = Rotation.from_quat([t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w])
+    assert np.abs(out - (rot.apply(pts) + [t.translation.x, t.translation.y, t.translation.z])).max() < 1e-9
+    assert np.array_equal(core.transform_points(pts, "w", "cam", 102.5), out)
+    times = np.linspace(100.5, 104.5, 1000)
+    series = transform_points_series(core, pts, "w", "cam", times)
+    k = 123
+    one = transform_points(core, pts[k:k + 1], "w", "cam", Time.from_sec(times[k]))
+    assert np.abs(series[k] - one[0]).max() < 1e-9
+    with pytest.raises(ValueError):
+        transform_points(core, np.zeros((3, 2)), "w", "cam", 0)
