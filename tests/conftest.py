@@ -1,0 +1,245 @@
+"""Shared fixtures: a Zenoh router hub on loopback, a unique namespace per test, and subprocess helpers.
+
+Every test that talks Zenoh connects to the router endpoint with multicast scouting off and uses its
+own namespace, so parallel workers (pytest-xdist) never cross-talk.
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+import queue
+import re
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+import uuid
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def free_port() -> int:
+    """A TCP port that is free on 127.0.0.1 right now."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _die_with_parent() -> None:  # pragma: no cover - runs in the child before exec
+    """Linux: the child gets SIGTERM if the test process dies, so nothing is orphaned."""
+    try:
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except Exception:
+        pass
+
+
+class Proc:
+    """A child process whose merged stdout/stderr lines are collected by a thread."""
+
+    def __init__(self, args: Sequence[str], env: dict[str, str] | None = None, cwd: str | Path = REPO,
+                 stdin: int | None = subprocess.DEVNULL) -> None:
+        self.args = list(args)
+        self.popen = subprocess.Popen(self.args, env=env, cwd=str(cwd), stdin=stdin, stdout=subprocess.PIPE,
+                                      stderr=subprocess.STDOUT, text=True, bufsize=1,
+                                      preexec_fn=_die_with_parent)
+        self.lines: list[str] = []
+        self._new: queue.Queue[str | None] = queue.Queue()
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+        self._cursor = 0
+
+    def _read(self) -> None:
+        assert self.popen.stdout is not None
+        for line in self.popen.stdout:
+            line = line.rstrip("\n")
+            self.lines.append(line)
+            self._new.put(line)
+        self._new.put(None)
+
+    @property
+    def pid(self) -> int:
+        return self.popen.pid
+
+    @property
+    def returncode(self) -> int | None:
+        return self.popen.poll()
+
+    def output(self) -> str:
+        return "\n".join(self.lines)
+
+    def wait_for_line(self, pattern: str, timeout: float = 10.0, *, from_start: bool = False) -> re.Match:
+        """Wait for a line matching regex ``pattern`` (after the previous match); AssertionError on timeout."""
+        rx = re.compile(pattern)
+        if from_start:
+            self._cursor = 0
+        deadline = time.monotonic() + timeout
+        while True:
+            while self._cursor < len(self.lines):
+                line = self.lines[self._cursor]
+                self._cursor += 1
+                m = rx.search(line)
+                if m:
+                    return m
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise AssertionError(f"no line matching {pattern!r} within {timeout}s from {self.args}; "
+                                     f"rc={self.returncode}; output:\n{self.output()[-3000:]}")
+            try:
+                if self._new.get(timeout=min(left, 0.5)) is None and self._cursor >= len(self.lines):
+                    if self.popen.poll() is not None:
+                        raise AssertionError(f"process exited (rc={self.returncode}) before a line matching "
+                                             f"{pattern!r}: {self.args}; output:\n{self.output()[-3000:]}")
+            except queue.Empty:
+                pass
+
+    def signal(self, sig: int) -> None:
+        if self.popen.poll() is None:
+            self.popen.send_signal(sig)
+
+    def wait(self, timeout: float = 10.0) -> int:
+        rc = self.popen.wait(timeout)
+        self._reader.join(timeout=2)
+        return rc
+
+    def stop(self, timeout: float = 5.0) -> int | None:
+        """SIGTERM, then SIGKILL after ``timeout``; returns the exit code."""
+        if self.popen.poll() is None:
+            self.popen.terminate()
+            try:
+                self.popen.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.popen.kill()
+                self.popen.wait(5)
+        self._reader.join(timeout=2)
+        return self.popen.returncode
+
+    def kill(self) -> None:
+        if self.popen.poll() is None:
+            self.popen.kill()
+            self.popen.wait(5)
+
+
+def start_router(endpoint: str | None = None) -> tuple[Proc, str]:
+    """Start ``python -m zentf.router`` on a free loopback port; returns (process, endpoint)."""
+    for _ in range(5):
+        ep = endpoint or f"tcp/127.0.0.1:{free_port()}"
+        env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+        proc = Proc([sys.executable, "-m", "zentf.router", "--listen", ep, "--no-multicast"], env=env)
+        try:
+            proc.wait_for_line(r"listening on", timeout=20)
+            return proc, ep
+        except AssertionError:
+            proc.stop()
+            if endpoint:
+                raise
+    raise RuntimeError("could not start a zentf router")
+
+
+@pytest.fixture(scope="session")
+def zenoh_router() -> Iterator[str]:
+    """Endpoint (``tcp/127.0.0.1:PORT``) of a router shared by this worker's tests; isolate by namespace."""
+    proc, ep = start_router()
+    try:
+        yield ep
+    finally:
+        proc.stop()
+
+
+@pytest.fixture
+def isolated_router() -> Iterator[str]:
+    """Endpoint of a router just for this test (for tests that use absolute topics like /clock)."""
+    proc, ep = start_router()
+    try:
+        yield ep
+    finally:
+        proc.stop()
+
+
+@pytest.fixture
+def test_namespace() -> str:
+    """A namespace unique to this test (``t_<hex>``)."""
+    return f"t_{uuid.uuid4().hex[:10]}"
+
+
+@pytest.fixture
+def zenoh_options(zenoh_router: str):
+    """ZenohOptions for in-process sessions: client of the router, multicast off.
+
+    Client mode, not peer: a fresh peer only talks to other peers once gossip has built a direct
+    link (its first puts are lost even though matching says yes); a client routes via the router at once.
+    """
+    from zentf.options import ZenohOptions
+
+    return ZenohOptions(connect=[zenoh_router], no_multicast=True, mode="client")
+
+
+@pytest.fixture
+def node_options(zenoh_options, test_namespace: str):
+    """NodeOptions for an in-process Node in this test's namespace: ``Node('x', options=node_options)``."""
+    from zentf.options import NodeOptions
+
+    return NodeOptions(namespace=test_namespace, zenoh=zenoh_options)
+
+
+@pytest.fixture
+def zenoh_session(zenoh_options) -> Iterator[object]:
+    """A raw client-mode Zenoh session on the router (graph queries, raw puts, ...)."""
+    s = zenoh_options.open_session()
+    try:
+        yield s
+    finally:
+        s.close()
+
+
+@pytest.fixture
+def zenoh_args(zenoh_router: str, test_namespace: str) -> list[str]:
+    """Command-line flags for a child node program: connect to the router, multicast off, test namespace."""
+    return ["--connect", zenoh_router, "--no-multicast", "--mode", "client", "--namespace", test_namespace]
+
+
+@pytest.fixture
+def zenoh_env(zenoh_router: str, test_namespace: str) -> dict[str, str]:
+    """A full environment for child processes: os.environ + ZENTF_* (router, no multicast, namespace)."""
+    env = dict(os.environ)
+    env.update({
+        "ZENTF_CONNECT": zenoh_router,
+        "ZENTF_NO_MULTICAST": "1",
+        "ZENTF_MODE": "client",
+        "ZENTF_NAMESPACE": test_namespace,
+        "PYTHONUNBUFFERED": "1",
+        "PYTHONPATH": os.pathsep.join(p for p in (str(REPO), env.get("PYTHONPATH", "")) if p),
+    })
+    for var in ("ZENTF_NODE_NAME", "ZENTF_PARAMS", "ZENTF_PARAMS_FILE", "ZENTF_REMAP", "ZENTF_ZENOH_CONFIG",
+                "ZENTF_LISTEN"):
+        env.pop(var, None)
+    return env
+
+
+@pytest.fixture
+def spawn(zenoh_env: dict[str, str]) -> Iterator:
+    """Factory ``spawn(args, env=None, **kw) -> Proc`` (default env: zenoh_env); all are stopped at teardown.
+
+    ``spawn.python('-m', 'nodes.x', ...)`` runs with this interpreter.
+    """
+    procs: list[Proc] = []
+
+    def _spawn(args: Sequence[str], env: dict[str, str] | None = None, **kw: object) -> Proc:
+        p = Proc(args, env=env if env is not None else zenoh_env, **kw)  # type: ignore[arg-type]
+        procs.append(p)
+        return p
+
+    _spawn.python = lambda *args, env=None, **kw: _spawn([sys.executable, *args], env=env, **kw)  # type: ignore[attr-defined]
+    try:
+        yield _spawn
+    finally:
+        for p in procs:
+            try:
+                p.stop(timeout=3)
+            except Exception:
+                p.kill()

@@ -1,0 +1,351 @@
+"""The one place where node identity and Zenoh options come from: flags > ZENTF_* env vars > defaults.
+
+Node programs: ``add_node_arguments(parser)`` then ``NodeOptions.from_args(parser.parse_args())``.
+CLI (typer) commands: ``ZenohOptions.from_values(...)`` then ``.config()`` / ``.open_session()``.
+Launcher: ``NodeOptions(...).to_env()`` gives the env vars that pass identity to a child.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from .names import normalize_namespace, validate_node_name
+
+__all__ = [
+    "OptionsError", "ZenohOptions", "NodeOptions", "add_zenoh_arguments", "add_node_arguments",
+    "parse_param_assignment", "parse_remap", "load_params_file", "ENV_VARS",
+]
+
+ENV_VARS = ("ZENTF_NODE_NAME", "ZENTF_NAMESPACE", "ZENTF_PARAMS", "ZENTF_PARAMS_FILE", "ZENTF_REMAP",
+            "ZENTF_ZENOH_CONFIG", "ZENTF_CONNECT", "ZENTF_LISTEN", "ZENTF_MODE", "ZENTF_NO_MULTICAST")
+MODES = ("peer", "client", "router")
+_ENDPOINT = re.compile(r"[a-z0-9]+/\S+\Z")
+
+
+class OptionsError(ValueError):
+    """A bad flag, env var or file; the message is one line naming the culprit."""
+
+
+def _split_list(value: str | None) -> list[str]:
+    return [v.strip() for v in (value or "").split(",") if v.strip()]
+
+
+def _check_endpoints(eps: Sequence[str], what: str) -> list[str]:
+    out = []
+    for ep in eps:
+        if not isinstance(ep, str) or not _ENDPOINT.match(ep.strip()):
+            raise OptionsError(f"{what}: bad endpoint {ep!r} (expected like tcp/127.0.0.1:7447)")
+        out.append(ep.strip())
+    return out
+
+
+def _truthy(value: str | None) -> bool:
+    return (value or "").strip().lower() in ("1", "true", "yes", "on")
+
+
+@dataclass
+class ZenohOptions:
+    """How to reach the Zenoh network (config file + endpoint/mode overrides)."""
+
+    config_file: str | None = None
+    connect: list[str] = field(default_factory=list)
+    listen: list[str] = field(default_factory=list)
+    mode: str | None = None
+    no_multicast: bool = False
+    timestamping: bool = True
+
+    @classmethod
+    def from_env(cls, env: Mapping[str, str] | None = None) -> "ZenohOptions":
+        env = os.environ if env is None else env
+        opts = cls(config_file=env.get("ZENTF_ZENOH_CONFIG") or None,
+                   connect=_check_endpoints(_split_list(env.get("ZENTF_CONNECT")), "ZENTF_CONNECT"),
+                   listen=_check_endpoints(_split_list(env.get("ZENTF_LISTEN")), "ZENTF_LISTEN"),
+                   mode=(env.get("ZENTF_MODE") or None),
+                   no_multicast=_truthy(env.get("ZENTF_NO_MULTICAST")))
+        opts._check()
+        return opts
+
+    @classmethod
+    def from_values(cls, zenoh_config: str | None = None, connect: Sequence[str] | None = None,
+                    listen: Sequence[str] | None = None, mode: str | None = None,
+                    no_multicast: bool | None = None, env: Mapping[str, str] | None = None) -> "ZenohOptions":
+        """Explicit values (e.g. typer options) over env vars; None/empty means 'not given'."""
+        base = cls.from_env(env)
+        if zenoh_config:
+            base.config_file = zenoh_config
+        if connect:
+            base.connect = _check_endpoints(list(connect), "--connect")
+        if listen:
+            base.listen = _check_endpoints(list(listen), "--listen")
+        if mode:
+            base.mode = mode
+        if no_multicast:
+            base.no_multicast = True
+        base._check()
+        return base
+
+    def _check(self) -> None:
+        if self.mode is not None and self.mode not in MODES:
+            raise OptionsError(f"bad Zenoh mode {self.mode!r} (choose peer, client or router)")
+        if self.config_file is not None and not os.path.isfile(self.config_file):
+            raise OptionsError(f"Zenoh config file not found: {self.config_file}")
+
+    def config(self) -> Any:
+        """A zenoh.Config: file (if any), then overrides; timestamping on (needed by latched topics)."""
+        import zenoh
+
+        self._check()
+        try:
+            cfg = zenoh.Config.from_file(self.config_file) if self.config_file else zenoh.Config()
+        except Exception as e:  # zenoh raises ZError with a multi-line text
+            first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+            raise OptionsError(f"bad Zenoh config file {self.config_file}: {first}") from None
+        try:
+            if self.mode:
+                cfg.insert_json5("mode", json.dumps(self.mode))
+            if self.connect:
+                cfg.insert_json5("connect/endpoints", json.dumps(self.connect))
+            if self.listen:
+                cfg.insert_json5("listen/endpoints", json.dumps(self.listen))
+            if self.no_multicast:
+                cfg.insert_json5("scouting/multicast/enabled", "false")
+            if self.timestamping:
+                cfg.insert_json5("timestamping/enabled", "true")
+        except Exception as e:
+            raise OptionsError(f"bad Zenoh option: {str(e).strip().splitlines()[0]}") from None
+        return cfg
+
+    def open_session(self) -> Any:
+        """zenoh.open(self.config()) with a one-line error on failure (e.g. port already in use)."""
+        import zenoh
+
+        cfg = self.config()
+        try:
+            return zenoh.open(cfg)
+        except Exception as e:
+            text = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+            raise OptionsError(f"cannot open Zenoh session: {text}") from None
+
+    def to_env(self) -> dict[str, str]:
+        env: dict[str, str] = {}
+        if self.config_file:
+            env["ZENTF_ZENOH_CONFIG"] = self.config_file
+        if self.connect:
+            env["ZENTF_CONNECT"] = ",".join(self.connect)
+        if self.listen:
+            env["ZENTF_LISTEN"] = ",".join(self.listen)
+        if self.mode:
+            env["ZENTF_MODE"] = self.mode
+        if self.no_multicast:
+            env["ZENTF_NO_MULTICAST"] = "1"
+        return env
+
+    def to_args(self) -> list[str]:
+        args: list[str] = []
+        if self.config_file:
+            args += ["--zenoh-config", self.config_file]
+        for ep in self.connect:
+            args += ["--connect", ep]
+        for ep in self.listen:
+            args += ["--listen", ep]
+        if self.mode:
+            args += ["--mode", self.mode]
+        if self.no_multicast:
+            args.append("--no-multicast")
+        return args
+
+
+def parse_scalar(text: str) -> Any:
+    """A parameter value as a YAML scalar ('1' -> 1, 'true' -> True, '[1, 2]' -> list)."""
+    import yaml
+
+    try:
+        return yaml.safe_load(text) if text.strip() else ""
+    except yaml.YAMLError:
+        return text
+
+
+def parse_param_assignment(text: str) -> tuple[str, Any]:
+    """'name:=value' -> (name, parsed value)."""
+    name, sep, value = text.partition(":=")
+    if not sep or not name.strip():
+        raise OptionsError(f"bad parameter {text!r}: expected name:=value")
+    return name.strip(), parse_scalar(value)
+
+
+def parse_remap(text: str) -> tuple[str, str]:
+    src, sep, dst = text.partition(":=")
+    if not sep or not src.strip() or not dst.strip():
+        raise OptionsError(f"bad remapping {text!r}: expected from:=to")
+    return src.strip(), dst.strip()
+
+
+def load_params_file(path: str, node_name: str | None = None) -> dict[str, Any]:
+    """A YAML params file: flat ``{name: value}`` or ROS 2 style ``{node|/**: {ros__parameters: {...}}}``."""
+    import yaml
+
+    try:
+        with open(path, encoding="utf-8") as f:
+            data = yaml.safe_load(f)
+    except OSError as e:
+        raise OptionsError(f"cannot read params file {path}: {e.strerror}") from None
+    except yaml.YAMLError as e:
+        raise OptionsError(f"bad YAML in params file {path}: {str(e).splitlines()[0]}") from None
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise OptionsError(f"params file {path}: expected a mapping at top level")
+    ros_style = any(isinstance(v, dict) and "ros__parameters" in v for v in data.values())
+    if not ros_style:
+        return dict(data)
+    out: dict[str, Any] = {}
+    for key, v in data.items():
+        if not isinstance(v, dict) or "ros__parameters" not in v:
+            continue
+        k = str(key).strip("/")
+        if k in ("**", "*") or node_name is None or k == node_name or k.split("/")[-1] == node_name:
+            params = v["ros__parameters"] or {}
+            if not isinstance(params, dict):
+                raise OptionsError(f"params file {path}: ros__parameters of {key!r} must be a mapping")
+            out.update(params)
+    return out
+
+
+def _json_object(env: Mapping[str, str], var: str) -> dict[str, Any]:
+    text = env.get(var)
+    if not text:
+        return {}
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise OptionsError(f"{var} is not valid JSON: {e.msg} at char {e.pos}") from None
+    if not isinstance(value, dict):
+        raise OptionsError(f"{var} must be a JSON object")
+    return value
+
+
+@dataclass
+class NodeOptions:
+    """Who a node is (name, namespace, params, remappings) and how it reaches Zenoh."""
+
+    name: str | None = None
+    namespace: str | None = None
+    params: dict[str, Any] = field(default_factory=dict)
+    params_file: str | None = None
+    remappings: dict[str, str] = field(default_factory=dict)
+    zenoh: ZenohOptions = field(default_factory=ZenohOptions)
+
+    @classmethod
+    def from_env(cls, env: Mapping[str, str] | None = None) -> "NodeOptions":
+        env = os.environ if env is None else env
+        opts = cls(name=env.get("ZENTF_NODE_NAME") or None,
+                   namespace=env.get("ZENTF_NAMESPACE") or None,
+                   params=_json_object(env, "ZENTF_PARAMS"),
+                   params_file=env.get("ZENTF_PARAMS_FILE") or None,
+                   remappings={str(k): str(v) for k, v in _json_object(env, "ZENTF_REMAP").items()},
+                   zenoh=ZenohOptions.from_env(env))
+        opts._check()
+        return opts
+
+    @classmethod
+    def from_args(cls, args: argparse.Namespace | Sequence[str] | None = None,
+                  env: Mapping[str, str] | None = None,
+                  parser: argparse.ArgumentParser | None = None) -> "NodeOptions":
+        """From parsed args (a parser given ``add_node_arguments``) or an argv list, over env vars.
+
+        With ``parser``, a bad value becomes ``parser.error(...)`` (usage line, exit code 2).
+        """
+        if parser is not None:
+            try:
+                return cls.from_args(args, env)
+            except OptionsError as e:
+                parser.error(str(e))
+        if args is None or not isinstance(args, argparse.Namespace):
+            parser = argparse.ArgumentParser(add_help=False)
+            add_node_arguments(parser)
+            args = parser.parse_args(list(args) if args is not None else None)
+        opts = cls.from_env(env)
+        g = lambda n: getattr(args, n, None)  # noqa: E731
+        if g("node_name"):
+            opts.name = g("node_name")
+        if g("namespace") is not None:
+            opts.namespace = g("namespace")
+        if g("params_file"):
+            opts.params_file = g("params_file")
+        for p in g("params") or []:
+            k, v = parse_param_assignment(p)
+            opts.params[k] = v
+        for r in g("remap") or []:
+            src, dst = parse_remap(r)
+            opts.remappings[src] = dst
+        opts.zenoh = ZenohOptions.from_values(g("zenoh_config"), g("connect"), g("listen"), g("mode"),
+                                              g("no_multicast"), env)
+        opts._check()
+        return opts
+
+    def _check(self) -> None:
+        try:
+            if self.name is not None:
+                validate_node_name(self.name)
+            normalize_namespace(self.namespace)
+        except ValueError as e:
+            raise OptionsError(str(e)) from None
+        if self.params_file is not None and not os.path.isfile(self.params_file):
+            raise OptionsError(f"params file not found: {self.params_file}")
+
+    def resolved_params(self, node_name: str | None = None) -> dict[str, Any]:
+        """Params file values overridden by explicit params."""
+        out: dict[str, Any] = {}
+        if self.params_file:
+            out.update(load_params_file(self.params_file, node_name or self.name))
+        out.update(self.params)
+        return out
+
+    def with_(self, **changes: Any) -> "NodeOptions":
+        return replace(self, **changes)
+
+    def to_env(self) -> dict[str, str]:
+        """Env vars that give a child process this identity (the launcher -> node contract)."""
+        env = self.zenoh.to_env()
+        if self.name:
+            env["ZENTF_NODE_NAME"] = self.name
+        if self.namespace:
+            env["ZENTF_NAMESPACE"] = normalize_namespace(self.namespace)
+        if self.params:
+            env["ZENTF_PARAMS"] = json.dumps(self.params)
+        if self.params_file:
+            env["ZENTF_PARAMS_FILE"] = self.params_file
+        if self.remappings:
+            env["ZENTF_REMAP"] = json.dumps(self.remappings)
+        return env
+
+
+def add_zenoh_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    g = parser.add_argument_group("zenoh")
+    g.add_argument("--zenoh-config", metavar="FILE", help="Zenoh JSON5 config file [ZENTF_ZENOH_CONFIG]")
+    g.add_argument("--connect", metavar="EP", action="append",
+                   help="endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeat) [ZENTF_CONNECT]")
+    g.add_argument("--listen", metavar="EP", action="append", help="endpoint to listen on (repeat) [ZENTF_LISTEN]")
+    g.add_argument("--mode", choices=MODES, help="Zenoh mode [ZENTF_MODE]")
+    g.add_argument("--no-multicast", action="store_true", default=None,
+                   help="turn multicast scouting off [ZENTF_NO_MULTICAST=1]")
+    return parser
+
+
+def add_node_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """Add --name/--namespace/-p/--params-file/-r plus the Zenoh flags to a node program's parser."""
+    g = parser.add_argument_group("node")
+    g.add_argument("--name", dest="node_name", metavar="NAME", help="node name [ZENTF_NODE_NAME]")
+    g.add_argument("--namespace", "-n", dest="namespace", metavar="NS", help="namespace [ZENTF_NAMESPACE]")
+    g.add_argument("-p", "--param", dest="params", metavar="NAME:=VALUE", action="append",
+                   help="parameter (repeat) [ZENTF_PARAMS as JSON]")
+    g.add_argument("--params-file", metavar="FILE", help="YAML parameters file [ZENTF_PARAMS_FILE]")
+    g.add_argument("-r", "--remap", dest="remap", metavar="FROM:=TO", action="append",
+                   help="topic remapping (repeat) [ZENTF_REMAP as JSON]")
+    add_zenoh_arguments(parser)
+    return parser

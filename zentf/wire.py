@@ -1,0 +1,173 @@
+"""Wire format: msgpack of a message's plain dict, Zenoh encoding ``application/msgpack;<type name>``.
+
+The sending node's fully qualified name travels as the sample attachment (UTF-8), so receivers
+know the authority of every transform. ``ingest_tf`` is the listener's fast path: msgpack straight
+into ``BufferCore.set_transform_raw`` with no dataclasses, each bad element skipped on its own.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from functools import lru_cache
+from typing import Any
+
+import msgpack
+
+from .messages import Message, TransformStamped, message_type
+
+__all__ = [
+    "ENCODING", "MAX_PAYLOAD", "encoding_for", "type_name_from_encoding", "pack", "unpack", "encode",
+    "decode", "decode_any", "tf_to_plain", "encode_tf", "ingest_tf", "authority_of",
+]
+
+ENCODING = "application/msgpack"
+#: Payloads larger than this are refused before decoding (a huge message must not stall a listener).
+MAX_PAYLOAD = 64 * 1024 * 1024
+_NS = 1_000_000_000
+
+
+@lru_cache(maxsize=256)
+def encoding_for(type_name: str) -> Any:
+    """zenoh.Encoding ``application/msgpack;<type_name>``."""
+    import zenoh
+
+    return zenoh.Encoding(ENCODING).with_schema(type_name) if type_name else zenoh.Encoding(ENCODING)
+
+
+def type_name_from_encoding(encoding: object) -> str | None:
+    """'application/msgpack;geometry_msgs/msg/Point' -> 'geometry_msgs/msg/Point'; None if not ours."""
+    text = str(encoding)
+    if not text.startswith(ENCODING):
+        return None
+    _, _, schema = text.partition(";")
+    return schema or None
+
+
+def pack(plain: Any) -> bytes:
+    return msgpack.packb(plain, use_bin_type=True)
+
+
+def unpack(payload: bytes | bytearray | memoryview) -> Any:
+    """msgpack -> plain data; any failure (truncated, garbage, too big) is a one-line ValueError."""
+    if len(payload) > MAX_PAYLOAD:
+        raise ValueError(f"payload of {len(payload)} bytes exceeds the {MAX_PAYLOAD} byte limit")
+    try:
+        return msgpack.unpackb(payload, raw=False, strict_map_key=False)
+    except Exception as e:  # msgpack raises several classes (ExtraData, FormatError, ValueError, ...)
+        raise ValueError(f"not valid msgpack ({type(e).__name__}: {str(e)[:80]})") from None
+
+
+def encode(msg: Message | dict) -> bytes:
+    if isinstance(msg, Message):
+        return pack(msg.to_dict())
+    if isinstance(msg, dict):
+        return pack(msg)
+    raise TypeError(f"cannot publish a {type(msg).__name__}: expected a message or a dict")
+
+
+def decode(payload: bytes, msg_type: type[Message]) -> Message:
+    """Bytes -> message of msg_type; ValueError names what was wrong."""
+    return msg_type.from_dict(unpack(payload))
+
+
+def decode_any(payload: bytes, encoding: object) -> tuple[str | None, Any]:
+    """For generic tools: (type name or None, message object if the type is known else plain data)."""
+    type_name = type_name_from_encoding(encoding)
+    plain = unpack(payload)
+    if type_name:
+        try:
+            return type_name, message_type(type_name).from_dict(plain)
+        except KeyError:
+            pass
+    return type_name, plain
+
+
+def tf_to_plain(ts: TransformStamped | dict) -> dict:
+    """TransformStamped -> plain dict without the generic reflection (hot path of broadcasters)."""
+    if isinstance(ts, dict):
+        return ts
+    h = ts.header
+    st = h.stamp
+    tr = ts.transform
+    p = tr.translation
+    q = tr.rotation
+    return {"header": {"stamp": {"sec": st.sec, "nanosec": st.nanosec}, "frame_id": h.frame_id},
+            "child_frame_id": ts.child_frame_id,
+            "transform": {"translation": {"x": p.x, "y": p.y, "z": p.z},
+                          "rotation": {"x": q.x, "y": q.y, "z": q.z, "w": q.w}}}
+
+
+def encode_tf(transforms: Iterable[TransformStamped | dict]) -> bytes:
+    """A TFMessage payload from transforms (dataclasses or plain dicts)."""
+    return pack({"transforms": [tf_to_plain(t) for t in transforms]})
+
+
+def authority_of(attachment: Any, fallback: str) -> str:
+    """The sender's node name from a sample attachment (ZBytes or bytes); fallback if absent/bad."""
+    if attachment is None:
+        return fallback
+    try:
+        raw = attachment.to_bytes() if hasattr(attachment, "to_bytes") else bytes(attachment)
+        text = raw.decode("utf-8")
+    except Exception:
+        return fallback
+    return text if 0 < len(text) <= 256 and text.isprintable() else fallback
+
+
+_NUM = (float, int)
+
+
+def _num(v: Any) -> float:
+    if type(v) is float or (type(v) is int):
+        return v
+    raise TypeError(f"expected a number, got {type(v).__name__}")
+
+
+def ingest_tf(payload: bytes, set_raw: Callable[..., bool], authority: str,
+              is_static: bool) -> tuple[int, int, int, str | None]:
+    """Insert every transform of a TFMessage payload.
+
+    Returns (accepted, rejected_by_buffer, malformed, first_problem). Raises ValueError only if the
+    whole payload is unusable (not msgpack, not a TFMessage).
+    """
+    data = unpack(payload)
+    if type(data) is not dict:
+        raise ValueError(f"expected a TFMessage dict, got {type(data).__name__}")
+    transforms = data.get("transforms")
+    if type(transforms) is not list:
+        raise ValueError("TFMessage.transforms missing or not a list")
+    accepted = rejected = malformed = 0
+    problem: str | None = None
+    num = _num
+    for i, t in enumerate(transforms):
+        try:
+            h = t["header"]
+            st = h["stamp"]
+            sec = st["sec"]
+            nsec = st["nanosec"]
+            if type(sec) is not int or type(nsec) is not int or sec < 0 or not 0 <= nsec < _NS:
+                raise ValueError(f"bad stamp {st!r}"[:120])
+            parent = h["frame_id"]
+            child = t["child_frame_id"]
+            if type(parent) is not str or type(child) is not str:
+                raise ValueError("frame ids must be strings")
+            tr = t["transform"]
+            p = tr["translation"]
+            q = tr["rotation"]
+            args = (parent, child, sec * _NS + nsec, num(p["x"]), num(p["y"]), num(p["z"]),
+                    num(q["x"]), num(q["y"]), num(q["z"]), num(q["w"]), authority, is_static)
+        except (KeyError, TypeError, ValueError, IndexError) as e:
+            malformed += 1
+            if problem is None:
+                problem = f"transforms[{i}]: " + (f"missing field {e}" if isinstance(e, KeyError) else str(e))
+            continue
+        try:
+            ok = set_raw(*args)
+        except Exception as e:  # the buffer must never take the listener down
+            ok = False
+            if problem is None:
+                problem = f"transforms[{i}]: rejected by buffer ({type(e).__name__}: {e})"
+        if ok:
+            accepted += 1
+        else:
+            rejected += 1
+    return accepted, rejected, malformed, problem
