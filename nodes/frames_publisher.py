@@ -66,6 +66,8 @@ def _run(opts: object) -> None:
 
         def tick() -> None:
             now = clock.now()
+            if now.nanoseconds == 0:  # sim time before the first /clock message
+                return
             broadcaster.send_transform(_stamped(now, drone_poses(now.nanoseconds / 1e9)))
 
         node.create_timer(1.0 / rate, tick)

@@ -1,0 +1,27 @@
+"""static_transform_publisher as a process: bad arguments are one-line usage errors with exit 1."""
+from __future__ import annotations
+
+import pytest
+
+
+@pytest.mark.parametrize("args, error", [
+    (["--x", "abc", "--frame-id", "a", "--child-frame-id", "b"], "Failed to parse --x argument as float"),
+    (["--roll", "1", "--qw", "1", "--frame-id", "a", "--child-frame-id", "b"],
+     "Cannot specify both quaternion and Euler rotations"),
+    (["1", "2", "3"], "Extra unparsed arguments on command-line"),
+    (["--frame-id", "a"], "Child frame id must not be empty"),
+])
+def test_static_transform_publisher_bad_arguments(spawn, args, error):
+    p = spawn.python("-m", "nodes.static_transform_publisher", *args)
+    assert p.wait(20) == 1
+    out = [line for line in p.lines if line.strip()]
+    assert out == [f"static_transform_publisher: error parsing command line arguments: {error}"]
+
+
+def test_static_transform_publisher_same_frames_and_help(spawn):
+    p = spawn.python("-m", "nodes.static_transform_publisher", "0", "0", "0", "0", "0", "0", "a", "a")
+    assert p.wait(20) == 1
+    assert p.lines == ["static_transform_publisher: cannot publish static transform from 'a' to 'a', exiting"]
+    h = spawn.python("-m", "nodes.static_transform_publisher", "--help")
+    assert h.wait(20) == 0
+    assert h.lines[0].startswith("usage: static_transform_publisher [--x X]")
