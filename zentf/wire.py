@@ -23,6 +23,7 @@ ENCODING = "application/msgpack"
 #: Payloads larger than this are refused before decoding (a huge message must not stall a listener).
 MAX_PAYLOAD = 64 * 1024 * 1024
 _NS = 1_000_000_000
+_MAX_SEC = (2**63 - 1) // _NS  # stamps are int64 nanoseconds
 
 
 @lru_cache(maxsize=256)
@@ -117,17 +118,19 @@ _NUM = (float, int)
 
 
 def _num(v: Any) -> float:
-    if type(v) is float or (type(v) is int):
+    if type(v) is float:
         return v
+    if type(v) is int:
+        return float(v)  # OverflowError for absurd integers, caught by the caller
     raise TypeError(f"expected a number, got {type(v).__name__}")
 
 
-def ingest_tf(payload: bytes, set_raw: Callable[..., bool], authority: str,
-              is_static: bool) -> tuple[int, int, int, str | None]:
-    """Insert every transform of a TFMessage payload.
+def ingest_tf(payload: bytes, core: Any, authority: str, is_static: bool) -> tuple[int, int, int, str | None]:
+    """Insert every transform of a TFMessage payload into ``core`` (a BufferCore).
 
     Returns (accepted, rejected_by_buffer, malformed, first_problem). Raises ValueError only if the
-    whole payload is unusable (not msgpack, not a TFMessage).
+    whole payload is unusable (not msgpack, not a TFMessage). Uses ``set_transforms_raw`` so the
+    buffer wakes its waiters once per message, not once per transform.
     """
     data = unpack(payload)
     if type(data) is not dict:
@@ -135,16 +138,18 @@ def ingest_tf(payload: bytes, set_raw: Callable[..., bool], authority: str,
     transforms = data.get("transforms")
     if type(transforms) is not list:
         raise ValueError("TFMessage.transforms missing or not a list")
-    accepted = rejected = malformed = 0
+    malformed = 0
     problem: str | None = None
     num = _num
+    samples = []
+    append = samples.append
     for i, t in enumerate(transforms):
         try:
             h = t["header"]
             st = h["stamp"]
             sec = st["sec"]
             nsec = st["nanosec"]
-            if type(sec) is not int or type(nsec) is not int or sec < 0 or not 0 <= nsec < _NS:
+            if type(sec) is not int or type(nsec) is not int or not 0 <= sec < _MAX_SEC or not 0 <= nsec < _NS:
                 raise ValueError(f"bad stamp {st!r}"[:120])
             parent = h["frame_id"]
             child = t["child_frame_id"]
@@ -153,21 +158,22 @@ def ingest_tf(payload: bytes, set_raw: Callable[..., bool], authority: str,
             tr = t["transform"]
             p = tr["translation"]
             q = tr["rotation"]
-            args = (parent, child, sec * _NS + nsec, num(p["x"]), num(p["y"]), num(p["z"]),
-                    num(q["x"]), num(q["y"]), num(q["z"]), num(q["w"]), authority, is_static)
-        except (KeyError, TypeError, ValueError, IndexError) as e:
+            append((parent, child, sec * _NS + nsec, num(p["x"]), num(p["y"]), num(p["z"]),
+                    num(q["x"]), num(q["y"]), num(q["z"]), num(q["w"])))
+        except (KeyError, TypeError, ValueError, IndexError, OverflowError) as e:
             malformed += 1
             if problem is None:
                 problem = f"transforms[{i}]: " + (f"missing field {e}" if isinstance(e, KeyError) else str(e))
-            continue
-        try:
-            ok = set_raw(*args)
-        except Exception as e:  # the buffer must never take the listener down
-            ok = False
-            if problem is None:
-                problem = f"transforms[{i}]: rejected by buffer ({type(e).__name__}: {e})"
-        if ok:
-            accepted += 1
-        else:
-            rejected += 1
-    return accepted, rejected, malformed, problem
+    if not samples:
+        return 0, 0, malformed, problem
+    try:
+        accepted = core.set_transforms_raw(samples, authority, is_static)
+    except Exception:  # the buffer must never take the listener down: retry one by one
+        accepted = 0
+        for s in samples:
+            try:
+                accepted += bool(core.set_transform_raw(*s, authority, is_static))
+            except Exception as e:
+                if problem is None:
+                    problem = f"rejected by buffer ({type(e).__name__}: {e})"[:200]
+    return accepted, len(samples) - accepted, malformed, problem

@@ -1,0 +1,147 @@
+"""Buffer, TransformListener and broadcasters across real processes on loopback."""
+from __future__ import annotations
+
+import math
+import threading
+import time
+import textwrap
+
+import pytest
+
+from zentf.buffer import Buffer
+from zentf.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
+from zentf.exceptions import LookupException
+from zentf.listener import TransformListener
+from zentf.messages import Header, PointStamped, Point, Transform, TransformStamped, Vector3, Quaternion
+from zentf.node import Node
+from zentf.time import Time
+
+BROADCASTER = textwrap.dedent("""
+    import math, sys, time
+    from zentf.node import Node, init_logging
+    from zentf.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
+    from zentf.messages import TransformStamped, Header, Transform, Vector3, Quaternion
+    from zentf.time import Time
+    init_logging()
+    def ts(parent, child, x, y=0.0, z=0.0, stamp=None):
+        return TransformStamped(Header(stamp or Time(), parent), child,
+                                Transform(Vector3(x, y, z), Quaternion(0.0, 0.0, 0.0, 1.0)))
+    node = Node(sys.argv[1])
+    static = StaticTransformBroadcaster(node)
+    static.send_transform(ts("base_link", "laser", 0.1, 0.0, 0.2))
+    static.send_transform([ts("base_link", "camera", 1.0, 0.0, 0.0), ts("base_link", "laser", 0.1, 0.0, 0.3)])
+    dyn = TransformBroadcaster(node)
+    x0 = float(sys.argv[2])
+    def tick():
+        dyn.send_transform(ts("world", "base_link", x0, stamp=node.get_clock().now()))
+    node.create_timer(0.02, tick)
+    print("ready", flush=True)
+    node.spin()
+""")
+
+
+def _ts(parent: str, child: str, x: float, stamp: Time | None = None) -> TransformStamped:
+    return TransformStamped(Header(stamp or Time(), parent), child,
+                            Transform(Vector3(x, 0.0, 0.0), Quaternion(0.0, 0.0, 0.0, 1.0)))
+
+
+def test_transforms_from_another_process(spawn, node_options) -> None:
+    p = spawn.python("-c", BROADCASTER, "bcast", "5.0")
+    with Node("listener", options=node_options) as node:
+        buf = Buffer(node=node)
+        tl = TransformListener(buf, node)
+        t = buf.lookup_transform("world", "laser", Time(), timeout=20)
+        assert t.transform.translation.x == pytest.approx(5.1)
+        assert t.transform.translation.z == pytest.approx(0.3)   # re-sent child replaced
+        cam = buf.lookup_transform("laser", "camera", Time(), timeout=5)
+        assert cam.transform.translation.x == pytest.approx(0.9)
+        assert cam.transform.translation.z == pytest.approx(-0.3)
+        # authority = the sending node's fully qualified name
+        assert f"/{node_options.namespace}/bcast" in buf.all_frames_as_yaml()
+        pt = buf.transform(PointStamped(Header(Time(), "laser"), Point(1.0, 0.0, 0.0)), "base_link", timeout=2)
+        assert (pt.point.x, pt.point.z) == pytest.approx((1.1, 0.3))
+        assert tl.stats()["bad_messages"] == 0 and tl.stats()["transforms"] > 0
+        tl.unregister()
+    p.stop()
+
+
+def test_late_joining_listener_gets_statics(spawn, node_options) -> None:
+    p = spawn.python("-c", BROADCASTER, "early", "0.0")
+    p.wait_for_line("ready", timeout=20)
+    time.sleep(0.3)  # let the statics go out with nobody listening (nothing to await: no subscriber yet)
+    with Node("late", options=node_options) as node:
+        buf = Buffer(node=node)
+        TransformListener(buf, node, static_only=True)
+        assert buf.can_transform("laser", "camera", Time(), timeout=10), p.output()
+        t = buf.lookup_transform("camera", "laser", Time())
+        assert (t.transform.translation.x, t.transform.translation.z) == pytest.approx((-0.9, 0.3))
+        assert not buf.can_transform("world", "base_link", Time())  # static_only: no dynamic data
+
+
+def test_static_publisher_started_after_listener(spawn, node_options) -> None:
+    with Node("first", options=node_options) as node:
+        buf = Buffer(node=node)
+        TransformListener(buf, node)
+        p = spawn.python("-c", BROADCASTER, "later", "0.0")
+        assert buf.can_transform("laser", "camera", Time(), timeout=20), p.output()
+
+
+def test_blocking_lookup_wakes_on_arrival(node_options) -> None:
+    buf = Buffer()
+    threading.Timer(0.3, lambda: buf.set_transform(_ts("a", "b", 1.0), "test")).start()
+    t0 = time.monotonic()
+    t = buf.lookup_transform("a", "b", Time(), timeout=10)
+    elapsed = time.monotonic() - t0
+    assert t.transform.translation.x == 1.0
+    assert 0.25 < elapsed < 2.0
+    t0 = time.monotonic()
+    with pytest.raises(LookupException):
+        buf.lookup_transform("a", "nowhere", Time(), timeout=0.3)
+    assert 0.28 < time.monotonic() - t0 < 2.0
+    ok, msg = buf.can_transform("a", "nowhere", Time(), timeout=0.1, return_debug_tuple=True)
+    assert not ok and "canTransform returned after" in msg
+
+
+def test_blocking_lookup_across_processes_and_publisher_restart(spawn, node_options) -> None:
+    with Node("waiter", options=node_options) as node:
+        buf = Buffer(node=node)
+        TransformListener(buf, node)
+        result: list = []
+        waiter = threading.Thread(target=lambda: result.append(buf.lookup_transform("world", "base_link", Time(),
+                                                                                     timeout=20)))
+        waiter.start()
+        p = spawn.python("-c", BROADCASTER, "pub1", "1.0")
+        waiter.join(25)
+        assert result and result[0].transform.translation.x == 1.0, p.output()
+        p.kill()                                              # publisher dies without a goodbye
+        p2 = spawn.python("-c", BROADCASTER, "pub1", "2.0")    # and comes back with the same name
+        assert buf.wait_for(lambda: buf.lookup_transform("world", "base_link", Time()).transform.translation.x
+                            == 2.0, 20), p2.output()
+        assert buf.lookup_transform("world", "base_link", Time()).transform.translation.x == 2.0, p2.output()
+
+
+def test_static_broadcaster_replaces_and_accumulates(node_options) -> None:
+    with Node("sb", options=node_options) as a, Node("sl", options=node_options) as b:
+        sb = StaticTransformBroadcaster(a)
+        sb.send_transform(_ts("p", "c1", 1.0))
+        sb.send_transform(_ts("p", "c2", 2.0))
+        sb.send_transform(_ts("q", "c1", 3.0))  # re-parented and replaced
+        assert [(t.header.frame_id, t.child_frame_id) for t in sb.transforms] == [("q", "c1"), ("p", "c2")]
+        buf = Buffer(node=b)
+        TransformListener(buf, b)
+        assert buf.can_transform("q", "c1", Time(), timeout=10)
+        assert buf.can_transform("p", "c2", Time(), timeout=10)
+        assert buf.lookup_transform("q", "c1", Time()).transform.translation.x == 3.0
+
+
+def test_broadcaster_accepts_dicts_and_lists(node_options) -> None:
+    with Node("d", options=node_options) as a:
+        buf = Buffer(node=a)
+        TransformListener(buf, a)
+        br = TransformBroadcaster(a)
+        assert br.wait_for_subscribers(5)
+        br.send_transform([_ts("w", "r1", 1.0, Time(sec=5)), _ts("w", "r2", 2.0, Time(sec=5)).to_dict()])
+        assert buf.can_transform("r1", "r2", Time(sec=5), timeout=5)
+        with pytest.raises(TypeError):
+            br.send_transform([42])  # type: ignore[list-item]
+        assert math.isclose(buf.lookup_transform("r1", "r2", Time(sec=5)).transform.translation.x, 1.0)

@@ -1,0 +1,130 @@
+"""TransformListener: fills a Buffer from ``tf`` and ``tf_static`` on Zenoh's own threads (fast path)."""
+from __future__ import annotations
+
+import logging
+import threading
+import uuid
+from typing import Any
+
+from . import wire
+from .messages import TFMessage
+from .node import Node, RateLimitedLog
+
+__all__ = ["TransformListener", "StaticTransformListener"]
+
+log = logging.getLogger("zentf.listener")
+
+
+class TransformListener:
+    """TransformListener(buffer, node=None, *, static_only=False): subscribes and inserts; never raises.
+
+    Each message is msgpack-decoded and inserted with ``set_transforms_raw`` (no dataclasses); a
+    malformed element is counted, logged (rate-limited, naming the sender) and skipped. The sender's
+    node name (sample attachment) is the authority. A backwards jump of the node's clock clears the
+    buffer (statics survive), as tf2 does. Without a node, a hidden one is created from the env.
+    """
+
+    def __init__(self, buffer: Any, node: Node | None = None, *, static_only: bool = False,
+                 tf_topic: str = "tf", tf_static_topic: str = "tf_static", spin_thread: bool = True) -> None:
+        import zenoh.ext as zx
+
+        self.buffer = buffer
+        self._own_node = node is None
+        self.node = node if node is not None else Node(f"transform_listener_impl_{uuid.uuid4().hex[:12]}",
+                                                       check_unique=False)
+        if getattr(buffer, "node", "missing") is None:
+            buffer.node = self.node
+        self._log = RateLimitedLog(log)
+        self._lock = threading.Lock()
+        self.messages = 0          # TFMessages applied (fully or partly)
+        self.transforms = 0        # transforms accepted by the buffer
+        self.rejected = 0          # well-formed transforms the buffer refused (NaN, bad quaternion, old data...)
+        self.malformed = 0         # transform elements with a bad shape
+        self.bad_messages = 0      # payloads that were not a TFMessage at all
+        self._subs: list[Any] = []
+        self._tokens: list[Any] = []
+        session = self.node.session
+        static_key = wire_key(self.node, tf_static_topic)
+        self._subs.append(zx.declare_advanced_subscriber(
+            session, static_key, lambda s: self._on_sample(s, True),
+            history=zx.HistoryConfig(detect_late_publishers=True)))
+        self._tokens.append(self.node._declare_entity("sub", TFMessage.TYPE_NAME, static_key))
+        if not static_only:
+            key = wire_key(self.node, tf_topic)
+            self._subs.append(session.declare_subscriber(key, lambda s: self._on_sample(s, False)))
+            self._tokens.append(self.node._declare_entity("sub", TFMessage.TYPE_NAME, key))
+        self._jump = self.node.get_clock().add_jump_callback(self._on_jump)
+
+    def _on_sample(self, sample: Any, is_static: bool) -> None:
+        """Zenoh thread: decode and insert; every failure is contained here."""
+        key = None
+        try:
+            payload = sample.payload.to_bytes()
+            enc = str(sample.encoding)
+            type_name = wire.type_name_from_encoding(enc)
+            if type_name is not None and type_name != TFMessage.TYPE_NAME:
+                raise ValueError(f"wrong type {type_name}, expected {TFMessage.TYPE_NAME}")
+            key = str(sample.key_expr)
+            authority = wire.authority_of(sample.attachment, key)
+            accepted, rejected, malformed, problem = wire.ingest_tf(payload, self.buffer, authority, is_static)
+        except Exception as e:
+            with self._lock:
+                self.bad_messages += 1
+            try:
+                key = key or str(sample.key_expr)
+                sender = wire.authority_of(sample.attachment, "unknown sender")
+            except Exception:
+                sender = "unknown sender"
+            self._log(f"bad:{key}:{sender}", f"dropped bad message on '{key}' from {sender}: {e}")
+            return
+        with self._lock:
+            self.messages += 1
+            self.transforms += accepted
+            self.rejected += rejected
+            self.malformed += malformed
+        if malformed:
+            self._log(f"malformed:{key}:{authority}",
+                      f"skipped {malformed} malformed transform(s) on '{key}' from {authority}: {problem}")
+
+    def _on_jump(self, old: Any, new: Any) -> None:
+        log.warning("Detected jump back in time of %.6fs. Clearing TF buffer.", (old - new).to_sec())
+        self.buffer.clear()
+
+    def stats(self) -> dict[str, int]:
+        with self._lock:
+            return {"messages": self.messages, "transforms": self.transforms, "rejected": self.rejected,
+                    "malformed": self.malformed, "bad_messages": self.bad_messages}
+
+    def unregister(self) -> None:
+        """Stop listening (the buffer keeps its data)."""
+        self.node.get_clock().remove_jump_callback(self._jump)
+        for obj in [*self._subs, *self._tokens]:
+            try:
+                obj.undeclare()
+            except Exception:
+                pass
+        self._subs.clear()
+        self._tokens.clear()
+        if self._own_node:
+            self.node.shutdown()
+
+    close = unregister
+
+    def __enter__(self) -> "TransformListener":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.unregister()
+
+
+class StaticTransformListener(TransformListener):
+    """Only ``tf_static`` (tf2_ros rolling)."""
+
+    def __init__(self, buffer: Any, node: Node | None = None, **kw: Any) -> None:
+        super().__init__(buffer, node, static_only=True, **kw)
+
+
+def wire_key(node: Node, topic: str) -> str:
+    from .names import topic_to_key
+
+    return topic_to_key(node.resolve_topic_name(topic))
