@@ -79,17 +79,24 @@ def _fmt_time(ns: int) -> str:
 class _TimeCache:
     """Samples of one dynamic frame, oldest first (tf2 TimeCache)."""
 
-    __slots__ = ("stamps", "parents", "data", "start", "max_ns", "latest", "newest")
+    __slots__ = ("stamps", "parents", "data", "start", "max_ns", "latest", "newest", "oldest",
+                 "memo_t", "memo")
     is_static = False
 
     def __init__(self, max_ns: int) -> None:
-        self.stamps = array("q")
-        self.parents = array("i")
-        self.data = array("d")
-        self.start = 0          # logical first index (lazy pruning, compacted now and then)
         self.max_ns = max_ns
-        self.latest: Optional[tuple] = None  # newest sample: (parent, tx, ty, tz, qx, qy, qz, qw)
-        self.newest = -1                     # its stamp (-1 when empty)
+        self.clear()
+
+    def clear(self) -> None:
+        self.stamps = array("q")   # int64 ns, ascending
+        self.parents = array("i")  # parent frame id per sample
+        self.data = array("d")     # tx, ty, tz, qx, qy, qz, qw per sample
+        self.start = 0             # logical first index (lazy pruning, compacted now and then)
+        self.newest = -1           # newest stamp, -1 when empty
+        self.oldest = -1           # oldest live stamp
+        self.latest: Optional[tuple] = None  # newest sample as a tuple, built on first use
+        self.memo_t = -1           # last interpolated query time and its answer: a chain
+        self.memo: Optional[tuple] = None    # re-walked at the same time reuses it
 
     def __len__(self) -> int:
         return len(self.stamps) - self.start
@@ -100,72 +107,65 @@ class _TimeCache:
         return (self.parents[i], d[k], d[k + 1], d[k + 2], d[k + 3], d[k + 4], d[k + 5], d[k + 6])
 
     def insert(self, stamp: int, parent: int, values: tuple) -> int:
+        newest = self.newest
         st = self.stamps
-        n = len(st)
-        start = self.start
-        if n > start:
-            newest = st[n - 1]
-            if newest > stamp + self.max_ns:
-                return _OLD
-            if stamp > newest:
-                st.append(stamp)
-                self.parents.append(parent)
-                self.data.extend(values)
-                self.latest = (parent, *values)
-                self.newest = newest = stamp
-            else:
-                i = bisect_left(st, stamp, start, n)
-                if st[i] == stamp:
-                    return _REPEATED
-                st.insert(i, stamp)
-                self.parents.insert(i, parent)
-                k = 7 * i
-                self.data[k:k] = array("d", values)
-            # prune after insert (ROS 1 order; ROS 2 prunes before): oldest + max < newest
-            limit = newest - self.max_ns
-            if st[start] < limit:
-                start = bisect_left(st, limit, start, len(st))
-                self.start = start
-                if start > 32 and 2 * start > len(st):
-                    del st[:start]
-                    del self.parents[:start]
-                    del self.data[:7 * start]
-                    self.start = 0
-        else:
-            if n:
-                self.clear()
+        if stamp > newest:
             st.append(stamp)
             self.parents.append(parent)
             self.data.extend(values)
-            self.latest = (parent, *values)
             self.newest = stamp
+            self.latest = None
+            self.memo_t = -1
+            if newest < 0:
+                self.oldest = stamp
+                return _OK
+            newest = stamp
+        else:
+            if newest > stamp + self.max_ns:
+                return _OLD
+            n = len(st)
+            i = bisect_left(st, stamp, self.start, n)
+            if st[i] == stamp:
+                return _REPEATED
+            st.insert(i, stamp)
+            self.parents.insert(i, parent)
+            k = 7 * i
+            self.data[k:k] = array("d", values)
+            self.memo_t = -1
+            if i == self.start:
+                self.oldest = stamp
+        # prune right after the insert (ROS 1 order; ROS 2 prunes before): oldest + max < newest
+        limit = newest - self.max_ns
+        if self.oldest < limit:
+            start = bisect_left(st, limit, self.start, len(st))
+            self.oldest = st[start]
+            if start > 32 and 2 * start > len(st):
+                del st[:start]
+                del self.parents[:start]
+                del self.data[:7 * start]
+                start = 0
+            self.start = start
         return _OK
-
-    def clear(self) -> None:
-        self.stamps = array("q")
-        self.parents = array("i")
-        self.data = array("d")
-        self.start = 0
-        self.latest = None
-        self.newest = -1
 
     def get(self, t: int) -> Optional[tuple]:
         """(parent, tx, ty, tz, qx, qy, qz, qw) at t, interpolated; None if not available."""
-        latest = self.latest
-        if latest is None:
-            return None
         newest = self.newest
-        if t == 0 or t == newest:
+        if t == newest or t == 0:
+            if newest < 0:
+                return None
+            latest = self.latest
+            if latest is None:
+                latest = self.latest = self._sample(len(self.stamps) - 1)
             return latest
-        st = self.stamps
-        n = len(st)
-        start = self.start
-        if n - start == 1 or t > newest:
+        if t == self.memo_t:
+            return self.memo
+        oldest = self.oldest
+        if t > newest or t < oldest or newest == oldest:
             return None
-        oldest = st[start]
-        if t <= oldest:
-            return self._sample(start) if t == oldest else None
-        i = bisect_right(st, t, start, n) - 1
+        if t == oldest:
+            return self._sample(self.start)
+        st = self.stamps
+        i = bisect_right(st, t, self.start, len(st)) - 1
         parents = self.parents
         p = parents[i]
         d = self.data
@@ -174,8 +174,6 @@ class _TimeCache:
             # different parents: no interpolation, the older sample applies
             return (p, d[k], d[k + 1], d[k + 2], d[k + 3], d[k + 4], d[k + 5], d[k + 6])
         t0 = st[i]
-        if t0 == t:  # ratio 0 still goes through slerp in tf2; same value within 1 ulp
-            pass
         r = (t - t0) / (st[i + 1] - t0)
         s = 1.0 - r
         x0, y0, z0, w0 = d[k + 3], d[k + 4], d[k + 5], d[k + 6]
@@ -192,34 +190,31 @@ class _TimeCache:
             if dot < 0:
                 s1 = -s1
             x0, y0, z0, w0 = x0 * s0 + x1 * s1, y0 * s0 + y1 * s1, z0 * s0 + z1 * s1, w0 * s0 + w1 * s1
-        return (p, s * d[k] + r * d[k + 7], s * d[k + 1] + r * d[k + 8], s * d[k + 2] + r * d[k + 9],
-                x0, y0, z0, w0)
+        res = (p, s * d[k] + r * d[k + 7], s * d[k + 1] + r * d[k + 8], s * d[k + 2] + r * d[k + 9],
+               x0, y0, z0, w0)
+        self.memo_t = t
+        self.memo = res
+        return res
 
     def parent_at(self, t: int) -> int:
         """Parent id of the sample that applies at t (the older one), 0 if none (tf2 getParent)."""
-        latest = self.latest
-        if latest is None:
-            return 0
         newest = self.newest
-        if t == 0 or t == newest:
-            return latest[0]
-        st = self.stamps
-        n = len(st)
-        start = self.start
-        if n - start == 1 or t > newest:
+        if newest < 0:
             return 0
-        oldest = st[start]
-        if t <= oldest:
-            return self.parents[start] if t == oldest else 0
-        return self.parents[bisect_right(st, t, start, n) - 1]
+        if t == 0 or t == newest:
+            return self.parents[len(self.parents) - 1]
+        oldest = self.oldest
+        if t > newest or t < oldest or newest == oldest:
+            return 0
+        st = self.stamps
+        return self.parents[bisect_right(st, t, self.start, len(st)) - 1]
 
     def error(self, t: int) -> str:
         """The text tf2's findClosest gives for a failed query at t (empty cache: no text)."""
         n = len(self)
         if n == 0:
             return ""
-        st = self.stamps
-        newest, oldest = st[-1], st[self.start]
+        newest, oldest = self.newest, self.oldest
         if n == 1:
             return (f"Lookup would require extrapolation at time {_fmt_time(t)}, "
                     f"but only time {_fmt_time(newest)} is in the buffer")
@@ -230,16 +225,15 @@ class _TimeCache:
                 f"Requested time {_fmt_time(t)} but the earliest data is at time {_fmt_time(oldest)}")
 
     def latest_stamp_parent(self) -> tuple[int, int]:
-        latest = self.latest
-        if latest is None:
+        if self.newest < 0:
             return 0, 0
-        return self.newest, latest[0]
+        return self.newest, self.parents[len(self.parents) - 1]
 
     def newest_stamp(self) -> int:
-        return 0 if self.latest is None else self.newest
+        return 0 if self.newest < 0 else self.newest
 
     def oldest_stamp(self) -> int:
-        return self.stamps[self.start] if self.latest is not None else 0
+        return 0 if self.newest < 0 else self.oldest
 
     def nbytes(self) -> int:
         return (self.stamps.buffer_info()[1] * 8 + self.parents.buffer_info()[1] * 4
@@ -259,7 +253,7 @@ class _StaticCache:
         return 1
 
     def insert(self, stamp: int, parent: int, values: tuple) -> int:
-        self.sample = (parent, *values)
+        self.sample = (parent, *map(float, values))
         return _OK
 
     def clear(self) -> None:
@@ -335,6 +329,10 @@ class BufferCore:
         self._requests: list[_Request] = []
         self._request_counter = 0
         self._insert_callbacks: list[Callable[[], None]] = []
+        # lookup results by (target, source, time), valid while _version (bumped by every change
+        # of stored data or frame set) is unchanged; errors are never memoized
+        self._version = 0
+        self._memo: dict[tuple[str, str, int], tuple[int, tuple]] = {}
 
     @property
     def cache_time(self) -> Duration:
@@ -348,8 +346,11 @@ class BufferCore:
         tr = transform.transform
         v = tr.translation
         q = tr.rotation
-        return self.set_transform_raw(h.frame_id, transform.child_frame_id, h.stamp.nanoseconds,
-                                      v.x, v.y, v.z, q.x, q.y, q.z, q.w, authority, is_static)
+        ok = self._store(h.frame_id, transform.child_frame_id, h.stamp.nanoseconds,
+                         v.x, v.y, v.z, q.x, q.y, q.z, q.w, authority, is_static)
+        if ok and (self._requests or self._insert_callbacks):
+            self._after_insert()
+        return ok
 
     def set_transform_static(self, transform: TransformStamped, authority: str) -> bool:
         """tf2_py spelling of set_transform(..., is_static=True)."""
@@ -359,8 +360,8 @@ class BufferCore:
                           qx: float, qy: float, qz: float, qw: float, authority: str,
                           is_static: bool = False) -> bool:
         """set_transform without building a message (listener fast path); same semantics."""
-        ok = self._insert(parent, child, stamp_ns, tx, ty, tz, qx, qy, qz, qw, authority, is_static)
-        if ok:
+        ok = self._store(parent, child, stamp_ns, tx, ty, tz, qx, qy, qz, qw, authority, is_static)
+        if ok and (self._requests or self._insert_callbacks):
             self._after_insert()
         return ok
 
@@ -368,16 +369,48 @@ class BufferCore:
         """Insert many (parent, child, stamp_ns, tx, ty, tz, qx, qy, qz, qw) tuples; returns how many
         were accepted. Callbacks and transformable requests run once at the end."""
         accepted = 0
-        ins = self._insert
+        store = self._store
         for s in samples:
-            if ins(s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8], s[9], authority, is_static):
+            if store(s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8], s[9], authority, is_static):
                 accepted += 1
-        if accepted:
+        if accepted and (self._requests or self._insert_callbacks):
             self._after_insert()
         return accepted
 
-    def _insert(self, parent: str, child: str, stamp: int, tx: float, ty: float, tz: float,
-                qx: float, qy: float, qz: float, qw: float, authority: str, is_static: bool) -> bool:
+    def _store(self, parent: str, child: str, stamp: int, tx: float, ty: float, tz: float,
+               qx: float, qy: float, qz: float, qw: float, authority: str, is_static: bool) -> bool:
+        # one combined test for the common, valid case; anything unusual takes the slow path,
+        # which strips slashes, logs every tf2 complaint and refuses the sample
+        if not (child and parent and child != parent and child[0] != "/" and parent[0] != "/"
+                and -0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
+                and tx == tx and ty == ty and tz == tz and type(stamp) is int and stamp >= 0):
+            return self._store_checked(parent, child, stamp, tx, ty, tz, qx, qy, qz, qw, authority, is_static)
+        with self._lock:
+            ids = self._ids
+            cid = ids.get(child)
+            if cid is None:
+                cid = self._add_frame(child)
+            pid = ids.get(parent)
+            if pid is None:
+                pid = self._add_frame(parent)
+            if not cid:
+                return True  # tf2 stores a child named NO_PARENT in a slot nobody can read
+            cache = self._caches[cid]
+            if cache is None:
+                # ROS 1: the type chosen here is kept forever (ROS 2 replaces the cache on a switch)
+                cache = _StaticCache() if is_static else _TimeCache(self._cache_ns)
+                self._caches[cid] = cache
+            res = cache.insert(stamp, pid, (tx, ty, tz, qx, qy, qz, qw))
+            if res == _OK:
+                self._version += 1
+                self._authority[cid] = authority
+                return True
+        self._log_refused(res, child, stamp, authority)
+        return False
+
+    def _store_checked(self, parent: str, child: str, stamp: Any, tx: float, ty: float, tz: float,
+                       qx: float, qy: float, qz: float, qw: float, authority: str, is_static: bool) -> bool:
+        """tf2's full validation, with its log lines; stores through _store if all is well."""
         if parent[:1] == "/":
             parent = parent[1:]
         if child[:1] == "/":
@@ -407,13 +440,17 @@ class BufferCore:
             err = True
         if err:
             return False
-        if type(stamp) is not int:
+        try:
             stamp = int(stamp)
+        except (TypeError, ValueError):
+            logger.error('Ignoring transform for child_frame_id "%s" from authority "%s" because its '
+                         'stamp %r is not a number of nanoseconds', child, authority, stamp)
+            return False
         if stamp < 0:
             logger.error('Ignoring transform for child_frame_id "%s" from authority "%s" because its '
                          'stamp is negative (%d ns)', child, authority, stamp)
             return False
-        values = (float(tx), float(ty), float(tz), float(qx), float(qy), float(qz), float(qw))
+        values = tuple(float(x) for x in (tx, ty, tz, qx, qy, qz, qw))
         with self._lock:
             ids = self._ids
             cid = ids.get(child)
@@ -422,17 +459,22 @@ class BufferCore:
             pid = ids.get(parent)
             if pid is None:
                 pid = self._add_frame(parent)
-            if cid == 0:
-                return True  # tf2 stores a child named NO_PARENT in a slot nobody can read
+            if not cid:
+                return True
             cache = self._caches[cid]
             if cache is None:
-                # ROS 1: the type chosen here is kept forever (ROS 2 replaces the cache on a switch)
                 cache = _StaticCache() if is_static else _TimeCache(self._cache_ns)
                 self._caches[cid] = cache
             res = cache.insert(stamp, pid, values)
             if res == _OK:
+                self._version += 1
                 self._authority[cid] = authority
                 return True
+        self._log_refused(res, child, stamp, authority)
+        return False
+
+    @staticmethod
+    def _log_refused(res: int, child: str, stamp: int, authority: str) -> None:
         if res == _OLD:
             logger.warning("TF_OLD_DATA ignoring data from the past (Possible reasons are listed at "
                            "http://wiki.ros.org/tf/Errors%%20explained) for frame %s at time %.6f "
@@ -440,10 +482,10 @@ class BufferCore:
         else:
             logger.warning("TF_REPEATED_DATA ignoring data with redundant timestamp for frame %s at "
                            "time %.6f according to authority %s", child, stamp / 1e9, authority)
-        return False
 
     def _add_frame(self, name: str) -> int:
         fid = len(self._names)
+        self._version += 1
         self._ids[name] = fid
         self._names.append(name)
         self._caches.append(None)
@@ -452,7 +494,7 @@ class BufferCore:
     def _after_insert(self) -> None:
         if self._requests:
             self._test_transformable_requests()
-        for cb in self._insert_callbacks:
+        for cb in list(self._insert_callbacks):
             try:
                 cb()
             except Exception:  # a broken callback must not break inserts
@@ -471,6 +513,7 @@ class BufferCore:
     def clear(self) -> None:
         """Forget all dynamic data; static frames, frame names and pending requests stay (tf2)."""
         with self._lock:
+            self._version += 1
             for cache in self._caches:
                 if cache is not None:
                     cache.clear()
@@ -480,8 +523,17 @@ class BufferCore:
     def lookup_transform(self, target_frame: str, source_frame: str, time: TimeArg) -> TransformStamped:
         """Transform mapping data in source_frame into target_frame at time (0 = latest common)."""
         t = time._ns if type(time) is Time else _ns(time)
+        key = (target_frame, source_frame, t)
         with self._lock:
-            r = self._lookup(target_frame, source_frame, t)
+            hit = self._memo.get(key)
+            if hit is not None and hit[0] == self._version:
+                r = hit[1]
+            else:
+                r = self._lookup(target_frame, source_frame, t)
+                memo = self._memo
+                if len(memo) >= 4096:
+                    memo.clear()
+                memo[key] = (self._version, r)
         return _make_ts(target_frame, source_frame, *r)
 
     def lookup_transform_core(self, target_frame: str, source_frame: str, time: TimeArg) -> TransformStamped:

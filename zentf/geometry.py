@@ -161,56 +161,221 @@ def _one_ns(t: Any) -> int:
     return Time.from_sec(t).nanoseconds
 
 
-def _query(cache: Any, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Vectorized cache.get: (ok[N], parent[N], values[N,7]) with tf2's rules at every time."""
-    n = t.shape[0]
-    if cache.is_static:
-        s = cache.sample
-        return (np.ones(n, bool), np.full(n, s[0], np.int64), np.broadcast_to(np.asarray(s[1:], float), (n, 7)))
-    start = cache.start
-    # slicing copies the array.array, so no buffer export pins the cache's storage
-    st = np.frombuffer(cache.stamps[start:], dtype=np.int64)
-    m = st.shape[0]
-    ok = np.zeros(n, bool)
-    par = np.zeros(n, np.int64)
-    vals = np.zeros((n, 7))
-    if m == 0:
-        return ok, par, vals
-    parents = np.frombuffer(cache.parents[start:], dtype=np.int32)
-    data = np.frombuffer(cache.data[7 * start:], dtype=float).reshape(-1, 7)
-    t_eff = np.where(t == 0, st[-1], t)
-    if m == 1:
-        ok = t_eff == st[0]
-        par[ok] = parents[0]
-        vals[ok] = data[0]
-        return ok, par, vals
-    ok = (t_eff >= st[0]) & (t_eff <= st[-1])
-    i = np.clip(np.searchsorted(st, t_eff, side="right") - 1, 0, m - 2)
-    j = i + 1
-    exact_new = t_eff == st[-1]
-    exact_old = t_eff == st[0]
-    p_old = parents[i]
-    interp = ok & ~exact_new & ~exact_old & (p_old == parents[j])
-    par[ok] = p_old[ok]
-    vals[ok] = data[i[ok]]
-    if exact_new.any():
-        par[exact_new] = parents[m - 1]
-        vals[exact_new] = data[m - 1]
-    if interp.any():
-        ii, jj, tt = i[interp], j[interp], t_eff[interp]
-        t0 = st[ii]
-        r = (tt - t0) / (st[jj] - t0)
-        d0, d1 = data[ii], data[jj]
-        out = np.empty((ii.shape[0], 7))
-        out[:, :3] = (1.0 - r)[:, None] * d0[:, :3] + r[:, None] * d1[:, :3]
-        out[:, 3:] = slerp_batch(d0[:, 3:], d1[:, 3:], r)
-        vals[interp] = out
-    return ok, par, vals
+_CHUNK = 16384   # times per vectorized pass: keeps the working set in cache
 
 
-def _inverse_batch(v: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    qi = q * np.array([-1.0, -1.0, -1.0, 1.0])
-    return quat_rotate_batch(qi, -v), qi
+class _Tables:
+    """One frame's samples as per-interval tables for vectorized queries (built once per call)."""
+
+    __slots__ = ("m", "st", "par", "uniform", "rows", "last", "last_parent", "first_stamp", "last_stamp")
+
+    def __init__(self, cache: Any) -> None:
+        if cache.is_static:
+            s = cache.sample
+            self.m = -1                       # static: one sample valid at every time
+            self.uniform = s[0]
+            self.last = np.asarray(s[1:], float)
+            return
+        start = cache.start
+        # slicing copies the array.array, so no buffer export pins the cache's storage
+        st = np.frombuffer(cache.stamps[start:], dtype=np.int64)
+        m = self.m = st.shape[0]
+        self.st = st
+        if m == 0:
+            return
+        par = np.frombuffer(cache.parents[start:], dtype=np.int32).astype(np.int64)
+        d = np.frombuffer(cache.data[7 * start:], dtype=float).reshape(m, 7)
+        self.par = par
+        self.uniform = int(par[0]) if (par == par[0]).all() else None
+        self.last = d[m - 1].copy()
+        self.last_parent = int(par[m - 1])
+        self.first_stamp, self.last_stamp = int(st[0]), int(st[m - 1])
+        if m == 1:
+            return
+        p0, p1 = d[:-1], d[1:]
+        q0, q1 = p0[:, 3:], p1[:, 3:]
+        dot = np.einsum("ij,ij->i", q0, q1)
+        c = np.abs(dot) / np.sqrt(np.einsum("ij,ij->i", q0, q0) * np.einsum("ij,ij->i", q1, q1))
+        theta = np.arccos(np.minimum(c, 1.0))
+        zero = theta == 0.0
+        isn = np.where(zero, 0.0, 1.0 / np.sin(np.where(zero, 1.0, theta)))
+        older = par[:-1] != par[1:]          # parents differ: the older sample applies as is
+        inv_dt = np.where(older, 0.0, 1.0 / (st[1:] - st[:-1]))
+        rows = np.empty((19, m - 1))
+        rows[0], rows[1], rows[2] = inv_dt, theta, isn
+        rows[3] = np.where(dot < 0, -isn, isn)
+        rows[4] = zero
+        rows[5:8] = p0[:, :3].T
+        rows[8:11] = (p1[:, :3] - p0[:, :3]).T
+        rows[11:15] = q0.T
+        rows[15:19] = q1.T
+        self.rows = rows
+
+    def query(self, t: np.ndarray) -> tuple[Optional[np.ndarray], Any, tuple]:
+        """(ok mask or None if all ok, parent (int or array), 7 value columns) at times t."""
+        m = self.m
+        if m == -1:
+            return None, self.uniform, tuple(self.last)
+        n = t.shape[0]
+        if m == 0:
+            return np.zeros(n, bool), 0, (0.0,) * 7
+        t_eff = np.where(t == 0, self.last_stamp, t) if (t == 0).any() else t
+        if m == 1:
+            ok = t_eff == self.first_stamp
+            return (None if ok.all() else ok), self.uniform, tuple(self.last)
+        ok = (t_eff >= self.first_stamp) & (t_eff <= self.last_stamp)
+        all_ok = ok.all()
+        st = self.st
+        i = np.searchsorted(st, t_eff, side="right") - 1
+        np.clip(i, 0, m - 2, out=i)
+        R = np.take(self.rows, i, axis=1)
+        r = (t_eff - st[i]) * R[0]
+        th = R[1]
+        s0 = np.sin((1.0 - r) * th)
+        s0 *= R[2]
+        s0 += R[4]
+        s1 = np.sin(r * th)
+        s1 *= R[3]
+        vals = [R[5] + r * R[8], R[6] + r * R[9], R[7] + r * R[10],
+                R[11] * s0 + R[15] * s1, R[12] * s0 + R[16] * s1,
+                R[13] * s0 + R[17] * s1, R[14] * s0 + R[18] * s1]
+        parent: Any = self.uniform
+        exact_new = t_eff == self.last_stamp
+        if exact_new.any():           # tf2 returns the newest sample itself (even across parents)
+            for k in range(7):
+                vals[k][exact_new] = self.last[k]
+        if parent is None:
+            parent = self.par[i]
+            parent[exact_new] = self.last_parent
+        return (None if all_ok else ok), parent, tuple(vals)
+
+
+def _accumulate(acc: Optional[list], v: tuple) -> list:
+    """acc = v ∘ acc for (tx, ty, tz, qx, qy, qz, qw) columns: quatRotate(q, t_acc) + p, q·q_acc."""
+    px, py, pz, x, y, z, w = v
+    if acc is None:
+        return [np.array(c, dtype=float) if np.ndim(c) else c for c in v]
+    sx, sy, sz, qx, qy, qz, qw = acc
+    ax = w * sx + y * sz - z * sy
+    ay = w * sy + z * sx - x * sz
+    az = w * sz + x * sy - y * sx
+    aw = -x * sx - y * sy - z * sz
+    return [-aw * x + ax * w - ay * z + az * y + px,
+            -aw * y + ay * w - az * x + ax * z + py,
+            -aw * z + az * w - ax * y + ay * x + pz,
+            w * qx + x * qw + y * qz - z * qy,
+            w * qy + y * qw + z * qx - x * qz,
+            w * qz + z * qw + x * qy - y * qx,
+            w * qw - x * qx - y * qy - z * qz]
+
+
+def _inverse_cols(acc: list) -> list:
+    tx, ty, tz, x, y, z, w = acc
+    x, y, z = -x, -y, -z
+    vx, vy, vz = -tx, -ty, -tz
+    ax = w * vx + y * vz - z * vy
+    ay = w * vy + z * vx - x * vz
+    az = w * vz + x * vy - y * vx
+    aw = -x * vx - y * vy - z * vz
+    return [-aw * x + ax * w - ay * z + az * y, -aw * y + ay * w - az * x + ax * z,
+            -aw * z + az * w - ax * y + ay * x, x, y, z, w]
+
+
+def _full(n: int, acc: Optional[list]) -> np.ndarray:
+    """acc columns (or identity) as an [n, 7] array."""
+    out = np.zeros((n, 7))
+    if acc is None:
+        out[:, 6] = 1.0
+    else:
+        for k in range(7):
+            out[:, k] = acc[k]
+    return out
+
+
+class _Walk:
+    """One side of tf2's walk for a set of times, vectorized; frames may differ per time."""
+
+    def __init__(self, tables: Callable[[int], Optional[_Tables]], t: np.ndarray) -> None:
+        self.tables = tables
+        self.t = t
+
+    def run(self, start: int, stop_at: Any, early_out: int, source_side: bool, max_depth: int) -> dict:
+        """Walk up from `start`; stop where the frame equals stop_at (array per time) when the
+        target side walks, at roots, at failed queries, or at early_out (after its query).
+        Returns per-time arrays: acc (n,7), frame, top, failed, early, looped."""
+        t = self.t
+        n = t.shape[0]
+        frame = np.full(n, start, np.int64)
+        top = frame.copy()
+        acc = np.zeros((n, 7))
+        acc[:, 6] = 1.0
+        started = np.zeros(n, bool)
+        failed = np.zeros(n, bool)
+        early = np.zeros(n, bool)
+        active = np.ones(n, bool) if stop_at is None else frame != stop_at
+        depth = 0
+        while True:
+            act = np.flatnonzero(active)
+            if act.size == 0:
+                break
+            depth += 1
+            if depth > max_depth + 1:
+                return dict(acc=acc, frame=frame, top=top, failed=failed, early=early, looped=True)
+            fr = frame[act]
+            f0 = int(fr[0])
+            groups = [(f0, act)] if (fr == f0).all() else [(int(f), act[fr == f]) for f in np.unique(fr)]
+            for fid, idx in groups:
+                whole = idx.size == n
+                tab = self.tables(fid)
+                if tab is None:                      # a root: no cache
+                    if source_side:
+                        top[idx] = fid
+                    active[idx] = False
+                    continue
+                ok, parent, vals = tab.query(t if whole else t[idx])
+                if ok is not None:
+                    bad = idx[~ok]
+                    failed[bad] = True
+                    if source_side:
+                        top[bad] = fid
+                    active[bad] = False
+                    keep = np.flatnonzero(ok)
+                    idx = idx[keep]
+                    whole = False
+                    vals = tuple(v[keep] if np.ndim(v) else v for v in vals)
+                    if np.ndim(parent):
+                        parent = parent[keep]
+                    if idx.size == 0:
+                        continue
+                if fid == early_out:
+                    early[idx] = True
+                    active[idx] = False
+                    continue
+                if whole and started.all():
+                    cur = [acc[:, k] for k in range(7)]
+                    new = _accumulate(cur, vals)
+                    for k in range(7):
+                        acc[:, k] = new[k]
+                else:
+                    sub = acc[idx]
+                    first = ~started[idx]
+                    cur = [sub[:, k] for k in range(7)]
+                    new = _accumulate(cur, vals)
+                    for k in range(7):
+                        col = new[k]
+                        if np.ndim(col) == 0:
+                            col = np.full(idx.size, col)
+                        v = vals[k]
+                        sub[:, k] = np.where(first, v if np.ndim(v) == 0 else v, col)
+                    acc[idx] = sub
+                    started[idx] = True
+                started[idx] = True
+                if source_side:
+                    top[idx] = fid
+                frame[idx] = parent
+                if stop_at is not None:
+                    active[idx] = frame[idx] != stop_at[idx]
+        return dict(acc=acc, frame=frame, top=top, failed=failed, early=early, looped=False)
 
 
 def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -224,117 +389,63 @@ def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: An
     """
     from .buffer_core import MAX_GRAPH_DEPTH
 
-    t = _times_ns(times)
-    n = t.shape[0]
+    t_all = _times_ns(times)
+    n_all = t_all.shape[0]
+    out = np.empty((n_all, 7))
     with core._lock:
         if target_frame == source_frame:
-            v = np.zeros((n, 3))
-            q = np.zeros((n, 4))
-            q[:, 3] = 1.0
-            return v, q
+            out[:] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+            return out[:, :3], out[:, 3:]
         target_id = core._validate("lookupTransform argument target_frame", target_frame)
         source_id = core._validate("lookupTransform argument source_frame", source_frame)
-        t_asked = t
-        lct_failed = np.zeros(n, bool)
-        zero = t == 0
-        if zero.any():
+        lct: Optional[int] = None
+        lct_error = False
+        if (t_all == 0).any():
             try:
-                t = np.where(zero, core._latest_common_time(target_id, source_id), t)
+                lct = core._latest_common_time(target_id, source_id)
             except TransformException:
-                lct_failed = zero          # those positions raise like a single lookup would
-                t = np.where(zero, 1, t)
-        caches = core._caches
+                lct_error = True
+        cache_tables: dict[int, Optional[_Tables]] = {}
 
-        # source walk
-        frame = np.full(n, source_id, np.int64)
-        top = frame.copy()
-        active = np.ones(n, bool)
-        extrap = np.zeros(n, bool)
-        ends_at_target = np.zeros(n, bool)
-        sv = np.zeros((n, 3))
-        sq = np.zeros((n, 4))
-        sq[:, 3] = 1.0
-        depth = 0
-        while active.any():
-            for fid in np.unique(frame[active]).tolist():
-                idx = np.flatnonzero(active & (frame == fid))
-                cache = caches[fid]
-                if cache is None:
-                    top[idx] = fid
-                    active[idx] = False
-                    continue
-                ok, par, vals = _query(cache, t[idx])
-                bad = idx[~ok]
-                top[bad] = fid
-                extrap[bad] = True
-                active[bad] = False
-                good = idx[ok]
-                if fid == target_id:
-                    ends_at_target[good] = True
-                    active[good] = False
-                    continue
-                vals = vals[ok]
-                sv[good] = quat_rotate_batch(vals[:, 3:], sv[good]) + vals[:, :3]
-                sq[good] = quaternion_multiply_batch(vals[:, 3:], sq[good])
-                top[good] = fid
-                frame[good] = par[ok]
-            depth += 1
-            if depth > MAX_GRAPH_DEPTH and active.any():
-                break
+        def tables(fid: int) -> Optional[_Tables]:
+            if fid not in cache_tables:
+                c = core._caches[fid]
+                cache_tables[fid] = None if c is None else _Tables(c)
+            return cache_tables[fid]
 
-        # target walk
-        frame = np.full(n, target_id, np.int64)
-        active = ~ends_at_target & (frame != top)
-        ends_at_source = np.zeros(n, bool)
-        failed = np.zeros(n, bool)
-        tv = np.zeros((n, 3))
-        tq = np.zeros((n, 4))
-        tq[:, 3] = 1.0
-        depth2 = 0
-        while active.any() and depth2 <= MAX_GRAPH_DEPTH:
-            for fid in np.unique(frame[active]).tolist():
-                idx = np.flatnonzero(active & (frame == fid))
-                cache = caches[fid]
-                if cache is None:
-                    active[idx] = False
-                    continue
-                ok, par, vals = _query(cache, t[idx])
-                bad = idx[~ok]
-                failed[bad] = True
-                active[bad] = False
-                good = idx[ok]
-                if fid == source_id:
-                    ends_at_source[good] = True
-                    active[good] = False
-                    continue
-                vals = vals[ok]
-                tv[good] = quat_rotate_batch(vals[:, 3:], tv[good]) + vals[:, :3]
-                tq[good] = quaternion_multiply_batch(vals[:, 3:], tq[good])
-                frame[good] = par[ok]
-                active[good] = frame[good] != top[good]
-            depth2 += 1
-
-        full = ~ends_at_target & ~ends_at_source
-        broken = failed | active | (full & (frame != top)) | (depth > MAX_GRAPH_DEPTH) | lct_failed
-        if broken.any():
+        def replay(bad: np.ndarray, lo: int, t_asked: np.ndarray) -> None:
             # the single lookup at the first failing time raises tf2's exact exception
-            for k in np.flatnonzero(broken).tolist():
+            for k in np.flatnonzero(bad).tolist():
                 core._lookup(target_frame, source_frame, int(t_asked[k]))
             raise TransformException("vectorized lookup disagreed with the single lookup")  # pragma: no cover
 
-        out_v = np.empty((n, 3))
-        out_q = np.empty((n, 4))
-        out_v[ends_at_target] = sv[ends_at_target]
-        out_q[ends_at_target] = sq[ends_at_target]
-        if ends_at_source.any():
-            iv, iq = _inverse_batch(tv[ends_at_source], tq[ends_at_source])
-            out_v[ends_at_source] = iv
-            out_q[ends_at_source] = iq
-        if full.any():
-            iv, iq = _inverse_batch(tv[full], tq[full])
-            out_v[full] = quat_rotate_batch(iq, sv[full]) + iv
-            out_q[full] = quaternion_multiply_batch(iq, sq[full])
-        return out_v, out_q
+        for lo in range(0, n_all, _CHUNK):
+            t_asked = t_all[lo:lo + _CHUNK]
+            n = t_asked.shape[0]
+            zero = t_asked == 0
+            lct_bad = zero if lct_error else np.zeros(n, bool)  # these raise like a single lookup
+            t = np.where(zero, 1 if lct is None else lct, t_asked) if zero.any() else t_asked
+            walk = _Walk(tables, t)
+            src = walk.run(source_id, None, target_id, True, MAX_GRAPH_DEPTH)
+            ends_at_target = src["early"]
+            top = src["top"]
+            tgt = walk.run(target_id, np.where(ends_at_target, target_id, top), source_id, False, MAX_GRAPH_DEPTH)
+            ends_at_source = tgt["early"]
+            full = ~ends_at_target & ~ends_at_source
+            broken = tgt["failed"] | (full & (tgt["frame"] != top)) | lct_bad
+            if src["looped"] or tgt["looped"] or broken.any():
+                replay(broken | np.full(n, src["looped"] or tgt["looped"]), lo, t_asked)
+            s_acc, t_acc = src["acc"], tgt["acc"]
+            res = out[lo:lo + n]
+            res[ends_at_target] = s_acc[ends_at_target]
+            if ends_at_source.any():
+                inv = _inverse_cols([t_acc[ends_at_source, k] for k in range(7)])
+                res[ends_at_source] = np.stack(inv, axis=1)
+            if full.any():
+                inv = _inverse_cols([t_acc[full, k] for k in range(7)])
+                comb = _accumulate([s_acc[full, k] for k in range(7)], tuple(inv))  # inv(target) ∘ source
+                res[full] = np.stack(comb, axis=1)
+    return out[:, :3], out[:, 3:]
 
 
 def transform_points_series(core: Any, points: Any, target_frame: str, source_frame: str, times: Any) -> np.ndarray:

@@ -1,0 +1,339 @@
+#!/usr/bin/env python3
+"""zentf BufferCore vs the real tf2 (python3-tf2, C++ core) on the same workload, side by side.
+
+    python bench/lookup.py [--quick]
+
+Workload (issue 2): a 1000-frame tree — f0 is the root, a 100-frame spine f1..f100 (f_i under
+f_{i-1}) and 899 leaves hung on the spine — every edge dynamic with 1 s of history at 100 Hz.
+Measured: insert per sample (set_transform with a message), lookup_transform f0 <- f_d for depth
+d = 1, 5, 20, 100 at time 0 (latest) and at an interpolated time, the same lookups while one fresh
+sample is inserted into the chain every 10 lookups (so a cache is measured honestly), a row with a
+fresh interpolated time on every call (no reuse possible at all), bytes per stored sample,
+transform_points on 1M points and lookup_transforms on 100k stamps against Python loops of single
+lookups. The tf2 side runs in a /usr/bin/python3 subprocess (this same file, --tf2-side).
+Numbers are best-of-N wall times on a shared machine: expect noise.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+
+S = 1_000_000_000
+T0 = 1000 * S                  # first stamp (ns)
+SAMPLES = 100                  # 1 s at 100 Hz
+STEP = S // 100
+SPINE = 100
+LEAVES = 899
+DEPTHS = (1, 5, 20, 100)
+T_INTERP = T0 + 505 * S // 1000  # between two samples
+
+
+def edges() -> list[tuple[str, str]]:
+    out = [(f"f{i - 1}", f"f{i}") for i in range(1, SPINE + 1)]
+    out += [(f"f{1 + j % SPINE}", f"leaf{j}") for j in range(LEAVES)]
+    return out
+
+
+def sample_values(e: int, k: int) -> tuple[float, ...]:
+    """Deterministic motion: small translation wobble, rotation about a tilted axis."""
+    a = 0.01 * k + 0.001 * e
+    ax, ay, az = 0.2, 0.3, 0.933
+    n = math.sqrt(ax * ax + ay * ay + az * az)
+    s = math.sin(a / 2) / n
+    return (0.1 + 0.01 * math.sin(a), 0.05, 0.02 * math.cos(a), ax * s, ay * s, az * s, math.cos(a / 2))
+
+
+def all_samples() -> list[tuple]:
+    """(parent, child, stamp_ns, tx, ty, tz, qx, qy, qz, qw) in arrival order (by time)."""
+    es = edges()
+    return [(p, c, T0 + k * STEP, *sample_values(e, k)) for k in range(SAMPLES) for e, (p, c) in enumerate(es)]
+
+
+def best(fn, n: int, repeat: int) -> float:
+    """Best time per call (µs) of fn(n) over repeat runs."""
+    out = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn(n)
+        out.append((time.perf_counter() - t) / n * 1e6)
+    return min(out)
+
+
+def rss_bytes() -> int:
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+# ============================================================================ generic driver
+
+class Side:
+    """What each implementation must provide; the measuring code is shared."""
+
+    name = ""
+
+    def new_buffer(self): ...
+    def make_msg(self, s): ...
+    def insert(self, buf, msg): ...
+    def insert_raw(self, buf, s): ...
+    def lookup(self, buf, target, source, t_ns): ...
+    def point_loop(self, buf, points, target, source, t_ns): ...
+
+
+def measure(side: Side, quick: bool) -> dict[str, float]:
+    res: dict[str, float] = {}
+    samples = all_samples()
+    n_look = 1000 if quick else 3000
+    repeat = 2 if quick else 3
+
+    # insert: messages built beforehand, only set_transform is timed
+    msgs = [side.make_msg(s) for s in samples]
+    ins = []
+    for _ in range(1 if quick else 2):
+        buf = side.new_buffer()
+        t = time.perf_counter()
+        for m in msgs:
+            side.insert(buf, m)
+        ins.append((time.perf_counter() - t) / len(msgs) * 1e6)
+    res["insert"] = min(ins)
+    if side.insert_raw is not None:
+        raw = side.new_buffer()
+        t = time.perf_counter()
+        for s in samples:
+            side.insert_raw(raw, s)
+        res["insert_raw"] = (time.perf_counter() - t) / len(samples) * 1e6
+        del raw
+    del msgs
+
+    # memory per stored sample
+    res.update(side.memory(samples))
+
+    # lookups
+    for d in DEPTHS:
+        src = f"f{d}"
+        for label, t_ns in (("latest", 0), ("interp", T_INTERP)):
+            res[f"lookup d{d} {label}"] = best(lambda n: [side.lookup(buf, "f0", src, t_ns) for _ in range(n)],
+                                               n_look, repeat)
+    # second variant: one fresh sample into the chain every 10 lookups
+    nxt = {f"f{i}": T0 + SAMPLES * STEP for i in range(1, SPINE + 1)}
+    for d in DEPTHS:
+        src = f"f{d}"
+        chain = [f"f{i}" for i in range(1, d + 1)]
+        for label, t_ns in (("latest", 0), ("interp", T_INTERP)):
+            fresh = []  # messages built beforehand: only set_transform + lookups are timed
+            for c in range((n_look // 10 + 1) * repeat):
+                child = chain[c % len(chain)]
+                fresh.append(side.make_msg((f"f{int(child[1:]) - 1}", child, nxt[child], *sample_values(c, c))))
+                nxt[child] += STEP
+            it = iter(fresh)
+
+            def run(n: int) -> None:
+                for i in range(n):
+                    if i % 10 == 0:
+                        side.insert(buf, next(it))
+                    side.lookup(buf, "f0", src, t_ns)
+            res[f"lookup+insert d{d} {label}"] = best(run, n_look, repeat)
+    # no reuse possible: a new interpolated time on every call
+    n_fresh = 300 if quick else 1000
+    for d in DEPTHS:
+        src = f"f{d}"
+        times = [T0 + 1_000_000 + i * 977_777 for i in range(n_fresh)]
+        res[f"lookup d{d} fresh time"] = best(lambda n: [side.lookup(buf, "f0", src, times[i]) for i in range(n)],
+                                              n_fresh, 1)
+
+    # Python loops of single lookups (the baseline for the vectorized calls), depth 20
+    n_loop = 5000 if quick else 20000
+    stamps = [T0 + 2_000_000 + i * (980 * S // 1000 // n_loop) for i in range(n_loop)]
+    t = time.perf_counter()
+    for s in stamps:
+        side.lookup(buf, "f0", "f20", s)
+    res["loop lookup x100k (extrap.)"] = (time.perf_counter() - t) / n_loop * 100_000 * 1e3  # ms
+    pts = [(0.001 * i, 0.5, -0.2) for i in range(n_loop)]
+    t = time.perf_counter()
+    side.point_loop(buf, pts, "f0", "f20", T_INTERP)
+    res["loop points x1M (extrap.)"] = (time.perf_counter() - t) / n_loop * 1_000_000 * 1e3  # ms
+    res.update(side.vectorized(buf))
+    return res
+
+
+# ============================================================================ tf2 side
+
+def tf2_side(quick: bool) -> dict[str, float]:
+    import geometry_msgs.msg
+    import rospy
+    import tf2_py
+
+    class Tf2(Side):
+        name = "tf2"
+        insert_raw = None
+
+        def new_buffer(self):
+            return tf2_py.BufferCore(rospy.Duration(10))
+
+        def make_msg(self, s):
+            m = geometry_msgs.msg.TransformStamped()
+            m.header.frame_id, m.child_frame_id = s[0], s[1]
+            m.header.stamp = rospy.Time(s[2] // S, s[2] % S)
+            tr, rot = m.transform.translation, m.transform.rotation
+            tr.x, tr.y, tr.z = s[3:6]
+            rot.x, rot.y, rot.z, rot.w = s[6:10]
+            return m
+
+        def insert(self, buf, msg):
+            buf.set_transform(msg, "bench")
+
+        def lookup(self, buf, target, source, t_ns):
+            return buf.lookup_transform_core(target, source, rospy.Time(t_ns // S, t_ns % S))
+
+        def point_loop(self, buf, points, target, source, t_ns):
+            stamp = rospy.Time(t_ns // S, t_ns % S)
+            for x, y, z in points:
+                tr = buf.lookup_transform_core(target, source, stamp).transform
+                q, v = tr.rotation, tr.translation
+                # quatRotate(q, p) + t, as tf2_geometry_msgs would do per point
+                ax = q.w * x + q.y * z - q.z * y
+                ay = q.w * y + q.z * x - q.x * z
+                az = q.w * z + q.x * y - q.y * x
+                aw = -q.x * x - q.y * y - q.z * z
+                (-aw * q.x + ax * q.w - ay * q.z + az * q.y + v.x, -aw * q.y + ay * q.w - az * q.x + ax * q.z + v.y,
+                 -aw * q.z + az * q.w - ax * q.y + ay * q.x + v.z)
+
+        def memory(self, samples):
+            msgs = [self.make_msg(s) for s in samples]
+            before = rss_bytes()
+            buf = self.new_buffer()
+            for m in msgs:
+                buf.set_transform(m, "bench")
+            used = rss_bytes() - before
+            return {"bytes/sample (RSS)": used / len(samples)}
+
+        def vectorized(self, buf):
+            return {}
+
+    return measure(Tf2(), quick)
+
+
+# ============================================================================ zentf side
+
+def zentf_side(quick: bool) -> dict[str, float]:
+    import tracemalloc
+
+    import numpy as np
+
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+    from zentf.buffer_core import BufferCore
+    from zentf.geometry import do_transform_point
+    from zentf.messages import Header, Point, PointStamped, Quaternion, Transform, TransformStamped, Vector3
+    from zentf.time import Time
+
+    class Zentf(Side):
+        name = "zentf"
+
+        def new_buffer(self):
+            return BufferCore(10.0)
+
+        def make_msg(self, s):
+            return TransformStamped(Header(Time(nanoseconds=s[2]), s[0]), s[1],
+                                    Transform(Vector3(*s[3:6]), Quaternion(*s[6:10])))
+
+        def insert(self, buf, msg):
+            buf.set_transform(msg, "bench")
+
+        def insert_raw(self, buf, s):
+            buf.set_transform_raw(*s, "bench")
+
+        def lookup(self, buf, target, source, t_ns):
+            return buf.lookup_transform(target, source, Time(nanoseconds=t_ns))
+
+        def point_loop(self, buf, points, target, source, t_ns):
+            stamp = Time(nanoseconds=t_ns)
+            for x, y, z in points:
+                do_transform_point(PointStamped(Header(stamp, source), Point(x, y, z)),
+                                   buf.lookup_transform(target, source, stamp))
+
+        def memory(self, samples):
+            before = rss_bytes()
+            tracemalloc.start()
+            buf = self.new_buffer()
+            for s in samples:
+                buf.set_transform_raw(*s, "bench")
+            traced = tracemalloc.get_traced_memory()[0]
+            tracemalloc.stop()
+            used = rss_bytes() - before
+            return {"bytes/sample (tracemalloc)": traced / len(samples),
+                    "bytes/sample (RSS)": used / len(samples),
+                    "bytes/sample (arrays)": buf.memory_bytes() / len(samples)}
+
+        def vectorized(self, buf):
+            out = {}
+            stamps = np.linspace(T0 + 2_000_000, T0 + 982 * S // 1000, 100_000).astype(np.int64)
+            out["lookup_transforms 100k"] = best(lambda n: buf.lookup_transforms("f0", "f20", stamps), 1,
+                                                 2 if quick else 3) / 1e3  # ms
+            pts = np.random.default_rng(0).normal(size=(1_000_000, 3))
+            out["transform_points 1M"] = best(lambda n: buf.transform_points(pts, "f0", "f20",
+                                                                             Time(nanoseconds=T_INTERP)),
+                                              1, 2 if quick else 3) / 1e3  # ms
+            return out
+
+    return measure(Zentf(), quick)
+
+
+# ============================================================================ report
+
+TARGETS = {
+    "insert": 1.0, **{f"lookup d{d} {k}": (1.0 if d <= 20 else 2.0) for d in DEPTHS for k in ("latest", "interp")},
+    **{f"lookup+insert d{d} {k}": (1.0 if d <= 20 else 2.0) for d in DEPTHS for k in ("latest", "interp")},
+}
+
+
+def main() -> None:
+    quick = "--quick" in sys.argv
+    if "--tf2-side" in sys.argv:
+        json.dump(tf2_side(quick), sys.stdout)
+        return
+    ref: dict[str, float] = {}
+    note = ""
+    if os.path.exists("/usr/bin/python3"):
+        proc = subprocess.run(["/usr/bin/python3", os.path.abspath(__file__), "--tf2-side"] + (["--quick"] if quick else []),
+                              capture_output=True, text=True)
+        if proc.returncode == 0:
+            ref = json.loads(proc.stdout)
+        else:
+            note = "tf2 side failed: " + (proc.stderr.strip().splitlines() or ["?"])[-1]
+    else:
+        note = "no /usr/bin/python3 with python3-tf2: tf2 column empty"
+    ours = zentf_side(quick)
+
+    rows = []
+    for key in list(ours) + [k for k in ref if k not in ours]:
+        z, r = ours.get(key), ref.get(key)
+        unit = "ms" if ("100k" in key or "1M" in key) else ("B" if "bytes" in key else "µs")
+        ratio = f"{z / r:6.2f}x" if (z is not None and r) else ""
+        target = TARGETS.get(key)
+        verdict = ""
+        if target is not None and z is not None and r:
+            verdict = f"≤{target:g}x " + ("ok" if z / r <= target else "MISS")
+        rows.append((key, unit, z, r, ratio, verdict))
+    # vectorized vs loops
+    for vec, loop in (("lookup_transforms 100k", "loop lookup x100k (extrap.)"),
+                      ("transform_points 1M", "loop points x1M (extrap.)")):
+        if vec in ours:
+            for who, table in (("zentf loop", ours), ("tf2 loop", ref)):
+                if loop in table:
+                    rows.append((f"{vec} speed-up vs {who}", "x", table[loop] / ours[vec], None, "", "≥100x " + (
+                        "ok" if table[loop] / ours[vec] >= 100 else "MISS")))
+
+    print(f"{'case':44} {'unit':>4} {'zentf':>12} {'tf2':>12} {'ratio':>8}  target")
+    for key, unit, z, r, ratio, verdict in rows:
+        zs = f"{z:12.2f}" if z is not None else f"{'':12}"
+        rs = f"{r:12.2f}" if r is not None else f"{'':12}"
+        print(f"{key:44} {unit:>4} {zs} {rs} {ratio:>8}  {verdict}")
+    if note:
+        print(note)
+
+
+if __name__ == "__main__":
+    main()
