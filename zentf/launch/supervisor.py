@@ -1,0 +1,501 @@
+"""Run a launch description's nodes as child processes: output, respawn, required, clean shutdown.
+
+Everything happens on the calling (main) thread in one selector loop: child exits arrive as pidfd
+events, output as pipe reads, signals through the wakeup fd. Spawning only from this one long-lived
+thread matters: PR_SET_PDEATHSIG fires when the *thread* that forked the child exits.
+"""
+from __future__ import annotations
+
+import ctypes
+import errno
+import logging
+import os
+import selectors
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import BinaryIO, Callable, Mapping
+
+from .description import NodeSpec
+
+__all__ = ["Supervisor", "StopTimes", "exit_code_of"]
+
+log = logging.getLogger("zentf.launch")
+
+PR_SET_PDEATHSIG = 1
+_libc = ctypes.CDLL(None, use_errno=True)
+_prctl = _libc.prctl
+_COLORS = ("36", "33", "32", "35", "34", "31", "96", "93", "92", "95", "94", "91")
+_RESET = "\033[0m"
+
+
+@dataclass
+class StopTimes:
+    """Shutdown escalation: SIGINT, then SIGTERM after `sigint` s, then SIGKILL after `sigterm` s more."""
+
+    sigint: float = 1.0
+    sigterm: float = 1.0
+    sigkill: float = 0.8
+
+
+def exit_code_of(returncode: int) -> int:
+    """Shell convention: killed by signal N -> 128 + N."""
+    return 128 - returncode if returncode < 0 else returncode
+
+
+def _describe_exit(returncode: int) -> str:
+    if returncode < 0:
+        try:
+            return f"was killed by {signal.Signals(-returncode).name}"
+        except ValueError:
+            return f"was killed by signal {-returncode}"
+    return f"exited with code {returncode}"
+
+
+@dataclass
+class _Child:
+    spec: NodeSpec
+    index: int
+    popen: subprocess.Popen | None = None
+    pidfd: int | None = None
+    out_fd: int | None = None
+    out_buf: bytes = b""
+    log_file: BinaryIO | None = None
+    spawns: int = 0
+    respawn_at: float | None = None
+    last_code: int | None = None
+    prefix: bytes = b""
+
+    @property
+    def running(self) -> bool:
+        return self.popen is not None
+
+
+@dataclass
+class Supervisor:
+    """Start, watch and stop a set of node processes; `run()` blocks until they are all gone."""
+
+    nodes: list[NodeSpec]
+    base_env: Mapping[str, str] = field(default_factory=lambda: dict(os.environ))
+    log_dir: Path | None = None
+    color: bool = False
+    stop_times: StopTimes = field(default_factory=StopTimes)
+    out: BinaryIO | None = None
+    on_started: Callable[["Supervisor"], None] | None = None
+    _children: list[_Child] = field(default_factory=list, init=False)
+    _sel: selectors.BaseSelector = field(default=None, init=False)  # type: ignore[assignment]
+    _stopping: int = field(default=0, init=False)  # 0 running, 1 SIGINT sent, 2 SIGTERM sent, 3 SIGKILL sent
+    _stop_deadline: float = field(default=0.0, init=False)
+    _exit_code: int = field(default=0, init=False)
+    _watchdog: subprocess.Popen | None = field(default=None, init=False)
+    _wakeup_r: int = field(default=-1, init=False)
+
+    # ------------------------------------------------------------------ public
+    def run(self) -> int:
+        """Start every node, supervise until stopped (signal, required exit, all done); the exit code."""
+        if self.out is None:
+            self.out = sys.stdout.buffer
+        self._sel = selectors.DefaultSelector()
+        old_handlers, old_wakeup = self._install_signals()
+        try:
+            self._start_watchdog()
+            self._children = [_Child(spec, i) for i, spec in enumerate(self.nodes)]
+            for child in self._children:
+                child.prefix = self._prefix(child.spec.full_name, child.index)
+                if self._stopping:
+                    break
+                self._spawn(child)
+            if self.on_started is not None and not self._stopping:
+                self.on_started(self)
+            self._loop()
+            return self._exit_code
+        finally:
+            self._kill_everything()
+            self._restore_signals(old_handlers, old_wakeup)
+            self._close_watchdog()
+            for child in self._children:
+                self._close_output(child)
+            self._sel.close()
+
+    def pids(self) -> dict[str, int]:
+        return {c.spec.full_name: c.popen.pid for c in self._children if c.popen is not None}
+
+    def request_stop(self, code: int = 0) -> None:
+        """Begin the shutdown sequence (idempotent; a second call escalates)."""
+        self._begin_stop(code)
+
+    # ------------------------------------------------------------------ signals
+    def _install_signals(self) -> tuple[dict[int, object], int]:
+        r, w = os.pipe()
+        os.set_blocking(r, False)
+        os.set_blocking(w, False)
+        self._wakeup_r = r
+        self._wakeup_w = w
+        old_wakeup = signal.set_wakeup_fd(w, warn_on_full_buffer=False)
+        old: dict[int, object] = {}
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+            old[sig] = signal.signal(sig, lambda *_: None)  # the number arrives on the wakeup fd
+        self._sel.register(r, selectors.EVENT_READ, ("signal", None))
+        return old, old_wakeup
+
+    def _restore_signals(self, old: dict[int, object], old_wakeup: int) -> None:
+        signal.set_wakeup_fd(old_wakeup)
+        for sig, handler in old.items():
+            try:
+                signal.signal(sig, handler)  # type: ignore[arg-type]
+            except (TypeError, ValueError):
+                pass
+        for fd in (self._wakeup_r, self._wakeup_w):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+
+    def _on_signal_fd(self) -> None:
+        try:
+            data = os.read(self._wakeup_r, 64)
+        except BlockingIOError:
+            return
+        for signum in data:
+            try:
+                name = signal.Signals(signum).name
+            except ValueError:
+                name = f"signal {signum}"
+            if self._stopping:
+                log.info("%s again: escalating shutdown", name)
+            else:
+                log.info("%s: stopping %d node(s)", name, sum(c.running for c in self._children))
+            self._begin_stop(0)
+
+    # ------------------------------------------------------------------ watchdog
+    def _start_watchdog(self) -> None:
+        script = Path(__file__).with_name("watchdog.py")
+        try:
+            self._watchdog = subprocess.Popen(
+                [sys.executable, "-S", "-I", str(script), str(self.stop_times.sigterm)],
+                stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=None, process_group=0)
+        except OSError as e:  # not fatal: PDEATHSIG still covers direct children
+            log.warning("cannot start the orphan watchdog: %s", e)
+            self._watchdog = None
+
+    def _tell_watchdog(self, line: str) -> None:
+        if self._watchdog is None or self._watchdog.stdin is None:
+            return
+        try:
+            self._watchdog.stdin.write(line.encode() + b"\n")
+            self._watchdog.stdin.flush()
+        except OSError:
+            self._watchdog = None
+
+    def _close_watchdog(self) -> None:
+        wd = self._watchdog
+        if wd is None:
+            return
+        try:
+            if wd.stdin is not None:
+                wd.stdin.close()
+        except OSError:
+            pass
+        try:
+            wd.wait(timeout=self.stop_times.sigterm + 1.0)
+        except subprocess.TimeoutExpired:
+            wd.kill()
+            wd.wait()
+
+    # ------------------------------------------------------------------ spawning
+    def _prefix(self, name: str, index: int) -> bytes:
+        if self.color:
+            color = _COLORS[index % len(_COLORS)]
+            return f"\033[{color}m[{name}]{_RESET} ".encode()
+        return f"[{name}] ".encode()
+
+    def _child_env(self, spec: NodeSpec) -> dict[str, str]:
+        env = dict(self.base_env)
+        for var in ("ZENTF_PARAMS_FILE", "ZENTF_PARAMS", "ZENTF_REMAP", "ZENTF_NODE_NAME"):
+            env.pop(var, None)
+        env.update(spec.child_env())
+        return env
+
+    def _open_log(self, child: _Child) -> BinaryIO:
+        assert self.log_dir is not None
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        path = self.log_dir / (child.spec.full_name.replace("/", ".") + ".log")
+        if child.log_file is None:
+            log.info("%s: output goes to %s", child.spec.full_name, path)
+        return open(path, "ab", buffering=0)
+
+    def _spawn(self, child: _Child) -> None:
+        spec = child.spec
+        launcher_pid = os.getpid()
+
+        def setup() -> None:  # in the child, between fork and exec
+            os.setpgid(0, 0)
+            _prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
+            if os.getppid() != launcher_pid:  # the launcher died before prctl took effect
+                os._exit(1)
+            signal.signal(signal.SIGINT, signal.SIG_DFL)  # a backgrounded launcher may have SIG_IGN
+
+        stdout: int | BinaryIO
+        if spec.output == "log" and self.log_dir is not None:
+            if child.log_file is not None:
+                child.log_file.close()
+            child.log_file = self._open_log(child)
+            stdout = child.log_file
+        else:
+            stdout = subprocess.PIPE
+        child.respawn_at = None
+        child.spawns += 1
+        try:
+            popen = subprocess.Popen(spec.cmd, env=self._child_env(spec), stdin=subprocess.DEVNULL,
+                                     stdout=stdout, stderr=subprocess.STDOUT, preexec_fn=setup,
+                                     close_fds=True)
+        except OSError as e:
+            log.error("%s: cannot start %s: %s", spec.full_name, spec.cmd[0], e.strerror or e)
+            self._after_exit(child, 127)
+            return
+        child.popen = popen
+        self._tell_watchdog(f"+{popen.pid}")
+        if popen.stdout is not None:
+            fd = popen.stdout.fileno()
+            os.set_blocking(fd, False)
+            child.out_fd = fd
+            child.out_buf = b""
+            self._sel.register(fd, selectors.EVENT_READ, ("out", child))
+        try:
+            child.pidfd = os.pidfd_open(popen.pid)
+            self._sel.register(child.pidfd, selectors.EVENT_READ, ("exit", child))
+        except OSError:  # very old kernel: fall back to polling in the loop
+            child.pidfd = None
+        what = "respawned" if child.spawns > 1 else "started"
+        log.info("%s %s (pid %d)", spec.full_name, what, popen.pid)
+
+    # ------------------------------------------------------------------ the loop
+    def _timeout(self) -> float | None:
+        now = time.monotonic()
+        deadlines = [c.respawn_at for c in self._children if c.respawn_at is not None and not self._stopping]
+        if self._stopping:
+            deadlines.append(self._stop_deadline)
+        if any(c.running and c.pidfd is None for c in self._children):
+            deadlines.append(now + 0.05)
+        if not deadlines:
+            return None
+        return max(0.0, min(deadlines) - now)
+
+    def _done(self) -> bool:
+        if self._stopping == 4:
+            return True
+        if any(c.running for c in self._children):
+            return False
+        return bool(self._stopping) or not any(c.respawn_at is not None for c in self._children)
+
+    def _loop(self) -> None:
+        while not self._done():
+            for key, _ in self._sel.select(self._timeout()):
+                kind, child = key.data
+                if kind == "signal":
+                    self._on_signal_fd()
+                elif kind == "out":
+                    self._read_output(child)
+                elif kind == "exit":
+                    self._reap(child)
+            for child in self._children:
+                if child.running and child.pidfd is None and child.popen.poll() is not None:  # type: ignore[union-attr]
+                    self._reap(child)
+            now = time.monotonic()
+            if self._stopping:
+                if now >= self._stop_deadline and any(c.running for c in self._children):
+                    self._escalate()
+            else:
+                for child in self._children:
+                    if child.respawn_at is not None and now >= child.respawn_at and not self._stopping:
+                        self._spawn(child)
+
+    # ------------------------------------------------------------------ output
+    def _emit(self, child: _Child, data: bytes) -> None:
+        assert self.out is not None
+        try:
+            self.out.write(data)
+            self.out.flush()
+        except (BrokenPipeError, ValueError, OSError):
+            pass
+
+    def _read_output(self, child: _Child) -> None:
+        fd = child.out_fd
+        if fd is None:
+            return
+        try:
+            data = os.read(fd, 65536)
+        except BlockingIOError:
+            return
+        except OSError:
+            data = b""
+        if not data:
+            self._close_output(child)
+            return
+        buf = child.out_buf + data
+        lines = buf.split(b"\n")
+        child.out_buf = lines.pop()
+        if len(child.out_buf) > 65536:
+            lines.append(child.out_buf)
+            child.out_buf = b""
+        if lines:
+            self._emit(child, b"".join(child.prefix + line + b"\n" for line in lines))
+
+    def _close_output(self, child: _Child) -> None:
+        if child.out_fd is not None:
+            try:
+                self._sel.unregister(child.out_fd)
+            except (KeyError, ValueError):
+                pass
+            if child.popen is not None and child.popen.stdout is not None:
+                child.popen.stdout.close()
+            else:
+                try:
+                    os.close(child.out_fd)
+                except OSError:
+                    pass
+            child.out_fd = None
+        if child.out_buf:
+            self._emit(child, child.prefix + child.out_buf + b"\n")
+            child.out_buf = b""
+
+    def _drain_output(self, child: _Child) -> None:
+        """Read what a dead child left in its pipe (without waiting for grandchildren to close it)."""
+        for _ in range(64):
+            if child.out_fd is None:
+                return
+            try:
+                data = os.read(child.out_fd, 65536)
+            except BlockingIOError:
+                return
+            except OSError:
+                data = b""
+            if not data:
+                self._close_output(child)
+                return
+            buf = child.out_buf + data
+            lines = buf.split(b"\n")
+            child.out_buf = lines.pop()
+            if lines:
+                self._emit(child, b"".join(child.prefix + line + b"\n" for line in lines))
+
+    # ------------------------------------------------------------------ exits
+    def _reap(self, child: _Child) -> None:
+        popen = child.popen
+        if popen is None:
+            return
+        pgid = popen.pid
+        try:  # leftovers of its group (still addressable: the zombie holds the pgid)
+            os.killpg(pgid, signal.SIGKILL)
+        except OSError:
+            pass
+        rc = popen.wait()
+        self._tell_watchdog(f"-{pgid}")
+        if child.pidfd is not None:
+            try:
+                self._sel.unregister(child.pidfd)
+            except (KeyError, ValueError):
+                pass
+            os.close(child.pidfd)
+            child.pidfd = None
+        self._drain_output(child)
+        self._close_output(child)  # a grandchild holding the pipe is gone (SIGKILL above)
+        child.popen = None
+        self._after_exit(child, rc)
+
+    def _after_exit(self, child: _Child, rc: int) -> None:
+        spec = child.spec
+        child.last_code = rc
+        if self._stopping:
+            log.info("%s %s", spec.full_name, _describe_exit(rc))
+            return
+        if spec.required:
+            log.error("%s %s; it is required, so stopping everything", spec.full_name, _describe_exit(rc))
+            self._begin_stop(exit_code_of(rc))
+            return
+        if spec.respawn:
+            done = child.spawns - 1
+            if spec.respawn_max is None or done < spec.respawn_max:
+                cap = "" if spec.respawn_max is None else f" ({done + 1}/{spec.respawn_max})"
+                log.warning("%s %s; respawning in %g s%s", spec.full_name, _describe_exit(rc),
+                            spec.respawn_delay, cap)
+                child.respawn_at = time.monotonic() + spec.respawn_delay
+                return
+            log.error("%s %s; not respawning: respawn_max %d reached", spec.full_name, _describe_exit(rc),
+                      spec.respawn_max)
+        elif rc != 0:
+            log.error("%s %s", spec.full_name, _describe_exit(rc))
+        else:
+            log.info("%s %s", spec.full_name, _describe_exit(rc))
+        if rc != 0 and self._exit_code == 0:
+            self._exit_code = exit_code_of(rc)
+
+    # ------------------------------------------------------------------ stopping
+    def _signal_all(self, sig: int) -> None:
+        for child in self._children:
+            if child.popen is not None:
+                try:
+                    os.killpg(child.popen.pid, sig)
+                except ProcessLookupError:
+                    pass
+                except PermissionError as e:
+                    log.error("%s: cannot send %s: %s", child.spec.full_name, signal.Signals(sig).name, e)
+
+    def _begin_stop(self, code: int) -> None:
+        if self._stopping:
+            self._escalate()
+            return
+        self._exit_code = code
+        for child in self._children:
+            child.respawn_at = None
+        self._stopping = 1
+        self._stop_deadline = time.monotonic() + self.stop_times.sigint
+        self._signal_all(signal.SIGINT)
+
+    def _escalate(self) -> None:
+        running = [c.spec.full_name for c in self._children if c.running]
+        if self._stopping == 1:
+            if running:
+                log.warning("still running after SIGINT: %s; sending SIGTERM", ", ".join(running))
+            self._stopping = 2
+            self._stop_deadline = time.monotonic() + self.stop_times.sigterm
+            self._signal_all(signal.SIGTERM)
+        elif self._stopping == 2:
+            if running:
+                log.warning("still running after SIGTERM: %s; sending SIGKILL", ", ".join(running))
+            self._stopping = 3
+            self._stop_deadline = time.monotonic() + self.stop_times.sigkill
+            self._signal_all(signal.SIGKILL)
+        else:
+            for name in running:
+                log.error("%s does not die even from SIGKILL (stuck in the kernel?); giving up on it", name)
+            self._stopping = 4
+
+    def _kill_everything(self) -> None:
+        """Last resort on the way out (e.g. an exception in the loop): nothing may outlive us."""
+        left = [c for c in self._children if c.popen is not None]
+        for child in left:
+            try:
+                os.killpg(child.popen.pid, signal.SIGKILL)  # type: ignore[union-attr]
+            except OSError:
+                pass
+        for child in left:
+            try:
+                child.popen.wait(timeout=2)  # type: ignore[union-attr]
+            except subprocess.TimeoutExpired:
+                pass
+            self._tell_watchdog(f"-{child.popen.pid}")  # type: ignore[union-attr]
+            if child.pidfd is not None:
+                try:
+                    os.close(child.pidfd)
+                except OSError:
+                    pass
+                child.pidfd = None
+            child.popen = None
+        for child in self._children:
+            if child.log_file is not None:
+                child.log_file.close()
+                child.log_file = None
