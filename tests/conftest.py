@@ -90,11 +90,12 @@ class Proc:
             if left <= 0:
                 raise AssertionError(f"no line matching {pattern!r} within {timeout}s from {self.args}; "
                                      f"rc={self.returncode}; output:\n{self.output()[-3000:]}")
+            if not self._reader.is_alive() and self._cursor >= len(self.lines):
+                self.popen.wait(5)
+                raise AssertionError(f"process exited (rc={self.returncode}) before a line matching "
+                                     f"{pattern!r}: {self.args}; output:\n{self.output()[-3000:]}")
             try:
-                if self._new.get(timeout=min(left, 0.5)) is None and self._cursor >= len(self.lines):
-                    if self.popen.poll() is not None:
-                        raise AssertionError(f"process exited (rc={self.returncode}) before a line matching "
-                                             f"{pattern!r}: {self.args}; output:\n{self.output()[-3000:]}")
+                self._new.get(timeout=min(left, 0.5))
             except queue.Empty:
                 pass
 
