@@ -1,0 +1,230 @@
+"""The launcher as a process: output prefixes, log files, env contract, respawn, required, clean stops."""
+from __future__ import annotations
+
+import json
+import os
+import select
+import signal
+import sys
+import textwrap
+import time
+from pathlib import Path
+from typing import Iterator
+
+import pytest
+
+from conftest import Proc
+
+PY = sys.executable
+# a node that ignores SIGINT and SIGTERM: only SIGKILL stops it
+STUBBORN = ("import signal, os, time; signal.signal(signal.SIGINT, signal.SIG_IGN); "
+            "signal.signal(signal.SIGTERM, signal.SIG_IGN); print('ready', os.getpid(), flush=True); "
+            "time.sleep(120)")
+# a shell node with a grandchild in its process group
+SHELL_TREE = "sleep 120 & echo ready $$ $!; wait"
+
+
+def write(tmp_path: Path, text: str, name: str = "graph.yaml") -> str:
+    path = tmp_path / name
+    path.write_text(textwrap.dedent(text).lstrip("\n"))
+    return str(path)
+
+
+def base_env() -> dict[str, str]:
+    env = dict(os.environ)
+    for var in ("ZENTF_NAMESPACE", "ZENTF_PARAMS", "ZENTF_REMAP", "ZENTF_NODE_NAME", "ZENTF_PARAMS_FILE",
+                "ZENTF_CONNECT", "ZENTF_LISTEN", "ZENTF_MODE", "NO_COLOR", "FORCE_COLOR"):
+        env.pop(var, None)
+    env["PYTHONUNBUFFERED"] = "1"
+    return env
+
+
+@pytest.fixture
+def launch(tmp_path: Path) -> Iterator:
+    """launch(file, *args) -> Proc of `python -m zentf.launch`; every launcher is stopped at teardown."""
+    procs: list[Proc] = []
+
+    def _launch(file: str, *args: str, env: dict[str, str] | None = None) -> Proc:
+        p = Proc([PY, "-m", "zentf.launch", file, *args], env=env or base_env(), cwd=tmp_path)
+        procs.append(p)
+        return p
+
+    try:
+        yield _launch
+    finally:
+        for p in procs:
+            p.stop(timeout=5)
+
+
+def dead_within(pids: list[int], timeout: float) -> list[int]:
+    """Wait (on pidfds, no polling) until every pid has exited; return those still alive at the deadline."""
+    fds = {}
+    for pid in pids:
+        try:
+            fds[os.pidfd_open(pid)] = pid
+        except ProcessLookupError:
+            pass
+    deadline = time.monotonic() + timeout
+    try:
+        while fds:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                break
+            ready, _, _ = select.select(list(fds), [], [], left)
+            for fd in ready:
+                os.close(fd)
+                del fds[fd]
+        return [pid for pid in fds.values() if not _zombie(pid)]
+    finally:
+        for fd in fds:
+            os.close(fd)
+
+
+def _zombie(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z"
+    except (FileNotFoundError, IndexError):
+        return True
+
+
+def alive(pid: int) -> bool:
+    return not _zombie(pid)
+
+
+def test_screen_output_is_prefixed_and_log_output_goes_to_a_file(tmp_path, launch):
+    f = write(tmp_path, f"""
+        nodes:
+          - name: talker
+            cmd: [sh, -c, 'echo first line; echo second line >&2; printf "no newline"']
+          - name: quiet
+            namespace: ns
+            output: log
+            cmd: [sh, -c, 'echo into the log']
+        """)
+    p = launch(f, "--log-dir", str(tmp_path / "logs"), "--no-color")
+    assert p.wait(20) == 0, p.output()
+    lines = p.lines
+    assert "[talker] first line" in lines and "[talker] second line" in lines
+    assert "[talker] no newline" in lines
+    assert not any("into the log" in line for line in lines)
+    assert (tmp_path / "logs" / "ns.quiet.log").read_text() == "into the log\n"
+    p = launch(f, "--log-dir", str(tmp_path / "logs"), "--color")
+    assert p.wait(20) == 0
+    assert any(line.startswith("\033[") and "[talker]\033[0m first line" in line for line in p.lines)
+
+
+def test_children_get_identity_and_zenoh_options_through_the_env(tmp_path, launch):
+    dump = ("import json, os; print('ENV', json.dumps({k: v for k, v in os.environ.items() "
+            "if k.startswith('ZENTF_')}), flush=True)")
+    f = write(tmp_path, f"""
+        nodes:
+          - name: probe
+            namespace: inner
+            cmd: [{PY}, -c, "{dump}"]
+            parameters: {{gain: 2.5, on: true, list: [1, 2]}}
+            remappings: {{tf: /shared/tf}}
+            env: {{ZENTF_EXTRA: x}}
+        """)
+    p = launch(f, "-n", "outer", "--connect", "tcp/127.0.0.1:9", "--mode", "client", "--no-multicast")
+    env = json.loads(p.wait_for_line(r"ENV (.*)", 20).group(1))
+    assert p.wait(20) == 0
+    assert env["ZENTF_NODE_NAME"] == "probe" and env["ZENTF_NAMESPACE"] == "outer/inner"
+    assert json.loads(env["ZENTF_PARAMS"]) == {"gain": 2.5, "on": True, "list": [1, 2]}
+    assert json.loads(env["ZENTF_REMAP"]) == {"tf": "/shared/tf"}
+    assert (env["ZENTF_CONNECT"], env["ZENTF_MODE"], env["ZENTF_NO_MULTICAST"]) == ("tcp/127.0.0.1:9", "client", "1")
+    assert env["ZENTF_EXTRA"] == "x"
+
+
+def test_a_crashed_node_with_respawn_comes_back_up_to_its_cap(tmp_path, launch):
+    f = write(tmp_path, """
+        nodes:
+          - name: phoenix
+            cmd: [sh, -c, 'echo alive $$; exec sleep 120']
+            respawn: true
+            respawn_delay: 0.1
+            respawn_max: 2
+        """)
+    p = launch(f)
+    first = int(p.wait_for_line(r"\[phoenix\] alive (\d+)", 20).group(1))
+    os.kill(first, signal.SIGKILL)
+    p.wait_for_line(r"phoenix was killed by SIGKILL; respawning in 0.1 s \(1/2\)", 10)
+    second = int(p.wait_for_line(r"\[phoenix\] alive (\d+)", 10).group(1))
+    assert second != first
+    os.kill(second, signal.SIGKILL)
+    third = int(p.wait_for_line(r"\[phoenix\] alive (\d+)", 10).group(1))
+    os.kill(third, signal.SIGKILL)
+    p.wait_for_line(r"not respawning: respawn_max 2 reached", 10)
+    assert p.wait(10) == 128 + signal.SIGKILL  # nothing left to run: the launcher ends
+
+
+def test_a_required_node_exiting_takes_the_graph_down_with_its_code(tmp_path, launch):
+    fifo = tmp_path / "go"
+    os.mkfifo(fifo)
+    f = write(tmp_path, f"""
+        nodes:
+          - name: bystander
+            cmd: [sh, -c, '{SHELL_TREE}']
+          - name: boss
+            required: true
+            cmd: [sh, -c, 'echo boss up; read line < {fifo}; exit 7']
+        """)
+    p = launch(f)
+    m = p.wait_for_line(r"\[bystander\] ready (\d+) (\d+)", 20)
+    pids = [int(m.group(1)), int(m.group(2))]
+    p.wait_for_line(r"\[boss\] boss up", 20, from_start=True)
+    assert all(alive(pid) for pid in pids)
+    with open(fifo, "w") as w:  # boss reads a line and exits 7
+        w.write("go\n")
+    assert p.wait(10) == 7, p.output()
+    assert "boss exited with code 7; it is required, so stopping everything" in p.output()
+    assert dead_within(pids, 5) == []
+
+
+def test_sigint_stops_every_child_and_grandchild_within_3_s(tmp_path, launch):
+    f = write(tmp_path, f"""
+        nodes:
+          - {{name: shell, cmd: [sh, -c, '{SHELL_TREE}']}}
+          - {{name: stubborn, cmd: [{PY}, -c, "{STUBBORN}"]}}
+          - {{name: polite, cmd: [sleep, '120']}}
+        """)
+    p = launch(f)
+    m = p.wait_for_line(r"\[shell\] ready (\d+) (\d+)", 20)
+    pids = [int(m.group(1)), int(m.group(2))]
+    pids.append(int(p.wait_for_line(r"\[stubborn\] ready (\d+)", 20, from_start=True).group(1)))
+    pids.append(int(p.wait_for_line(r"polite started \(pid (\d+)\)", 20, from_start=True).group(1)))
+    t0 = time.monotonic()
+    p.signal(signal.SIGINT)
+    assert p.wait(10) == 0
+    took = time.monotonic() - t0
+    assert dead_within(pids, 0.5) == []
+    assert took < 3.0, took
+    out = p.output()
+    assert "still running after SIGINT: stubborn; sending SIGTERM" in out
+    assert "still running after SIGTERM: stubborn; sending SIGKILL" in out
+
+
+def test_sigkill_of_the_launcher_leaves_no_orphans(tmp_path, launch):
+    f = write(tmp_path, f"""
+        nodes:
+          - {{name: shell, cmd: [sh, -c, '{SHELL_TREE}']}}
+          - {{name: stubborn, cmd: [{PY}, -c, "{STUBBORN}"]}}
+          - {{name: polite, cmd: [sleep, '120']}}
+        """)
+    p = launch(f)
+    m = p.wait_for_line(r"\[shell\] ready (\d+) (\d+)", 20)
+    pids = [int(m.group(1)), int(m.group(2))]
+    pids.append(int(p.wait_for_line(r"\[stubborn\] ready (\d+)", 20, from_start=True).group(1)))
+    pids.append(int(p.wait_for_line(r"polite started \(pid (\d+)\)", 20, from_start=True).group(1)))
+    p.kill()
+    assert dead_within(pids, 5) == []
+
+
+def test_all_nodes_ending_ends_the_launcher_with_the_first_failure(tmp_path, launch):
+    f = write(tmp_path, """
+        nodes:
+          - {name: ok, cmd: [sh, -c, 'exit 0']}
+          - {name: bad, cmd: [sh, -c, 'exit 5']}
+        """)
+    p = launch(f)
+    assert p.wait(20) == 5
+    assert "bad exited with code 5" in p.output()
