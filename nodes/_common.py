@@ -12,7 +12,7 @@ from typing import Any, Callable, Sequence
 from zentf.options import NodeOptions, OptionsError, add_node_arguments
 
 __all__ = ["OptionsError", "main", "run", "split_node_options", "make_node", "say", "param",
-           "param_float", "param_positive", "param_bool", "make_message_filter"]
+           "param_float", "param_positive", "param_bool"]
 
 log = logging.getLogger("nodes")
 
@@ -120,9 +120,3 @@ def param_bool(node: Any, name: str, default: bool) -> bool:
     if not isinstance(value, bool):
         raise OptionsError(f"parameter {name} must be true or false, got {value!r}")
     return value
-
-
-def make_message_filter(cls: Any, node: Any, topic: str, msg_type: Any, buffer: Any, target: str,
-                        queue_size: int, timeout: float) -> Any:
-    """MessageFilter over a fresh subscription (the filter registers its own callback on it)."""
-    return cls(node, topic, msg_type, buffer, target, queue_size=queue_size, timeout=timeout)

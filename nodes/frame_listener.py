@@ -40,7 +40,7 @@ def _run(opts: object) -> None:
             try:
                 ts = buffer.lookup_transform(target, source, Time())
             except TransformException as e:
-                log.warning("could not transform %s to %s: %s", source, target, e)
+                log.info("could not transform %s to %s: %s", source, target, e)
                 return
             t, q = ts.transform.translation, ts.transform.rotation
             _common.say(f"{source} in {target}: translation ({t.x:.3f}, {t.y:.3f}, {t.z:.3f}) "

@@ -38,6 +38,7 @@ def _run(opts: object) -> None:
     from zentf.exceptions import TransformException
     from zentf.listener import TransformListener
     from zentf.messages import ColorRGBA, Header, Marker, MarkerArray, Point, Vector3
+    from zentf.node import RateLimitedLog
     from zentf.time import Time
 
     with _common.make_node(opts, PROG) as node:
@@ -49,7 +50,7 @@ def _run(opts: object) -> None:
         pub = node.create_publisher(topic, MarkerArray)
         trails = {tid: collections.deque(maxlen=length) for tid, *_ in TRAILS}
         last_stamp: dict[int, int] = {}
-        failures: set[str] = set()
+        complain = RateLimitedLog(log, 5.0)
 
         def tick() -> None:
             markers = []
@@ -57,10 +58,7 @@ def _run(opts: object) -> None:
                 try:
                     ts = buffer.lookup_transform(target, source, Time())
                 except TransformException as e:
-                    msg = f"{target} <- {source}: {e}"
-                    if msg not in failures:  # say each distinct failure once
-                        failures.add(msg)
-                        log.info("waiting for %s", msg)
+                    complain(f"{target}<-{source}", f"waiting for {source} in {target}: {e}", logging.INFO)
                     continue
                 stamp = ts.header.stamp.nanoseconds
                 tr = ts.transform.translation

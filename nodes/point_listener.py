@@ -46,9 +46,8 @@ def _run(opts: object) -> None:
                 return
             _common.say(f"obstacle in {target}: ({p.point.x:.3f}, {p.point.y:.3f}, {p.point.z:.3f})")
 
-        flt = _common.make_message_filter(MessageFilter, node, topic, PointStamped, buffer, target,
-                                          queue_size, timeout)
-        flt.register_callback(on_point)
+        flt = MessageFilter(topic, buffer, target, queue_size, timeout, node=node, msg_type=PointStamped)
+        flt.register_callback(on_point)  # drops are logged by the filter with their reason
         node.spin()
 
 

@@ -36,6 +36,7 @@ def _run(opts: object) -> None:
     from zentf.exceptions import TransformException
     from zentf.listener import TransformListener
     from zentf.messages import SpawnRequest, TurtlePose, Twist, Vector3
+    from zentf.node import RateLimitedLog
     from zentf.time import Time
 
     with _common.make_node(opts, PROG) as node:
@@ -48,6 +49,7 @@ def _run(opts: object) -> None:
                              theta=_common.param_float(node, "spawn_theta", 0.0), name=me)
         buffer = Buffer()
         listener = TransformListener(buffer, node)  # noqa: F841  (kept alive by this frame)
+        complain = RateLimitedLog(log, 2.0)
         cmd = node.create_publisher(f"{me}/cmd_vel", Twist)
         spawner = node.create_publisher("spawn", SpawnRequest)
         spawned = [False]
@@ -67,7 +69,7 @@ def _run(opts: object) -> None:
             try:
                 ts = buffer.lookup_transform(me, target, Time())
             except TransformException as e:
-                log.info("could not transform %s to %s: %s", target, me, e)
+                complain("lookup", f"could not transform {target} to {me}: {e}", logging.INFO)
                 return
             x, y = ts.transform.translation.x, ts.transform.translation.y
             linear, angular = follow_command(x, y)

@@ -1,0 +1,108 @@
+"""The demo node programs as real processes on loopback: static frames, laser/camera, drones, turtles."""
+from __future__ import annotations
+
+import math
+import re
+
+import pytest
+
+NUM = r"(-?\d+\.\d+)"
+TRIPLE = rf"\({NUM}, {NUM}, {NUM}\)"
+
+
+def floats(m: re.Match) -> tuple[float, ...]:
+    return tuple(float(g) for g in m.groups())
+
+
+def stop_cleanly(*procs) -> None:
+    """SIGTERM ends every node with status 0 and without a traceback."""
+    for p in procs:
+        assert p.stop(timeout=10) == 0, p.output()[-2000:]
+        assert "Traceback" not in p.output(), p.output()[-2000:]
+
+
+def test_static_publishers_reach_a_late_frame_listener(spawn):
+    """Both argument forms; the listener starts after both sent their one latched message."""
+    a = spawn.python("-m", "nodes.static_transform_publisher", "--x", "0.4", "--z", "0.2",
+                     "--frame-id", "base_link", "--child-frame-id", "laser")
+    b = spawn.python("-m", "nodes.static_transform_publisher", "-0.5", "0", "0.4", "0", "0", "0",
+                     "base_link", "camera")
+    a.wait_for_line(r"Spinning until stopped - publishing transform .* from 'base_link' to 'laser'", 20)
+    b.wait_for_line(r"Spinning until stopped - publishing transform .* from 'base_link' to 'camera'", 20)
+    listener = spawn.python("-m", "nodes.frame_listener", "-p", "period:=0.2")
+    m = listener.wait_for_line(rf"laser in camera: translation {TRIPLE} rotation", 20)
+    assert floats(m) == pytest.approx((0.9, 0.0, -0.2), abs=1e-3)
+    stop_cleanly(listener, a, b)
+
+
+def test_point_listener_prints_the_obstacle_in_base_link(spawn):
+    static = spawn.python("-m", "nodes.static_transform_publisher", "0.4", "0", "0.2", "0", "0", "0",
+                          "base_link", "laser")
+    points = spawn.python("-m", "nodes.point_publisher")
+    listener = spawn.python("-m", "nodes.point_listener")
+    seen = [floats(listener.wait_for_line(rf"obstacle in base_link: {TRIPLE}", 20)) for _ in range(3)]
+    for x, y, z in seen:
+        assert (y, z) == pytest.approx((0.0, 0.3), abs=1e-3)
+        k = (x - 0.7) / 0.004  # x = 0.4 + 0.3 + 0.004 k
+        assert k > -0.3 and abs(k - round(k)) < 0.3, x
+    assert seen[0][0] < seen[1][0] < seen[2][0]
+    stop_cleanly(listener, points, static)
+
+
+def test_av2_seen_from_av1_runs_on_the_ellipse(spawn):
+    frames = spawn.python("-m", "nodes.frames_publisher")
+    plots = spawn.python("-m", "nodes.plots_publisher", "-p", "rate:=20")
+    pts = [floats(plots.wait_for_line(rf"av2 in av1: {TRIPLE}", 20)) for _ in range(6)]
+    for x, y, z in pts:
+        assert 2 * y - z + 1 == pytest.approx(0.0, abs=2e-3)  # in the plane 2y - z + 1 = 0
+        u = x + 1.0  # about the centre (-1, -1/2, 0): semi-axis 1/2 along x, sqrt(5)/2 along (0, 1, 2)
+        v = ((y + 0.5) + 2 * z) / math.sqrt(5)
+        assert (u / 0.5) ** 2 + (v / (math.sqrt(5) / 2)) ** 2 == pytest.approx(1.0, abs=1e-2)
+    assert len(set(pts)) > 1  # the drones move
+    stop_cleanly(plots, frames)
+
+
+def test_static_drones_sit_at_their_t0_poses(spawn):
+    spawn.python("-m", "nodes.frames_publisher", "-p", "static:=true")
+    plots = spawn.python("-m", "nodes.plots_publisher", "-p", "rate:=20")
+    m = plots.wait_for_line(rf"av2 in av1: {TRIPLE}", 20)
+    assert floats(m) == pytest.approx((-1.0, 0.0, 1.0), abs=1e-3)
+
+
+def test_follower_turtle_closes_on_turtle1(spawn):
+    sim = spawn.python("-m", "nodes.turtlesim")
+    sim.wait_for_line(r"spawned turtle1 at", 20)
+    b1 = spawn.python("-m", "nodes.turtle_tf_broadcaster", "--name", "tb1", "-p", "turtlename:=turtle1")
+    b2 = spawn.python("-m", "nodes.turtle_tf_broadcaster", "--name", "tb2", "-p", "turtlename:=turtle2")
+    follower = spawn.python("-m", "nodes.turtle_follower", "-p", "print_period:=0.2")
+    sim.wait_for_line(r"spawned turtle2 at \(4\.000, 2\.000, 0\.000\)", 20)
+    first = float(follower.wait_for_line(r"distance to turtle1: (\d+\.\d+)", 20).group(1))
+    assert first > 2.5  # it starts ~3.9 m away
+    deadline_lines = 150  # 30 s of lines at 0.2 s
+    for _ in range(deadline_lines):
+        d = float(follower.wait_for_line(r"distance to turtle1: (\d+\.\d+)", 20).group(1))
+        if d < 0.3:
+            break
+    assert d < 0.3
+    stop_cleanly(follower, b1, b2, sim)
+
+
+def test_teleop_drives_turtle1_on_its_circle(spawn):
+    """v = 1 m/s, w = 0.5 rad/s from (5.544, 5.544) facing +x: radius 2 about (5.544, 7.544)."""
+    sim = spawn.python("-m", "nodes.turtlesim")
+    sim.wait_for_line(r"spawned turtle1 at", 20)
+    tb = spawn.python("-m", "nodes.turtle_tf_broadcaster")
+    teleop = spawn.python("-m", "nodes.turtle_teleop", "-p", "linear_speed:=1.0", "-p", "angular_speed:=0.5")
+    watch = spawn.python("-m", "nodes.frame_listener", "-p", "target_frame:=world",
+                         "-p", "source_frame:=turtle1", "-p", "period:=0.2")
+    pts = []
+    while len(pts) < 3:
+        x, y, z = floats(watch.wait_for_line(rf"turtle1 in world: translation {TRIPLE}", 20))
+        if (x, y) != pytest.approx((5.544, 5.544), abs=1e-3):  # moving
+            pts.append((x, y, z))
+    c = (500 - 1) / 45 / 2  # turtlesim's centre
+    for x, y, z in pts:
+        assert z == 0.0
+        assert math.hypot(x - c, y - (c + 2.0)) == pytest.approx(2.0, abs=0.05)
+    assert len({p[:2] for p in pts}) == 3
+    stop_cleanly(watch, teleop, tb, sim)
