@@ -134,18 +134,22 @@ class _TimeCache:
             self.memo_t = -1
             if i == self.start:
                 self.oldest = stamp
-        # prune right after the insert (ROS 1 order; ROS 2 prunes before): oldest + max < newest
-        limit = newest - self.max_ns
-        if self.oldest < limit:
-            start = bisect_left(st, limit, self.start, len(st))
-            self.oldest = st[start]
-            if start > 32 and 2 * start > len(st):
-                del st[:start]
-                del self.parents[:start]
-                del self.data[:7 * start]
-                start = 0
-            self.start = start
+        if self.oldest < newest - self.max_ns:
+            self.prune()
         return _OK
+
+    def prune(self) -> None:
+        """Drop samples older than newest - cache time, right after an insert (ROS 1 order; ROS 2
+        prunes before inserting): pop while oldest + max < newest."""
+        st = self.stamps
+        start = bisect_left(st, self.newest - self.max_ns, self.start, len(st))
+        self.oldest = st[start]
+        if start > 32 and 2 * start > len(st):
+            del st[:start]
+            del self.parents[:start]
+            del self.data[:7 * start]
+            start = 0
+        self.start = start
 
     def get(self, t: int) -> Optional[tuple]:
         """(parent, tx, ty, tz, qx, qy, qz, qw) at t, interpolated; None if not available."""
@@ -346,7 +350,9 @@ class BufferCore:
         tr = transform.transform
         v = tr.translation
         q = tr.rotation
-        ok = self._store(h.frame_id, transform.child_frame_id, h.stamp.nanoseconds,
+        stamp = h.stamp
+        ok = self._store(h.frame_id, transform.child_frame_id,
+                         stamp._ns if type(stamp) is Time else stamp.nanoseconds,
                          v.x, v.y, v.z, q.x, q.y, q.z, q.w, authority, is_static)
         if ok and (self._requests or self._insert_callbacks):
             self._after_insert()
@@ -400,6 +406,19 @@ class BufferCore:
                 # ROS 1: the type chosen here is kept forever (ROS 2 replaces the cache on a switch)
                 cache = _StaticCache() if is_static else _TimeCache(self._cache_ns)
                 self._caches[cid] = cache
+            if type(cache) is _TimeCache and stamp > cache.newest >= 0:
+                # the common case inlined: a newer sample appended to a dynamic frame
+                cache.stamps.append(stamp)
+                cache.parents.append(pid)
+                cache.data.extend((tx, ty, tz, qx, qy, qz, qw))
+                cache.newest = stamp
+                cache.latest = None
+                cache.memo_t = -1
+                if cache.oldest < stamp - cache.max_ns:
+                    cache.prune()
+                self._version += 1
+                self._authority[cid] = authority
+                return True
             res = cache.insert(stamp, pid, (tx, ty, tz, qx, qy, qz, qw))
             if res == _OK:
                 self._version += 1
