@@ -247,17 +247,20 @@ class _TimeCache:
 class _StaticCache:
     """The single sample of a static frame, valid at every time (tf2 StaticCache)."""
 
-    __slots__ = ("sample",)
+    __slots__ = ("sample", "parents")
     is_static = True
+    newest = 0        # statics report stamp 0 (ignored by the latest-common-time minimum)
 
     def __init__(self) -> None:
         self.sample: tuple = (0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+        self.parents = [0]  # same shape as _TimeCache.parents[-1] for the fast LCT walk
 
     def __len__(self) -> int:
         return 1
 
     def insert(self, stamp: int, parent: int, values: tuple) -> int:
         self.sample = (parent, *map(float, values))
+        self.parents = [parent]
         return _OK
 
     def clear(self) -> None:
@@ -823,8 +826,10 @@ class BufferCore:
             cache = caches[source_id]
             return cache.newest_stamp() if cache is not None else 0
         big = 1 << 62
-        # walk up from the source, recording (newest stamp, parent) per link
-        lct: list[tuple[int, int]] = []
+        # walk up from the source, recording (newest stamp, parent) per link; a cache's newest
+        # stamp is -1 when empty (no parent: stop), 0 for statics (ignored in the minimum)
+        stamps: list[int] = []
+        parents: list[int] = []
         frame = source_id
         depth = 0
         common = big
@@ -832,12 +837,14 @@ class BufferCore:
             cache = caches[frame]
             if cache is None:
                 break
-            stamp, parent = cache.latest_stamp_parent()
-            if not parent:
+            stamp = cache.newest
+            if stamp < 0:
                 break
+            parent = cache.parents[-1]
             if stamp and stamp < common:
                 common = stamp
-            lct.append((stamp, parent))
+            stamps.append(stamp)
+            parents.append(parent)
             frame = parent
             if frame == target_id:
                 return 0 if common == big else common
@@ -849,14 +856,15 @@ class BufferCore:
         depth = 0
         common = big
         common_parent = 0
-        source_parents = {p for _, p in lct}
+        source_parents = set(parents)
         while True:
             cache = caches[frame]
             if cache is None:
                 break
-            stamp, parent = cache.latest_stamp_parent()
-            if not parent:
+            stamp = cache.newest
+            if stamp < 0:
                 break
+            parent = cache.parents[-1]
             if stamp and stamp < common:
                 common = stamp
             if parent in source_parents:
@@ -870,7 +878,7 @@ class BufferCore:
                 raise LookupException(self._loop_message())
         if not common_parent:
             raise ConnectivityException(self._connectivity_message(source_id, target_id))
-        for stamp, parent in lct:
+        for stamp, parent in zip(stamps, parents):
             if stamp and stamp < common:
                 common = stamp
             if parent == common_parent:
