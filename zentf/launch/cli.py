@@ -229,7 +229,7 @@ def _main(cmd: click.Command, argv: Optional[Sequence[str]], prog: str) -> int:
     except LaunchError as exc:
         if debug:
             raise
-        sys.stderr.write(f"{exc}\n")
+        sys.stderr.write(f"{exc}\n" if exc.file else f"{prog}: error: {exc}\n")
         return 2
     except click.exceptions.Exit as exc:
         return exc.exit_code
