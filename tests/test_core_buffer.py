@@ -376,3 +376,40 @@ def test_times_accept_seconds_and_reject_garbage() -> None:
         core.lookup_transform("a", "b", "now")
     with pytest.raises(ValueError):
         core.lookup_transform("a", "b", -1.0)
+
+
+# ----------------------------------------------------------------------- tf2 oddities we match on purpose
+
+def test_tf2_oddities_are_matched() -> None:
+    """Each of these was probed on python3-tf2 0.7.6 and is reproduced deliberately."""
+    core = BufferCore()
+    core.set_transform(ts("a", "b", 1), "x")
+    core.set_transform(ts("a", "b", 2), "x")
+    core.set_transform(ts("b", "c", 5), "x")
+    core.set_transform(ts("b", "c", 6), "x")
+    # the target's own (stale) edge is queried but never needed when it is an ancestor
+    assert core.can_transform("b", "c", 5.5) and core.lookup_transform("b", "c", 5.5).header.stamp == Time.from_sec(5.5)
+    # advanced can_transform explains only its second half; an unknown fixed frame gives no reason
+    assert core.can_transform_full("a", 1.5, "b", 1.5, "nope", return_debug_tuple=True) == (False, "")
+    # identity short-cut happens before validation, and is stamped with the frame's newest sample at 0
+    assert core.lookup_transform("c", "c", 0).header.stamp == Time(6)
+    assert core.lookup_transform("", "", 0).header.frame_id == ""
+    # after clear(), a dynamic edge looked up at a time fails with an empty cache text
+    core.clear()
+    with pytest.raises(ExtrapolationException) as e:
+        core.lookup_transform("a", "b", 1)
+    assert str(e.value) == ", when looking up transform from frame [b] to frame [a]"
+    # ...and at time 0 the emptied caches look parentless: connectivity, not extrapolation
+    with pytest.raises(ConnectivityException):
+        core.lookup_transform("a", "b", 0)
+    # a child named like tf2's sentinel is accepted and ignored
+    assert core.set_transform(ts("a", "NO_PARENT", 1), "x") and not core.frame_exists("NO_PARENT")
+
+
+def test_raw_insert_stores_floats() -> None:
+    core = BufferCore()
+    core.set_transform_raw("a", "b", 5, 1, 2, 3, 0, 0, 0, 1, "x")
+    core.set_transform_raw("a", "s", 5, 1, 2, 3, 0, 0, 0, 1, "x", True)
+    for child in "bs":
+        t = core.lookup_transform("a", child, 0).transform
+        assert all(type(v) is float for v in (t.translation.x, t.translation.y, t.rotation.w))
