@@ -11,6 +11,7 @@ import errno
 import logging
 import os
 import selectors
+import shutil
 import signal
 import subprocess
 import sys
@@ -30,6 +31,7 @@ _libc = ctypes.CDLL(None, use_errno=True)
 _prctl = _libc.prctl
 _COLORS = ("36", "33", "32", "35", "34", "31", "96", "93", "92", "95", "94", "91")
 _RESET = "\033[0m"
+_SETPRIV = shutil.which("setpriv")  # util-linux: --pdeathsig since 2.33
 
 
 @dataclass
@@ -176,7 +178,7 @@ class Supervisor:
         try:
             self._watchdog = subprocess.Popen(
                 [sys.executable, "-S", "-I", str(script), str(self.stop_times.sigterm)],
-                stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=None, process_group=0)
+                stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=None, start_new_session=True)
         except OSError as e:  # not fatal: PDEATHSIG still covers direct children
             log.warning("cannot start the orphan watchdog: %s", e)
             self._watchdog = None
@@ -231,13 +233,21 @@ class Supervisor:
         spec = child.spec
         launcher_pid = os.getpid()
 
-        def setup() -> None:  # in the child, between fork and exec
+        def setup() -> None:  # fallback without setpriv: in the child, between fork and exec
             os.setpgid(0, 0)
             _prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
             if os.getppid() != launcher_pid:  # the launcher died before prctl took effect
                 os._exit(1)
-            signal.signal(signal.SIGINT, signal.SIG_DFL)  # a backgrounded launcher may have SIG_IGN
 
+        # Python code between fork and exec is unsafe once other threads exist (the sim clock's
+        # Zenoh runtime), so the parent-death signal is set by setpriv(1) in the exec chain when
+        # available, and the process group by the C-level process_group/start_new_session.
+        if _SETPRIV:
+            argv = [_SETPRIV, "--pdeathsig", "TERM", "--", *spec.cmd]
+            group: dict = {"process_group": 0} if sys.version_info >= (3, 11) else {"start_new_session": True}
+        else:
+            argv = list(spec.cmd)
+            group = {"preexec_fn": setup}
         stdout: int | BinaryIO
         if spec.output == "log" and self.log_dir is not None:
             if child.log_file is not None:
@@ -249,9 +259,8 @@ class Supervisor:
         child.respawn_at = None
         child.spawns += 1
         try:
-            popen = subprocess.Popen(spec.cmd, env=self._child_env(spec), stdin=subprocess.DEVNULL,
-                                     stdout=stdout, stderr=subprocess.STDOUT, preexec_fn=setup,
-                                     close_fds=True)
+            popen = subprocess.Popen(argv, env=self._child_env(spec), stdin=subprocess.DEVNULL,
+                                     stdout=stdout, stderr=subprocess.STDOUT, close_fds=True, **group)
         except OSError as e:
             log.error("%s: cannot start %s: %s", spec.full_name, spec.cmd[0], e.strerror or e)
             self._after_exit(child, 127)
