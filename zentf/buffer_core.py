@@ -80,7 +80,7 @@ class _TimeCache:
     """Samples of one dynamic frame, oldest first (tf2 TimeCache)."""
 
     __slots__ = ("stamps", "parents", "data", "start", "max_ns", "latest", "newest", "oldest",
-                 "memo_t", "memo")
+                 "memo_t", "memo", "spans")
     is_static = False
 
     def __init__(self, max_ns: int) -> None:
@@ -97,6 +97,9 @@ class _TimeCache:
         self.latest: Optional[tuple] = None  # newest sample as a tuple, built on first use
         self.memo_t = -1           # last interpolated query time and its answer: a chain
         self.memo: Optional[tuple] = None    # re-walked at the same time reuses it
+        # interpolation constants of recently queried intervals, by older stamp (validated
+        # against the newer stamp, so inserts in between are noticed); small and bounded
+        self.spans: dict[int, tuple] = {}
 
     def __len__(self) -> int:
         return len(self.stamps) - self.start
@@ -170,35 +173,59 @@ class _TimeCache:
             return self._sample(self.start)
         st = self.stamps
         i = bisect_right(st, t, self.start, len(st)) - 1
-        parents = self.parents
-        p = parents[i]
-        d = self.data
-        k = 7 * i
-        if parents[i + 1] != p:
-            # different parents: no interpolation, the older sample applies
-            return (p, d[k], d[k + 1], d[k + 2], d[k + 3], d[k + 4], d[k + 5], d[k + 6])
         t0 = st[i]
-        r = (t - t0) / (st[i + 1] - t0)
-        s = 1.0 - r
-        x0, y0, z0, w0 = d[k + 3], d[k + 4], d[k + 5], d[k + 6]
-        x1, y1, z1, w1 = d[k + 10], d[k + 11], d[k + 12], d[k + 13]
-        dot = x0 * x1 + y0 * y1 + z0 * z1 + w0 * w1
-        c = (-dot if dot < 0 else dot) / math.sqrt(
-            (x0 * x0 + y0 * y0 + z0 * z0 + w0 * w0) * (x1 * x1 + y1 * y1 + z1 * z1 + w1 * w1))
-        theta = math.acos(1.0 if c > 1.0 else c)
-        if theta != 0.0:
-            sin = math.sin
-            dd = 1.0 / sin(theta)
-            s0 = sin(s * theta) * dd
-            s1 = sin(r * theta) * dd
-            if dot < 0:
-                s1 = -s1
-            x0, y0, z0, w0 = x0 * s0 + x1 * s1, y0 * s0 + y1 * s1, z0 * s0 + z1 * s1, w0 * s0 + w1 * s1
-        res = (p, s * d[k] + r * d[k + 7], s * d[k + 1] + r * d[k + 8], s * d[k + 2] + r * d[k + 9],
-               x0, y0, z0, w0)
+        span = self.spans.get(t0)
+        if span is None or span[0] != st[i + 1]:
+            span = self._span(i)
+        if span[1] is None:
+            return span[2]  # different parents: no interpolation, the older sample applies
+        _, inv_dt, p, x0, y0, z0, dx, dy, dz, qx, qy, qz, qw, ax, ay, az, aw, theta = span
+        r = (t - t0) * inv_dt
+        if theta:
+            c = math.cos(r * theta)
+            s = math.sin(r * theta)
+            qx, qy, qz, qw = qx * c + ax * s, qy * c + ay * s, qz * c + az * s, qw * c + aw * s
+        res = (p, x0 + r * dx, y0 + r * dy, z0 + r * dz, qx, qy, qz, qw)
         self.memo_t = t
         self.memo = res
         return res
+
+    def _span(self, i: int) -> tuple:
+        """Constants to interpolate between samples i and i+1 exactly like tf2.
+
+        tf2's slerp is (q0·sin((1-r)θ) + ±q1·sin(rθ)) / sin θ, with θ from the normalized dot
+        product and the sign picking the short way; rewritten as q0·cos(rθ) + a·sin(rθ) with
+        a = (±q1 - q0·cos θ) / sin θ (an identity, no normalization assumed), so each query costs
+        one cos and one sin. Translation: p0 + r·(p1 - p0).
+        """
+        st = self.stamps
+        parents = self.parents
+        d = self.data
+        k = 7 * i
+        p = parents[i]
+        if parents[i + 1] != p:
+            span: tuple = (st[i + 1], None, (p, d[k], d[k + 1], d[k + 2], d[k + 3], d[k + 4], d[k + 5], d[k + 6]))
+        else:
+            x0, y0, z0, w0 = d[k + 3], d[k + 4], d[k + 5], d[k + 6]
+            x1, y1, z1, w1 = d[k + 10], d[k + 11], d[k + 12], d[k + 13]
+            dot = x0 * x1 + y0 * y1 + z0 * z1 + w0 * w1
+            c = (-dot if dot < 0 else dot) / math.sqrt(
+                (x0 * x0 + y0 * y0 + z0 * z0 + w0 * w0) * (x1 * x1 + y1 * y1 + z1 * z1 + w1 * w1))
+            theta = math.acos(1.0 if c > 1.0 else c)
+            if theta != 0.0:
+                if dot < 0:
+                    x1, y1, z1, w1 = -x1, -y1, -z1, -w1
+                ct, inv = math.cos(theta), 1.0 / math.sin(theta)
+                a = ((x1 - x0 * ct) * inv, (y1 - y0 * ct) * inv, (z1 - z0 * ct) * inv, (w1 - w0 * ct) * inv)
+            else:
+                a = (0.0, 0.0, 0.0, 0.0)
+            span = (st[i + 1], 1.0 / (st[i + 1] - st[i]), p, d[k], d[k + 1], d[k + 2],
+                    d[k + 7] - d[k], d[k + 8] - d[k + 1], d[k + 9] - d[k + 2], x0, y0, z0, w0, *a, theta)
+        spans = self.spans
+        if len(spans) >= 16:
+            spans.clear()
+        spans[st[i]] = span
+        return span
 
     def parent_at(self, t: int) -> int:
         """Parent id of the sample that applies at t (the older one), 0 if none (tf2 getParent)."""
