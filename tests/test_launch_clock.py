@@ -155,3 +155,25 @@ def test_zentf_clock_without_a_launcher_says_so(clock_env):
     r = subprocess.run([sys.executable, "-m", "zentf.cli", "clock", "rate", "0"], env=clock_env,
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 2 and "must be a finite number > 0" in r.stderr
+
+
+def test_sim_time_pause_resume_and_rate_keep_time_continuous(monkeypatch):
+    from zentf.launch import sim_clock
+
+    wall = [0]
+    monkeypatch.setattr(sim_clock.time, "monotonic_ns", lambda: wall[0])
+    st = sim_clock.SimTime(start_ns=100, rate=10.0)
+    wall[0] = 1_000
+    assert st.now_ns() == 100 + 10_000
+    st.pause()
+    wall[0] = 5_000
+    assert st.now_ns() == 10_100 and st.state()["paused"] is True
+    st.resume()
+    wall[0] = 6_000
+    assert st.now_ns() == 10_100 + 10_000
+    st.set_rate(0.5)
+    wall[0] = 8_000
+    assert st.now_ns() == 20_100 + 1_000
+    for bad in (0, -1.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="rate must be a number > 0"):
+            st.set_rate(bad)

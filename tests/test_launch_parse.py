@@ -313,3 +313,12 @@ def test_cli_print_and_show_args(tmp_path):
     r = subprocess.run([sys.executable, "-m", "zentf.launch", "drones", "--show-args"], capture_output=True,
                        text=True, timeout=60, env=env)
     assert r.returncode == 0 and "static  default: 'false'" in r.stdout
+
+
+def test_zentf_cli_delegates_launch_and_refuses_bad_zenoh_options(tmp_path):
+    r = subprocess.run([sys.executable, "-m", "zentf.cli", "launch", "laser", "--print"], capture_output=True,
+                       text=True, timeout=60, cwd=tmp_path)
+    assert r.returncode == 0 and "name: /frame_listener" in r.stdout, r.stderr
+    r = subprocess.run([sys.executable, "-m", "zentf.cli", "launch", "laser", "--connect", "nonsense"],
+                       capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    assert r.returncode == 2 and "bad endpoint 'nonsense'" in r.stderr and len(r.stderr.splitlines()) == 1

@@ -75,6 +75,7 @@ class NodeSpec:
     required: bool = False
     output: str = "screen"
     source: str = ""
+    python_path: str | None = None  # where `module` was found, so the child imports the same one
 
     @property
     def full_name(self) -> str:
@@ -412,6 +413,7 @@ class _Loader:
                     node.cmd[2] = module
             if spec is None:
                 raise y.error(f"no module named {module!r}")
+            node.python_path = _import_root(module)
             return
         prog = node.cmd[0]
         if "/" in prog:
@@ -579,6 +581,21 @@ class _Loader:
         return out
 
 
+def _import_root(module: str) -> str | None:
+    """The sys.path entry that provides `module` (the directory holding its top-level package)."""
+    try:
+        top = importlib.util.find_spec(module.split(".")[0])
+    except (ImportError, ValueError):
+        return None
+    if top is None:
+        return None
+    if top.submodule_search_locations:
+        return os.path.dirname(os.path.abspath(list(top.submodule_search_locations)[0]))
+    if top.origin and os.path.isfile(top.origin):
+        return os.path.dirname(os.path.abspath(top.origin))
+    return None
+
+
 def _arg_text(v: Any) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
@@ -621,6 +638,8 @@ def load_launch(file: str, cli_args: Mapping[str, str] | Sequence[str] = (), *,
         cli_args = parse_cli_args(cli_args)
     path = resolve_launch_file(file) if resolve_name else file
     shown = display_path(path)
+    if os.getcwd() not in sys.path and "" not in sys.path:  # `module:` may name one in the current dir,
+        sys.path.append(os.getcwd())                         # as `python -m` in the child would find it
     loader = _Loader()
     root_ns = join_namespace("", namespace or "")
     for seg in root_ns.split("/") if root_ns else ():

@@ -219,6 +219,10 @@ class Supervisor:
         for var in ("ZENTF_PARAMS_FILE", "ZENTF_PARAMS", "ZENTF_REMAP", "ZENTF_NODE_NAME"):
             env.pop(var, None)
         env.update(spec.child_env())
+        if spec.python_path:
+            parts = [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p]
+            if spec.python_path not in parts:
+                env["PYTHONPATH"] = os.pathsep.join([spec.python_path, *parts])
         return env
 
     def _open_log(self, child: _Child) -> BinaryIO:
