@@ -15,6 +15,7 @@ __all__ = ["OptionsError", "main", "run", "split_node_options", "make_node", "sa
            "param_float", "param_positive", "param_bool"]
 
 log = logging.getLogger("nodes")
+_started = False  # a Node exists: it owns SIGINT/SIGTERM until it shuts down
 
 
 def say(line: str) -> None:
@@ -63,10 +64,15 @@ def run(body: Callable[[], None], prog: str, opts: NodeOptions | None = None) ->
     debug = bool(getattr(opts, "_debug", False))
     _setup_logging(debug)
 
-    def on_term(signum: int, _frame: object) -> None:
-        raise KeyboardInterrupt
+    def on_signal(signum: int, _frame: object) -> None:
+        # Before the node exists a signal aborts start-up; while it lives the Node handles signals;
+        # once it is shutting down a repeated signal must not cut its (bounded) clean-up short.
+        if not _started:
+            raise KeyboardInterrupt
+        log.debug("signal %d while shutting down: ignored", signum)
 
-    signal.signal(signal.SIGTERM, on_term)
+    signal.signal(signal.SIGTERM, on_signal)
+    signal.signal(signal.SIGINT, on_signal)
     try:
         body()
     except KeyboardInterrupt:
@@ -83,14 +89,21 @@ def run(body: Callable[[], None], prog: str, opts: NodeOptions | None = None) ->
         text = str(e).strip().splitlines()[0] if str(e).strip() else ""
         print(f"{prog}: {type(e).__name__}: {text}", file=sys.stderr, flush=True)
         return 1
+    finally:
+        if _started:  # from here on a late signal would only kill the interpreter's own teardown
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                signal.signal(sig, signal.SIG_IGN)
     return 0
 
 
 def make_node(opts: NodeOptions, default_name: str) -> Any:
     """A Node with the identity and Zenoh options from the command line / environment."""
+    global _started
     from zentf.node import Node
 
-    return Node(default_name, options=opts)
+    node = Node(default_name, options=opts)
+    _started = True
+    return node
 
 
 def param(node: Any, name: str, default: Any) -> Any:
@@ -101,6 +114,11 @@ def param(node: Any, name: str, default: Any) -> Any:
 def param_float(node: Any, name: str, default: float) -> float:
     """A finite number parameter; OptionsError names the parameter otherwise."""
     value = param(node, name, default)
+    if isinstance(value, str):  # e.g. a launch substitution that stayed text
+        try:
+            value = float(value)
+        except ValueError:
+            pass
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise OptionsError(f"parameter {name} must be a finite number, got {value!r}")
     return float(value)

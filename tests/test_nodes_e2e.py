@@ -106,3 +106,15 @@ def test_teleop_drives_turtle1_on_its_circle(spawn):
         assert math.hypot(x - c, y - (c + 2.0)) == pytest.approx(2.0, abs=0.05)
     assert len({p[:2] for p in pts}) == 3
     stop_cleanly(watch, teleop, tb, sim)
+
+
+def test_a_second_signal_during_shutdown_still_exits_cleanly(spawn):
+    """The launcher escalates SIGINT -> SIGTERM; the node's clean-up must not be cut short by it."""
+    import signal
+
+    p = spawn.python("-m", "nodes.point_publisher", "-p", "print_every:=1")
+    p.wait_for_line(r"obstacle in laser: ", 20)
+    p.signal(signal.SIGINT)
+    p.signal(signal.SIGTERM)
+    assert p.wait(10) == 0, p.output()[-2000:]
+    assert "Traceback" not in p.output()
