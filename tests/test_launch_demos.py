@@ -161,3 +161,38 @@ def test_remappings_and_namespaces_land_where_they_should(launch, tmp_path, zeno
     finally:
         for s in subs:
             s.undeclare()
+
+
+def test_a_killed_zentf_node_with_respawn_comes_back_on_the_graph(launch, tmp_path, zenoh_session, test_namespace):
+    import os
+    import signal
+
+    f = tmp_path / "respawn.yaml"
+    f.write_text(textwrap.dedent("""
+        nodes:
+          - module: nodes.frames_publisher
+            respawn: true
+            respawn_delay: 0.2
+        """))
+    events: list[tuple[str, bool]] = []
+    cond = threading.Condition()
+
+    def on_change(entry, alive: bool) -> None:
+        if entry.kind == "node" and entry.name == "frames_publisher":
+            with cond:
+                events.append((entry.name, alive))
+                cond.notify_all()
+
+    with GraphWatcher(zenoh_session, on_change, namespace=test_namespace):
+        p = launch(str(f))
+        pid = int(p.wait_for_line(r"frames_publisher started \(pid (\d+)\)", 30).group(1))
+        with cond:
+            assert cond.wait_for(lambda: ("frames_publisher", True) in events, 30)
+        os.kill(pid, signal.SIGKILL)
+        p.wait_for_line(r"frames_publisher was killed by SIGKILL; respawning in 0.2 s", 10)
+        new_pid = int(p.wait_for_line(r"frames_publisher respawned \(pid (\d+)\)", 10).group(1))
+        assert new_pid != pid
+        with cond:  # gone from the graph, then alive again
+            assert cond.wait_for(lambda: events[-2:] == [("frames_publisher", False), ("frames_publisher", True)]
+                                 or events.count(("frames_publisher", True)) >= 2, 30), events
+        p.wait_for_line(r"publishing av1 and av2 in world", 30, from_start=False)

@@ -228,3 +228,22 @@ def test_all_nodes_ending_ends_the_launcher_with_the_first_failure(tmp_path, lau
     p = launch(f)
     assert p.wait(20) == 5
     assert "bad exited with code 5" in p.output()
+
+
+def test_repeated_ctrl_c_escalates_at_once(tmp_path, launch):
+    f = write(tmp_path, f"""
+        nodes:
+          - {{name: stubborn, cmd: [{PY}, -c, "{STUBBORN}"]}}
+        """)
+    p = launch(f, "--stop-timeout", "8")
+    pid = int(p.wait_for_line(r"\[stubborn\] ready (\d+)", 20).group(1))
+    t0 = time.monotonic()
+    p.signal(signal.SIGINT)
+    p.wait_for_line(r"SIGINT: stopping 1 node", 10)
+    p.signal(signal.SIGINT)
+    p.wait_for_line(r"sending SIGTERM", 10)
+    p.signal(signal.SIGINT)
+    assert p.wait(10) == 0
+    assert time.monotonic() - t0 < 4.0  # not 16 s of --stop-timeout
+    assert "sending SIGKILL" in p.output()
+    assert dead_within([pid], 1) == []
