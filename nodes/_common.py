@@ -4,7 +4,6 @@ from __future__ import annotations
 import argparse
 import logging
 import math
-import os
 import signal
 import sys
 from typing import Any, Callable, Sequence
@@ -23,45 +22,47 @@ def say(line: str) -> None:
     print(line, flush=True)
 
 
-def _parser(prog: str, description: str | None) -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog=prog, description=(description or "").split("\n\n")[0],
-                                     allow_abbrev=False)
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a bad flag as one line (no usage dump); --help still shows everything."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise OptionsError(f"{message} (see --help)")
+
+
+def _parser(prog: str, description: str | None, *, add_help: bool = True) -> argparse.ArgumentParser:
+    parser = _Parser(prog=prog, description=description, allow_abbrev=False, add_help=add_help,
+                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--debug", action="store_true", help="debug logging and full tracebacks")
     add_node_arguments(parser)
     return parser
 
 
-def split_node_options(prog: str, argv: Sequence[str]) -> tuple[NodeOptions, list[str]]:
-    """Shared node/Zenoh options out of argv; returns them and the program's own arguments."""
-    parser = argparse.ArgumentParser(prog=prog, add_help=False, allow_abbrev=False)
-    parser.add_argument("--debug", action="store_true")
-    add_node_arguments(parser)
-    args, rest = parser.parse_known_args(list(argv))
-    opts = NodeOptions.from_args(args)
-    opts._debug = bool(args.debug)  # type: ignore[attr-defined]
-    return opts, rest
+def split_node_options(prog: str, argv: Sequence[str]) -> tuple[NodeOptions, bool, list[str]]:
+    """Shared node/Zenoh options out of argv: (options, --debug given, the program's own arguments)."""
+    args, rest = _parser(prog, None, add_help=False).parse_known_args(list(argv))
+    return NodeOptions.from_args(args), bool(args.debug), rest
 
 
 def main(prog: str, argv: Sequence[str] | None, body: Callable[[NodeOptions], None],
          description: str | None = None) -> int:
-    """Parse the shared options strictly and run body(opts) as a node program."""
-    parser = _parser(prog, description)
-    args = parser.parse_args(list(sys.argv[1:] if argv is None else argv))
-    opts = NodeOptions.from_args(args, parser=parser)
-    opts._debug = bool(args.debug)  # type: ignore[attr-defined]
-    return run(lambda: body(opts), prog, opts)
+    """Parse the shared options strictly and run body(opts) as a node program (exit 2 on bad flags)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        args = _parser(prog, description).parse_args(argv)
+        opts = NodeOptions.from_args(args)
+    except OptionsError as e:
+        print(f"{prog}: error: {e}", file=sys.stderr, flush=True)
+        return 2
+    return run(lambda: body(opts), prog, bool(args.debug))
 
 
 def _setup_logging(debug: bool) -> None:
-    level = logging.DEBUG if debug else getattr(logging, os.environ.get("ZENTF_LOG_LEVEL", "INFO").upper(),
-                                                logging.INFO)
-    logging.basicConfig(level=level, stream=sys.stderr,
+    logging.basicConfig(level=logging.DEBUG if debug else logging.INFO, stream=sys.stderr,
                         format="[%(levelname)s] [%(name)s]: %(message)s")
 
 
-def run(body: Callable[[], None], prog: str, opts: NodeOptions | None = None) -> int:
+def run(body: Callable[[], None], prog: str, debug: bool = False) -> int:
     """Run a node body: SIGTERM/SIGINT stop it cleanly, errors become one line (traceback with --debug)."""
-    debug = bool(getattr(opts, "_debug", False))
     _setup_logging(debug)
 
     def on_signal(signum: int, _frame: object) -> None:

@@ -206,7 +206,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if argv is None:
         argv = sys.argv[1:]
     try:
-        opts, rest = _common.split_node_options(PROG, argv)
+        opts, debug, rest = _common.split_node_options(PROG, argv)
         parsed = parse_args(rest)
     except (UsageError, _common.OptionsError) as e:
         print(f"{PROG}: error parsing command line arguments: {e}", file=sys.stderr, flush=True)
@@ -218,7 +218,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{PROG}: cannot publish static transform from '{parsed.frame_id}' to "
               f"'{parsed.child_frame_id}', exiting", file=sys.stderr, flush=True)
         return 1
-    return _common.run(lambda: _publish(opts, parsed), PROG, opts)
+    return _common.run(lambda: _publish(opts, parsed), PROG, debug)
 
 
 def _publish(opts: object, a: StaticTransformArgs) -> None:

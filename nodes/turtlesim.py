@@ -25,6 +25,7 @@ PROG = "turtlesim"
 WORLD_SIZE = (500 - 1) / 45.0  # metres: turtlesim's 500 px canvas at 45 px per metre, (width - 1) / meter
 CENTRE = WORLD_SIZE / 2.0  # 5.5444...
 COMMAND_TIMEOUT = 1.0      # seconds a cmd_vel stays in force
+MAX_STEP = 0.016           # integration step (turtlesim's update interval)
 _NAME_RE = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 
 
@@ -53,16 +54,21 @@ class Turtle:
         self.lin_x, self.lin_y, self.ang_z, self.last_command = lin_x, lin_y, ang_z, now
 
     def step(self, now: float, dt: float) -> bool:
-        """Integrate dt seconds; True if the turtle hit a wall."""
+        """Integrate dt seconds in steps of at most MAX_STEP (a late timer keeps the path); True on a wall."""
         if now - self.last_command > COMMAND_TIMEOUT:
             self.lin_x = self.lin_y = self.ang_z = 0.0
-        self.theta = normalize_angle(self.theta + self.ang_z * dt)
-        c, s = math.cos(self.theta), math.sin(self.theta)
-        x = self.x + (c * self.lin_x - s * self.lin_y) * dt
-        y = self.y + (s * self.lin_x + c * self.lin_y) * dt
-        self.x = min(max(x, 0.0), WORLD_SIZE)
-        self.y = min(max(y, 0.0), WORLD_SIZE)
-        return self.x != x or self.y != y
+        n = max(1, math.ceil(dt / MAX_STEP - 1e-9))
+        h = dt / n
+        hit = False
+        for _ in range(n):
+            self.theta = normalize_angle(self.theta + self.ang_z * h)
+            c, s = math.cos(self.theta), math.sin(self.theta)
+            x = self.x + (c * self.lin_x - s * self.lin_y) * h
+            y = self.y + (s * self.lin_x + c * self.lin_y) * h
+            self.x = min(max(x, 0.0), WORLD_SIZE)
+            self.y = min(max(y, 0.0), WORLD_SIZE)
+            hit = hit or self.x != x or self.y != y
+        return hit
 
     def velocities(self) -> tuple[float, float]:
         """Linear and angular velocity as turtlesim's Pose reports them."""
@@ -174,8 +180,11 @@ def _run(opts: object) -> None:
             last[0] = now
             for name, x, y, theta, v, w, hit in world.step(now, dt):
                 if hit and name not in walls:
-                    log.warning("Oh no! %s hit the wall! (Clamping from [x=%f, y=%f])", name, x, y)
-                walls.add(name) if hit else walls.discard(name)
+                    log.warning("Oh no! %s hit the wall! (clamped to x=%.3f, y=%.3f)", name, x, y)
+                if hit:
+                    walls.add(name)
+                else:
+                    walls.discard(name)
                 pub = pose_pubs.get(name)
                 if pub is not None:
                     pub.publish(TurtlePose(x=x, y=y, theta=theta, linear_velocity=v, angular_velocity=w))

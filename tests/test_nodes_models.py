@@ -105,3 +105,14 @@ def test_teleop_patterns():
     assert command_at("square", 2.0 + math.pi + 0.1, 1.0, 0.5, side=2.0) == (1.0, 0.0)
     with pytest.raises(ValueError, match="unknown pattern"):
         command_at("zigzag", 0.0, 1.0, 1.0)
+
+
+def test_a_late_step_follows_the_same_path():
+    """One 0.4 s step (a stalled timer) lands where 25 steps of 16 ms do."""
+    a, b = Turtle("a", CENTRE, CENTRE, 0.0), Turtle("b", CENTRE, CENTRE, 0.0)
+    for t in (a, b):
+        t.command(1.0, 0.0, 0.5, now=0.0)
+    a.step(0.4, 0.4)
+    for k in range(25):
+        b.step(0.016 * (k + 1), 0.016)
+    assert (a.x, a.y, a.theta) == pytest.approx((b.x, b.y, b.theta), abs=1e-9)

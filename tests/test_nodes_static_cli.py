@@ -25,3 +25,15 @@ def test_static_transform_publisher_same_frames_and_help(spawn):
     h = spawn.python("-m", "nodes.static_transform_publisher", "--help")
     assert h.wait(20) == 0
     assert h.lines[0].startswith("usage: static_transform_publisher [--x X]")
+
+
+@pytest.mark.parametrize("args, error", [
+    (["nodes.frames_publisher", "-p", "rate:=-1"], "frames_publisher: error: parameter rate must be positive"),
+    (["nodes.turtle_teleop", "-p", "pattern:=zigzag"], "turtle_teleop: error: parameter pattern must be one of"),
+    (["nodes.frame_listener", "--bogus"], "frame_listener: error: unrecognized arguments: --bogus"),
+])
+def test_bad_node_options_are_one_line_errors(spawn, args, error):
+    p = spawn.python("-m", *args)
+    assert p.wait(20) in (1, 2)
+    out = [line for line in p.lines if line.strip()]
+    assert len(out) == 1 and out[0].startswith(error), out
