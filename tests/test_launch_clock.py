@@ -177,3 +177,20 @@ def test_sim_time_pause_resume_and_rate_keep_time_continuous(monkeypatch):
     for bad in (0, -1.0, float("nan"), float("inf")):
         with pytest.raises(ValueError, match="rate must be a number > 0"):
             st.set_rate(bad)
+
+
+def test_a_clock_only_launch_keeps_serving_until_ctrl_c(clock_env, tmp_path):
+    import signal
+
+    f = tmp_path / "clock_only.yaml"
+    f.write_text("clock: {start: 5, rate: 0.5}\n")
+    p = Proc([sys.executable, "-m", "zentf.launch", str(f)], env=clock_env, cwd=tmp_path)
+    try:
+        p.wait_for_line(r"sim clock: /clock from t=5\.000 s at 0\.5x", 30)
+        st = zentf_clock(clock_env)
+        assert st["paused"] is False and st["rate"] == 0.5 and st["time"] >= 5.0
+        assert p.returncode is None
+        p.signal(signal.SIGINT)
+        assert p.wait(10) == 0
+    finally:
+        p.stop()

@@ -131,7 +131,7 @@ def launch(file: str, args: tuple[str, ...], print_only: bool, show_args: bool, 
     if show_args:
         click.echo(_show_args(desc), nl=False)
         return 0
-    if not desc.nodes:
+    if not desc.nodes and desc.clock is None:
         log.warning("%s starts no nodes (all conditions false?)", desc.file)
     return _run(desc, zopts, log_dir, _use_color(color), stop_timeout)
 
@@ -163,7 +163,7 @@ def _run(desc: Any, zopts: Any, log_dir: Optional[Path], color: bool, stop_timeo
         log.info("--listen/ZENTF_LISTEN is for the launcher's own session only; nodes do not get it")
     times = StopTimes(sigint=stop_timeout, sigterm=stop_timeout, sigkill=0.8)
     sup = Supervisor(desc.nodes, base_env=env, log_dir=log_dir or _default_log_dir(desc), color=color,
-                     stop_times=times)
+                     stop_times=times, keep_alive=clock is not None and not desc.nodes)
     log.info("launching %s: %d node(s)", desc.file, len(desc.nodes))
     try:
         return sup.run()

@@ -89,9 +89,8 @@ class SimClockPublisher:
         self._publish()
         self._thread = threading.Thread(target=self._run, name="zentf-launch-clock", daemon=True)
         self._thread.start()
-        state = self.sim.state()
-        log.info("sim clock: /clock from t=%.3f s at %gx, %g Hz%s; control on %s", state["time"], state["rate"],
-                 spec.frequency, " (paused)" if state["paused"] else "", CONTROL_KEY)
+        log.info("sim clock: /clock from t=%.3f s at %gx, %g Hz%s; control on %s", start_ns / 1e9, spec.rate,
+                 spec.frequency, " (paused)" if spec.paused else "", CONTROL_KEY)
 
     def _publish(self) -> None:
         from zentf.time import Time

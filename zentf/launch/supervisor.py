@@ -87,6 +87,7 @@ class Supervisor:
     stop_times: StopTimes = field(default_factory=StopTimes)
     out: BinaryIO | None = None
     on_started: Callable[["Supervisor"], None] | None = None
+    keep_alive: bool = False  # run until a signal even when no node is left (a clock-only launch)
     _children: list[_Child] = field(default_factory=list, init=False)
     _sel: selectors.BaseSelector = field(default=None, init=False)  # type: ignore[assignment]
     _stopping: int = field(default=0, init=False)  # 0 running, 1 SIGINT sent, 2 SIGTERM sent, 3 SIGKILL sent
@@ -302,7 +303,9 @@ class Supervisor:
             return True
         if any(c.running for c in self._children):
             return False
-        return bool(self._stopping) or not any(c.respawn_at is not None for c in self._children)
+        if self._stopping:
+            return True
+        return not self.keep_alive and not any(c.respawn_at is not None for c in self._children)
 
     def _loop(self) -> None:
         while not self._done():
