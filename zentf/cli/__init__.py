@@ -65,6 +65,8 @@ _COMMANDS: dict[str, tuple[str, str]] = {
     "launch": ("zentf.cli.extern:launch", "Start a node graph from a launch file."),
     "clock": ("zentf.cli.extern:clock", "Publish or inspect the /clock sim time."),
     "router": ("zentf.cli.extern:router", "Run a Zenoh router (multi-machine graphs)."),
+    "view": ("zentf.cli.view:view", "Live 3D view of frames, markers and points (Rerun)."),
+    "bag": ("zentf.cli.bag:bag", "Record, inspect and play MCAP bags (rosbag)."),
 }
 
 
