@@ -16,6 +16,21 @@ import pickle
 import sys
 
 
+def can_with_reason(core, op):
+    """Like tf2_oracle's can/can_full answers, plus tf2's error string (the oracle drops it)."""
+    import rospy
+
+    def t(pair):
+        return rospy.Time(int(pair[0]), int(pair[1]))
+
+    if op["op"] == "can":
+        ok, msg = core.can_transform_core(op["target"], op["source"], t(op["time"]))
+    else:
+        ok, msg = core.can_transform_full_core(op["target"], t(op["target_time"]), op["source"],
+                                               t(op["source_time"]), op["fixed"])
+    return {"ok": True, "can": bool(ok), "message": msg}
+
+
 def main():
     sys.path.insert(0, sys.argv[1])
     import rospy
@@ -31,6 +46,9 @@ def main():
         answers = []
         for op in scenario["ops"]:
             try:
+                if op["op"] in ("can", "can_full"):
+                    answers.append(can_with_reason(core, op))
+                    continue
                 answers.append(answer(core, op))
             except tf2_py.TransformException as e:
                 answers.append({"ok": False, "error": type(e).__name__, "message": str(e)})

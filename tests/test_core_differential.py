@@ -3,7 +3,8 @@
 The oracle runs in a /usr/bin/python3 subprocess (tests/ref_runner.py) that expands the same
 seeds with gen_scenario.py, while this process answers them with zentf. Agreement must be total:
 same exception class and message, translations within 1e-9, rotations equal up to sign within
-1e-9, identical stamps and frame ids, identical can_transform answers.
+1e-9, identical stamps and frame ids, identical can_transform answers and reasons (the runner asks
+tf2 for the reason string, which tf2_oracle.py itself drops).
 
 One deliberate accommodation: tf2_py turns every time into float seconds (``rospy.Time.to_sec``)
 and back (``ros::Time::fromSec``), which can move a stamp by 1 ns. That is the binding, not tf2's
@@ -92,12 +93,14 @@ def zentf_answer(core: BufferCore, op: dict[str, Any]) -> dict[str, Any]:
             op["target"], Time(nanoseconds=oracle_time_ns(op["target_time"])), op["source"],
             Time(nanoseconds=oracle_time_ns(op["source_time"])), op["fixed"]))
     if kind == "can":
-        return {"ok": True, "can": core.can_transform(op["target"], op["source"],
-                                                      Time(nanoseconds=oracle_time_ns(op["time"])))}
+        ok, msg = core.can_transform(op["target"], op["source"], Time(nanoseconds=oracle_time_ns(op["time"])),
+                                     return_debug_tuple=True)
+        return {"ok": True, "can": ok, "message": msg}
     if kind == "can_full":
-        return {"ok": True, "can": core.can_transform_full(
+        ok, msg = core.can_transform_full(
             op["target"], Time(nanoseconds=oracle_time_ns(op["target_time"])), op["source"],
-            Time(nanoseconds=oracle_time_ns(op["source_time"])), op["fixed"])}
+            Time(nanoseconds=oracle_time_ns(op["source_time"])), op["fixed"], return_debug_tuple=True)
+        return {"ok": True, "can": ok, "message": msg}
     if kind == "clear":
         core.clear()
         return {"ok": True}
@@ -137,7 +140,11 @@ def mismatch(op: dict[str, Any], want: dict[str, Any], got: dict[str, Any]) -> s
             return f"oracle {want['error']}: {want['message']!r}\n zentf {got['error']}: {got['message']!r}"
         return ""
     if "can" in want:
-        return "" if want["can"] == got["can"] else f"can_transform oracle {want['can']} vs zentf {got['can']}"
+        if want["can"] != got["can"]:
+            return f"can_transform oracle {want['can']} vs zentf {got['can']}"
+        if "message" in want and want["message"] != got["message"]:
+            return f"can_transform reason: oracle {want['message']!r}\n zentf {got['message']!r}"
+        return ""
     if "t" not in want:
         return ""
     for k in ("stamp", "frame_id", "child_frame_id"):
@@ -257,3 +264,79 @@ def test_hand_made_edge_cases_agree_with_tf2() -> None:
     problems = [f"op #{i} {op}: {mismatch(op, w, g)}" for i, (op, w, g) in enumerate(zip(ops, theirs, ours))
                 if mismatch(op, w, g)]
     assert not problems, "\n".join(problems)
+
+
+def chaos_scenario(seed: int, n_ops: int = 400) -> dict[str, Any]:
+    """Small, dense scenarios the reference generator never makes: few frames and a coarse stamp
+    grid (so repeated stamps, exact-sample lookups and re-parenting are frequent), static/dynamic
+    switches, loops, clear(), leading slashes, NaN and denormalized input, a short cache."""
+    import random
+
+    rng = random.Random(seed)
+    frames = ["a", "b", "c", "d", "e", "f"]
+    grid = [1000 + k * 0.25 for k in range(24)]
+
+    def when() -> list[int]:
+        r = rng.random()
+        if r < 0.15:
+            return [0, 0]
+        t = rng.choice(grid) + (rng.choice([0.0, 0.0, 0.125, 0.0625, 1e-9]) if r < 0.9 else rng.uniform(-3, 9))
+        sec = int(t)
+        return [sec, int(round((t - sec) * 1e9)) % 1_000_000_000]
+
+    ops: list[dict[str, Any]] = []
+    for _ in range(n_ops):
+        kind = rng.random()
+        if kind < 0.5:
+            parent, child = rng.sample(frames, 2)
+            q = [rng.uniform(-1, 1) for _ in range(4)]
+            norm = math.sqrt(sum(x * x for x in q)) or 1.0
+            q = [x / norm for x in q]
+            t = [rng.uniform(-2, 2) for _ in range(3)]
+            bad = rng.random()
+            if bad < 0.03:
+                t[0] = float("nan")
+            elif bad < 0.06:
+                q = [0.0, 0.0, 0.3, 0.3]
+            elif bad < 0.09:
+                parent = "/" + parent
+            elif bad < 0.11:
+                child = parent
+            stamp = when()
+            if stamp == [0, 0]:
+                stamp = [1000, 0]
+            ops.append({"op": "set", "parent": parent, "child": child, "stamp": stamp, "t": t, "q": q,
+                        "static": rng.random() < 0.15, "authority": "chaos"})
+        elif kind < 0.52:
+            ops.append({"op": "clear"})
+        else:
+            a, b = rng.choice(frames + ["zz", "", "/a"]), rng.choice(frames)
+            r = rng.random()
+            if r < 0.45:
+                ops.append({"op": "lookup", "target": a, "source": b, "time": when()})
+            elif r < 0.7:
+                ops.append({"op": "can", "target": a, "source": b, "time": when()})
+            elif r < 0.9:
+                ops.append({"op": "lookup_full", "target": a, "target_time": when(), "source": b,
+                            "source_time": when(), "fixed": rng.choice(frames)})
+            else:
+                ops.append({"op": "can_full", "target": a, "target_time": when(), "source": b,
+                            "source_time": when(), "fixed": rng.choice(frames)})
+    return {"seed": seed, "cache_time": rng.choice([1.0, 2.0, 10.0]), "ops": ops}
+
+
+def test_chaos_scenarios_agree_with_tf2() -> None:
+    require_oracle()
+    scenarios = [chaos_scenario(seed) for seed in range(60)]
+    r = subprocess.run([SYSTEM_PYTHON, str(RUNNER), str(REF_DIR), "--pickle"],
+                       input=pickle.dumps({"scenarios": scenarios}, protocol=4), capture_output=True, timeout=300)
+    assert r.returncode == 0, r.stderr.decode()[-2000:]
+    theirs = pickle.loads(r.stdout)
+    failures = []
+    for scenario, want_all in zip(scenarios, theirs):
+        got_all = answer_all(scenario)
+        for i, (op, want, got) in enumerate(zip(scenario["ops"], want_all, got_all)):
+            problem = mismatch(op, want, got)
+            if problem:
+                failures.append(f"chaos seed {scenario['seed']} op #{i} {op}:\n {problem}")
+    assert not failures, f"{len(failures)} disagreements, first ones:\n" + "\n".join(failures[:5])

@@ -748,14 +748,7 @@ class BufferCore:
         tt = _ns(target_time)
         st = _ns(source_time)
         with self._lock:
-            ok, msg = False, ""
-            if not (self._warn_frame_id("canTransform argument target_frame", target_frame)
-                    or self._warn_frame_id("canTransform argument source_frame", source_frame)
-                    or self._warn_frame_id("canTransform argument fixed_frame", fixed_frame)):
-                # tf2 asks the first half without an error string, so only the second half explains
-                ok, _ = self._can(target_frame, fixed_frame, tt, "canTransform")
-                if ok:
-                    ok, msg = self._can(fixed_frame, source_frame, st, "canTransform")
+            ok, msg = self._can_full(target_frame, tt, source_frame, st, fixed_frame)
         return (ok, msg) if return_debug_tuple else ok
 
     def can_transform_full_core(self, target_frame: str, target_time: TimeArg, source_frame: str,
@@ -763,6 +756,29 @@ class BufferCore:
         """tf2_py spelling: always (bool, reason)."""
         return self.can_transform_full(target_frame, target_time, source_frame, source_time,  # type: ignore[return-value]
                                        fixed_frame, True)
+
+    def _can_full(self, target: str, tt: int, source: str, st: int, fixed: str) -> tuple[bool, str]:
+        """tf2 0.7.6's advanced canTransform, including its message quirks (probed)."""
+        if (self._warn_frame_id("canTransform argument target_frame", target)
+                or self._warn_frame_id("canTransform argument source_frame", source)
+                or self._warn_frame_id("canTransform argument fixed_frame", fixed)):
+            return False, ""
+        ids = self._ids
+        tid, sid, fid = ids.get(target, 0), ids.get(source, 0), ids.get(fixed, 0)
+        if not (tid and sid and fid):
+            msg = ""
+            if not tid:
+                msg += f"canTransform: target_frame {target} does not exist."
+            if not sid:
+                msg += (" " if not tid else "") + f"canTransform: source_frame {source} does not exist."
+                # tf2 tests source_id again here instead of fixed_id, so this line appears (with
+                # no space before "does") exactly when the *source* is unknown
+                msg += f" fixed_frame: {fixed}does not exist."
+            return False, msg
+        ok, msg = self._can_ids(tid, fid, tt)
+        if not ok:
+            return False, msg
+        return self._can_ids(fid, sid, st)
 
     def _can(self, target: str, source: str, t: int, fn: str) -> tuple[bool, str]:
         if target == source:
