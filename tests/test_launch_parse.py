@@ -322,3 +322,38 @@ def test_zentf_cli_delegates_launch_and_refuses_bad_zenoh_options(tmp_path):
     r = subprocess.run([sys.executable, "-m", "zentf.cli", "launch", "laser", "--connect", "nonsense"],
                        capture_output=True, text=True, timeout=60, cwd=tmp_path)
     assert r.returncode == 2 and "bad endpoint 'nonsense'" in r.stderr and len(r.stderr.splitlines()) == 1
+
+
+def test_mangled_launch_files_are_refused_in_one_line_never_crash(tmp_path):
+    """Seeded mutations of the shipped files: every outcome is a result or a one-line LaunchError."""
+    import random
+
+    sources = [(REPO / "configs" / f"{n}.yaml").read_text() for n in ("drones", "laser", "turtles", "multi_robot")]
+    for name in ("laser.yaml", "robot.yaml"):
+        (tmp_path / name).symlink_to(REPO / "configs" / name)
+    snippets = ["\n  - {cmd: [true], name: n$(arg x)}\n", "clock: {rate: nan}\n", "args: [1, 2]\n", "nodes: [[]]\n",
+                "parameters: {a: .inf}\n", "$(", ")", ":", "- ", "{", "}", "[", "]", "\t", "&a ", "*a", "? ",
+                "<<: *a", "!!python/object:os.system x", "\x00", "respawn_max: -3", "namespace: /", "if: maybe",
+                "  env: {1: 2}\n", "remappings: ['a:=']\n", "arguments: [{a: 1}]\n", "frequency: 1e9\n"]
+    rng = random.Random(4)
+    path = tmp_path / "f.yaml"
+    outcomes = {"ok": 0, "refused": 0}
+    for _ in range(400):
+        text = rng.choice(sources)
+        for _ in range(rng.randint(1, 4)):
+            pos = rng.randint(0, len(text))
+            op = rng.random()
+            if op < 0.4:
+                text = text[:pos] + rng.choice(snippets) + text[pos:]
+            elif op < 0.7:
+                text = text[:pos] + text[pos + rng.randint(1, 20):]
+            else:
+                text = text[:pos] + chr(rng.randint(32, 126)) + text[pos:]
+        path.write_text(text)
+        try:
+            load_launch(str(path), ["robot:=r"] if rng.random() < 0.5 else [])
+            outcomes["ok"] += 1
+        except LaunchError as e:
+            assert "\n" not in str(e) and str(e).startswith(str(path)), repr(str(e))
+            outcomes["refused"] += 1
+    assert outcomes["ok"] > 20 and outcomes["refused"] > 100, outcomes

@@ -76,8 +76,11 @@ def load_yaml_text(text: str, file: str) -> Y | None:
         mark = e.problem_mark or e.context_mark
         what = " ".join(p for p in (e.context, e.problem) if p) or "invalid YAML"
         raise LaunchError(f"YAML error: {what}", file, mark.line + 1 if mark else None) from None
+    except yaml.reader.ReaderError as e:
+        line = text.count("\n", 0, e.position) + 1 if isinstance(e.position, int) else None
+        raise LaunchError(f"YAML error: character {e.character!r} is not allowed ({e.reason})", file, line) from None
     except yaml.YAMLError as e:
-        raise LaunchError(f"YAML error: {e}", file) from None
+        raise LaunchError(f"YAML error: {str(e).strip().splitlines()[0]}", file) from None
 
 
 def _convert(node: yaml.Node, loader: Any, file: str) -> Y:
