@@ -139,15 +139,15 @@ def test_multi_robot_namespaces_isolate_trees_sharing_world(launch, node_options
 
 def test_remappings_and_namespaces_land_where_they_should(launch, tmp_path, zenoh_session, test_namespace):
     f = tmp_path / "remap.yaml"
-    f.write_text(textwrap.dedent(f"""
+    f.write_text(textwrap.dedent("""
         groups:
           - namespace: team
             nodes:
               - module: nodes.point_publisher
                 name: pp
                 namespace: unit
-                remappings: {{laser_point: moved_point}}
-                parameters: {{period: 0.05}}
+                remappings: {laser_point: moved_point}
+                parameters: {period: 0.05}
         """))
     got: dict[str, threading.Event] = {k: threading.Event() for k in ("moved", "original")}
     base = f"{test_namespace}/team/unit"

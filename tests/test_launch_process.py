@@ -92,7 +92,7 @@ def alive(pid: int) -> bool:
 
 
 def test_screen_output_is_prefixed_and_log_output_goes_to_a_file(tmp_path, launch):
-    f = write(tmp_path, f"""
+    f = write(tmp_path, """
         nodes:
           - name: talker
             cmd: [sh, -c, 'echo first line; echo second line >&2; printf "no newline"']

@@ -7,7 +7,6 @@ thread matters: PR_SET_PDEATHSIG fires when the *thread* that forked the child e
 from __future__ import annotations
 
 import ctypes
-import errno
 import logging
 import os
 import selectors
