@@ -313,6 +313,9 @@ def test_cli_print_and_show_args(tmp_path):
     r = subprocess.run([sys.executable, "-m", "zentf.launch", "drones", "--show-args"], capture_output=True,
                        text=True, timeout=60, env=env)
     assert r.returncode == 0 and "static  default: 'false'" in r.stdout
+    r = subprocess.run([sys.executable, "-m", "zentf.launch", "robot", "--show-args"], capture_output=True,
+                       text=True, timeout=60, env=env)  # a required arg does not stop --show-args
+    assert r.returncode == 0 and "robot  (required)" in r.stdout, r.stderr
 
 
 def test_zentf_cli_delegates_launch_and_refuses_bad_zenoh_options(tmp_path):

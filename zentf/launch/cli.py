@@ -85,11 +85,14 @@ def format_description(desc: Any) -> str:
     return yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100)
 
 
-def _show_args(desc: Any) -> str:
-    if not desc.arg_specs:
-        return f"{desc.file} declares no arguments\n"
-    lines = [f"Arguments of {desc.file} (give as name:=value):"]
-    for a in desc.arg_specs:
+def _show_args(file: str) -> str:
+    from .description import declared_args
+
+    path, specs = declared_args(file)
+    if not specs:
+        return f"{path} declares no arguments\n"
+    lines = [f"Arguments of {path} (give as name:=value):"]
+    for a in specs:
         default = "(required)" if a.default is None else f"default: {a.default!r}"
         lines.append(f"  {a.name}  {default}" + (f"  - {a.description}" if a.description else ""))
     return "\n".join(lines) + "\n"
@@ -121,15 +124,15 @@ def launch(file: str, args: tuple[str, ...], print_only: bool, show_args: bool, 
     """
     from .description import load_launch
 
+    if show_args:
+        click.echo(_show_args(file), nl=False)
+        return 0
     _setup_logging(opts.debug)
     zopts = node_options(opts, "launch").zenoh  # flags > ZENTF_* env > defaults; CliError on bad values
     namespace = opts.namespace if opts.namespace is not None else os.environ.get("ZENTF_NAMESPACE", "")
     desc = load_launch(file, list(args), namespace=namespace)
     if print_only:
         click.echo(format_description(desc), nl=False)
-        return 0
-    if show_args:
-        click.echo(_show_args(desc), nl=False)
         return 0
     if not desc.nodes and desc.clock is None:
         log.warning("%s starts no nodes (all conditions false?)", desc.file)

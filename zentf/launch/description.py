@@ -206,6 +206,7 @@ class _Loader:
               ctx: SubstitutionContext) -> tuple[dict[str, str], list[ArgSpec]]:
         decl = root.value.get("args")
         specs: list[ArgSpec] = []
+        default_nodes: dict[str, Y | None] = {}  # the YAML default of each arg (None: required)
         if decl is not None and decl.value is not None:
             if not decl.is_map:
                 raise decl.error("args: must be a mapping of name -> {default, description} (or name -> default)")
@@ -225,7 +226,8 @@ class _Loader:
                     raise y.error(f"argument {name!r}: expected a default value or {{default, description}}")
                 else:
                     default = y
-                specs.append(ArgSpec(name, None if default is None else default, description, line))
+                specs.append(ArgSpec(name, None, description, line))
+                default_nodes[name] = default
         declared = {s.name for s in specs}
         for name in given:
             if name not in declared:
@@ -236,16 +238,17 @@ class _Loader:
                                   f"(declared: {known})", *where)
         values: dict[str, str] = {}
         for spec in specs:
+            y = default_nodes[spec.name]
+            if y is not None and not y.is_scalar:
+                raise y.error(f"argument {spec.name!r}: default must be a single value")
             if spec.name in given:
                 values[spec.name] = given[spec.name]
-            elif spec.default is None:
+                if y is not None:  # shown by --show-args as written
+                    spec.default = y.raw if y.raw is not None else _arg_text(y.value)
+            elif y is None:
                 raise LaunchError(f"argument {spec.name!r} is required (it has no default); "
                                   f"give it as {spec.name}:=VALUE", root.file, spec.line)
             else:
-                y = spec.default
-                assert isinstance(y, Y)
-                if not y.is_scalar:
-                    raise y.error(f"argument {spec.name!r}: default must be a single value")
                 ctx.args = values
                 value = self._sub_text(y, ctx) if isinstance(y.value, str) else _arg_text(y.value)
                 values[spec.name] = value
@@ -622,6 +625,23 @@ def _read_params_file(path: str, node: NodeSpec, where: Y) -> dict[str, Any]:
                 merged.update(section["ros__parameters"])
         return merged
     return data
+
+
+def declared_args(file: str) -> tuple[str, list[ArgSpec]]:
+    """The arguments a launch file declares, defaults as written (for --show-args; nothing resolved)."""
+    path = display_path(resolve_launch_file(file))
+    root = load_yaml_file(path)
+    specs: list[ArgSpec] = []
+    decl = root.value.get("args") if root is not None and root.is_map else None
+    if decl is not None and decl.is_map:
+        for name, y in decl.value.items():
+            default, description = (y.value.get("default"), y.value.get("description")) if y.is_map else (y, None)
+            text = None
+            if isinstance(default, Y) and default.is_scalar:
+                text = default.raw if default.raw is not None else _arg_text(default.value)
+            desc = str(description.value or "") if isinstance(description, Y) else ""
+            specs.append(ArgSpec(name, text, desc, decl.key_lines[name]))
+    return path, specs
 
 
 def display_path(path: str) -> str:
