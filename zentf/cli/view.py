@@ -1,0 +1,93 @@
+"""`zentf view`: the live 3D view (frames, markers, points) in Rerun: native window, browser or .rrd file."""
+from __future__ import annotations
+
+import os
+import sys
+from typing import Optional
+from urllib.parse import quote
+
+import click
+
+from .bag import _stop_on_signals
+from .common import CONTEXT_SETTINGS, CliError, CliOptions, node_options, with_options
+
+__all__ = ["view"]
+
+
+@click.command("view", context_settings=CONTEXT_SETTINGS)
+@click.option("--fixed-frame", "-f", default="world", show_default=True, help="Frame the scene is drawn in.")
+@click.option("--web", is_flag=True, help="Serve the web viewer (open the printed URL in a browser).")
+@click.option("--web-port", type=click.IntRange(1, 65535), default=9090, show_default=True)
+@click.option("--grpc-port", type=click.IntRange(1, 65535), default=9876, show_default=True,
+              help="Port of the Rerun data server the web viewer connects to.")
+@click.option("--bind", default="127.0.0.1", show_default=True, help="Address the --web servers listen on.")
+@click.option("--save", "save", type=click.Path(dir_okay=False, writable=True), default=None,
+              help="Write the recording to this .rrd file (open later with `rerun FILE.rrd`).")
+@click.option("--rate", type=click.FloatRange(min=0.5, max=200), default=20.0, show_default=True,
+              help="Scene refreshes per second.")
+@click.option("--axis-length", type=click.FloatRange(min=0.0, min_open=True), default=0.3, show_default=True)
+@click.option("--duration", type=click.FloatRange(min=0.0, min_open=True), default=None,
+              help="Stop after this many seconds (default: until Ctrl-C).")
+@click.option("--use-sim-time", is_flag=True, help="Time line from /clock (e.g. with `zentf bag play --clock`).")
+@with_options
+def view(fixed_frame: str, web: bool, web_port: int, grpc_port: int, bind: str, save: Optional[str], rate: float,
+         axis_length: float, duration: Optional[float], use_sim_time: bool, *, opts: CliOptions) -> None:
+    """Live 3D view of every tf frame (axes + names), marker arrays and points, like RViz."""
+    from zentf.view import require_rerun
+
+    try:
+        rr = require_rerun()
+    except ImportError as exc:
+        raise CliError(str(exc)) from exc
+    if not web and not save and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise CliError("no display for the native viewer: use --web (browser) or --save FILE.rrd", code=2)
+
+    from zentf.node import Node
+    from zentf.view import Viewer
+
+    nopts = node_options(opts, f"_zentf_view_{os.getpid()}")
+    if use_sim_time:
+        nopts.params["use_sim_time"] = True
+    try:
+        node = Node(options=nopts, check_unique=False)
+    except Exception as exc:  # noqa: BLE001
+        raise CliError(f"cannot open a Zenoh session: {exc}".splitlines()[0]) from exc
+    rec = rr.RecordingStream("zentf_view")
+    try:
+        sinks = []
+        if save:
+            sinks.append(rr.FileSink(save))
+        if web:
+            sinks.append(rr.GrpcServerSink(bind_ip=bind, port=grpc_port))
+        try:
+            if sinks:
+                rec.set_sinks(*sinks)
+            else:
+                rec.spawn()
+        except Exception as exc:  # noqa: BLE001 - port in use, no viewer binary, unwritable file
+            raise CliError(f"cannot start the Rerun viewer: {exc}".splitlines()[0]) from exc
+        if web:
+            grpc_url = f"rerun+http://{'127.0.0.1' if bind in ('0.0.0.0', '::') else bind}:{grpc_port}/proxy"
+            try:
+                rr.serve_web_viewer(web_port=web_port, open_browser=False, connect_to=grpc_url)
+            except Exception as exc:  # noqa: BLE001
+                raise CliError(f"cannot serve the web viewer on port {web_port}: {exc}".splitlines()[0]) from exc
+            print(f"web viewer: http://{'localhost' if bind in ('127.0.0.1', '0.0.0.0') else bind}:{web_port}"
+                  f"/?url={quote(grpc_url, safe='')}", flush=True)
+        if save:
+            print(f"saving to {save}", flush=True)
+        viewer = Viewer(node, rec, fixed_frame=fixed_frame, axis_length=axis_length)
+        print(f"viewing {node.get_namespace()} in fixed frame '{fixed_frame}' (Ctrl-C to stop)", flush=True)
+        with _stop_on_signals() as stop:
+            try:
+                viewer.run(stop, rate=rate, duration=duration)
+            finally:
+                viewer.close()
+        sys.stderr.write(f"view: {viewer.ticks} refreshes, {len(viewer._shown_frames)} frames shown\n")
+    finally:
+        try:
+            rec.flush()
+            rec.disconnect()
+        except Exception:  # noqa: BLE001
+            pass
+        node.shutdown()
