@@ -166,3 +166,16 @@ def test_format_hz() -> None:
     first, second = text.splitlines()
     assert first == "average rate: 50.000"
     assert "min: 0.020s max: 0.020s" in second and "window: 4" in second
+
+
+def test_stats_from_frame_info() -> None:
+    from zentf.cli.format import stats_from_frame_info
+    from zentf.time import Time
+
+    stats = stats_from_frame_info([
+        {"frame": "av1", "parent": "world", "broadcaster": "/fp", "static": False, "samples": 3,
+         "most_recent_transform": Time.from_sec(12.0), "oldest_transform": Time.from_sec(10.0), "rate": 1.5},
+        {"frame": "laser", "parent": "base_link", "broadcaster": "/s", "static": True, "samples": 1,
+         "most_recent_transform": Time(), "oldest_transform": Time(), "rate": 10000.0}])
+    assert stats[0].buffer_length == pytest.approx(2.0) and not stats[0].is_static
+    assert stats[1].is_static and stats[1].broadcaster == "/s"

@@ -35,7 +35,11 @@ class LazyGroup(click.Group):
             return cmd
         target, _ = self.lazy[name]
         module, attr = target.split(":")
-        cmd = getattr(importlib.import_module(module), attr)
+        try:
+            cmd = getattr(importlib.import_module(module), attr)
+        except (ImportError, AttributeError) as exc:
+            # A missing or broken optional part breaks only its own command.
+            raise CliError(f"'zentf {name}' is not available: {clean_error(exc)}") from exc
         self.add_command(cmd, name)
         return cmd
 
@@ -62,8 +66,8 @@ _COMMANDS: dict[str, tuple[str, str]] = {
     "graph": ("zentf.cli.graph:graph", "The node <-> topic graph (rqt_graph) as DOT + image + text."),
     "static-transform-publisher": ("zentf.cli.static:static_transform_publisher",
                                    "Publish a static transform (tf2_ros static_transform_publisher)."),
-    "launch": ("zentf.cli.extern:launch", "Start a node graph from a launch file."),
-    "clock": ("zentf.cli.extern:clock", "Publish or inspect the /clock sim time."),
+    "launch": ("zentf.launch.cli:launch", "Start a node graph from a launch file."),
+    "clock": ("zentf.launch.cli:clock", "Publish or inspect the /clock sim time."),
     "router": ("zentf.cli.extern:router", "Run a Zenoh router (multi-machine graphs)."),
     "view": ("zentf.cli.view:view", "Live 3D view of frames, markers and points (Rerun)."),
     "bag": ("zentf.cli.bag:bag", "Record, inspect and play MCAP bags (rosbag)."),

@@ -131,7 +131,7 @@ def open_node(opts: CliOptions, tool: str) -> Any:
 
     node_opts = node_options(opts, cli_node_name(tool))
     try:
-        return Node.from_options(node_opts)
+        return Node(options=node_opts, check_unique=False)
     except CliError:
         raise
     except Exception as exc:  # zenoh raises plain ZError / Exception here

@@ -1,4 +1,4 @@
-"""Commands owned by other packages (launch, clock, router): imported only when invoked."""
+"""Commands owned by other packages that are not click commands (router): imported only when invoked."""
 from __future__ import annotations
 
 import importlib
@@ -8,7 +8,7 @@ import click
 
 from .common import CliError
 
-__all__ = ["launch", "clock", "router", "delegate"]
+__all__ = ["router", "delegate"]
 
 _PASS_THROUGH = {"ignore_unknown_options": True, "allow_extra_args": True, "help_option_names": []}
 
@@ -60,22 +60,6 @@ def delegate(module: str, name: str, prog: str, args: list[str]) -> int:
     if isinstance(cmd, click.Group):
         return _run_click(cmd, [name, *args], prog.rsplit(" ", 1)[0])
     raise CliError(f"'{prog}' is not available: {module} defines no '{name}' command")
-
-
-@click.command("launch", context_settings=_PASS_THROUGH, add_help_option=False,
-               short_help="Start a node graph from a launch file.")
-@click.pass_context
-def launch(ctx: click.Context) -> int:
-    """Start a node graph from a launch file (see 'zentf launch --help')."""
-    return delegate("zentf.launch.cli", "launch", "zentf launch", list(ctx.args))
-
-
-@click.command("clock", context_settings=_PASS_THROUGH, add_help_option=False,
-               short_help="Publish or inspect the /clock sim time.")
-@click.pass_context
-def clock(ctx: click.Context) -> int:
-    """Publish or inspect the /clock sim time (see 'zentf clock --help')."""
-    return delegate("zentf.launch.cli", "clock", "zentf clock", list(ctx.args))
 
 
 @click.command("router", context_settings=_PASS_THROUGH, add_help_option=False,

@@ -9,7 +9,7 @@ from typing import Iterable, Mapping, Sequence
 __all__ = [
     "FrameStat", "NodeDesc", "rpy_from_quaternion", "matrix_from_quaternion", "format_echo",
     "parse_frames_yaml", "frame_trees", "format_frame_tree", "frames_dot", "node_graph_dot",
-    "format_node_graph", "format_hz", "format_stamp",
+    "format_node_graph", "format_hz", "format_stamp", "stats_from_frame_info",
 ]
 
 
@@ -96,9 +96,12 @@ class FrameStat:
     oldest: float = 0.0
     buffer_length: float = 0.0
     delay: float | None = None
+    static: bool | None = None
 
     @property
     def is_static(self) -> bool:
+        if self.static is not None:
+            return self.static
         return self.most_recent == 0.0 and self.oldest == 0.0
 
 
@@ -302,14 +305,20 @@ def format_hz(arrivals: Sequence[float]) -> str | None:
             f"\tmin: {min(deltas):.3f}s max: {max(deltas):.3f}s std dev: {std:.5f}s window: {len(arrivals)}")
 
 
-def stats_from_mapping(frames: Mapping[str, Mapping]) -> list[FrameStat]:
-    """FrameStats from a {child: {parent, broadcaster, rate, ...}} mapping (yaml-shaped)."""
+def _sec(t: object) -> float:
+    if hasattr(t, "nanoseconds"):
+        return t.nanoseconds / 1e9  # type: ignore[attr-defined]
+    return float(t)  # type: ignore[arg-type]
+
+
+def stats_from_frame_info(infos: Iterable[Mapping]) -> list[FrameStat]:
+    """FrameStats from BufferCore.frame_info() dicts (Time stamps, explicit static flag)."""
     out = []
-    for child, d in frames.items():
+    for d in infos:
+        newest, oldest = _sec(d.get("most_recent_transform", 0.0)), _sec(d.get("oldest_transform", 0.0))
         out.append(FrameStat(
-            child=str(child), parent=str(d.get("parent", "")),
+            child=str(d["frame"]), parent=str(d.get("parent", "")),
             broadcaster=str(d.get("broadcaster", "no recorded authority")), rate=float(d.get("rate", 0.0)),
-            most_recent=float(d.get("most_recent_transform", d.get("most_recent", 0.0))),
-            oldest=float(d.get("oldest_transform", d.get("oldest", 0.0))),
-            buffer_length=float(d.get("buffer_length", 0.0))))
+            most_recent=newest, oldest=oldest, buffer_length=newest - oldest,
+            static=bool(d["static"]) if "static" in d else None))
     return out

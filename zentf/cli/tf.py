@@ -167,10 +167,12 @@ def write_graph(dot_text: str, output: Optional[str], default_stem: str) -> tupl
 
 
 def _frame_stats(buffer: Any) -> list:
-    from .format import parse_frames_yaml
+    """view_frames' per-edge figures from the buffer (frame_info, else tf2's YAML report)."""
+    from .format import parse_frames_yaml, stats_from_frame_info
 
-    core = getattr(buffer, "core", buffer)
-    return parse_frames_yaml(core.all_frames_as_yaml())
+    if hasattr(buffer, "frame_info"):
+        return stats_from_frame_info(buffer.frame_info())
+    return parse_frames_yaml(buffer.all_frames_as_yaml())
 
 
 @tf.command("frames", context_settings=CONTEXT_SETTINGS)
@@ -223,3 +225,283 @@ def _tf_topics(opts: CliOptions) -> str:
 
     ns = (opts.namespace if opts.namespace is not None else os.environ.get("ZENTF_NAMESPACE", "")).strip("/")
     return f"/{ns}/tf and /{ns}/tf_static" if ns else "/tf and /tf_static"
+
+
+# --------------------------------------------------------------------------------------------
+# tf monitor
+# --------------------------------------------------------------------------------------------
+
+class _FrameFigures:
+    """Arrivals and delays of one child frame (last 1000, as tf2_monitor keeps)."""
+
+    __slots__ = ("parent", "authority", "static", "arrivals", "delays")
+
+    def __init__(self) -> None:
+        from collections import deque
+
+        self.parent = ""
+        self.authority = ""
+        self.static = False
+        self.arrivals: Any = deque(maxlen=1000)
+        self.delays: Any = deque(maxlen=1000)
+
+
+class MonitorStats:
+    """A BufferCore stand-in for wire.ingest_tf: records per-frame and per-node figures, then forwards.
+
+    Delay = receive wall time - header stamp (0 for tf_static, as in ROS 1 tf_monitor).
+    """
+
+    def __init__(self, forward: Any = None, window: float = 10.0) -> None:
+        import threading
+
+        self.forward = forward
+        self.window = window
+        self.lock = threading.Lock()
+        self.frames: dict[str, _FrameFigures] = {}
+        self.nodes: dict[str, _FrameFigures] = {}
+        self.messages = 0
+
+    def set_transforms_raw(self, samples: list, authority: str, is_static: bool) -> int:
+        now_ns = time.time_ns()
+        mono = time.monotonic()
+        with self.lock:
+            self.messages += 1
+            total = 0.0
+            for s in samples:
+                parent, child, stamp = s[0], s[1], s[2]
+                f = self.frames.get(child)
+                if f is None:
+                    f = self.frames[child] = _FrameFigures()
+                f.parent, f.authority, f.static = parent, authority, is_static
+                delay = 0.0 if is_static else (now_ns - stamp) / 1e9
+                f.arrivals.append(mono)
+                f.delays.append(delay)
+                total += delay
+            n = self.nodes.get(authority)
+            if n is None:
+                n = self.nodes[authority] = _FrameFigures()
+            n.static = is_static
+            n.arrivals.append(mono)
+            n.delays.append(total / max(1, len(samples)))
+        if self.forward is not None:
+            return self.forward.set_transforms_raw(samples, authority, is_static)
+        return len(samples)
+
+    def set_transform_raw(self, *args: Any) -> bool:
+        return bool(self.set_transforms_raw([args[:10]], args[10], args[11]))
+
+    def _rate(self, arrivals: Any, now: float) -> Optional[float]:
+        recent = [t for t in arrivals if now - t <= self.window]
+        if len(recent) < 2 or recent[-1] <= recent[0]:
+            return None
+        return (len(recent) - 1) / (recent[-1] - recent[0])
+
+    def rows(self, only: Optional[list[str]] = None) -> list[tuple[str, str, str, Optional[float], float, float, bool]]:
+        """(frame, parent, broadcaster, rate Hz, avg delay s, max delay s, static), sorted by frame."""
+        now = time.monotonic()
+        out = []
+        with self.lock:
+            for child in sorted(self.frames):
+                if only is not None and child not in only:
+                    continue
+                f = self.frames[child]
+                d = list(f.delays)
+                out.append((child, f.parent, f.authority, None if f.static else self._rate(f.arrivals, now),
+                            sum(d) / len(d) if d else 0.0, max(d) if d else 0.0, f.static))
+        return out
+
+    def node_rows(self) -> list[tuple[str, Optional[float], float, float, bool]]:
+        now = time.monotonic()
+        with self.lock:
+            return [(name, None if n.static else self._rate(n.arrivals, now),
+                     sum(n.delays) / len(n.delays) if n.delays else 0.0, max(n.delays, default=0.0), n.static)
+                    for name, n in sorted(self.nodes.items())]
+
+
+def _fmt_rate(rate: Optional[float], static: bool) -> str:
+    if static:
+        return "static"
+    return "-" if rate is None else f"{rate:.1f}"
+
+
+def format_monitor_text(stats: MonitorStats, title: str, chain: Optional[list[str]] = None,
+                        net: Optional[tuple[float, float]] = None) -> str:
+    """The plain-text tf2_monitor report (used when stdout is not a terminal)."""
+    lines = [f"RESULTS: {title}"]
+    if chain is not None:
+        lines.append("Chain is: " + " -> ".join(chain))
+        if net is not None:
+            lines.append(f"Net delay     avg = {net[0] * 1e3:.3f} ms: max = {net[1] * 1e3:.3f} ms")
+        else:
+            lines.append("Net delay     n/a (static chain)")
+    rows = stats.rows(chain)
+    table = [("frame", "parent", "broadcaster", "rate_hz", "avg_delay_ms", "max_delay_ms")]
+    table += [(r[0], r[1], r[2], _fmt_rate(r[3], r[6]), f"{r[4] * 1e3:.3f}", f"{r[5] * 1e3:.3f}") for r in rows]
+    widths = [max(len(row[i]) for row in table) for i in range(6)]
+    lines.append("")
+    lines.append("Frames:")
+    for row in table:
+        lines.append("  ".join(cell.ljust(widths[i]) for i, cell in enumerate(row)).rstrip())
+    lines.append("")
+    lines.append("All Broadcasters:")
+    for name, rate, avg, mx, static in stats.node_rows():
+        freq = "static" if static else f"{_fmt_rate(rate, static)} Hz"
+        lines.append(f"Node: {name} {freq}, Average Delay: {avg * 1e3:.3f} ms, Max Delay: {mx * 1e3:.3f} ms")
+    return "\n".join(lines)
+
+
+def _monitor_table(stats: MonitorStats, title: str, chain: Optional[list[str]],
+                   net: Optional[tuple[float, float]]) -> Any:
+    """The live rich view: frames table (+ chain/net delay caption)."""
+    from rich.table import Table
+
+    caption = None
+    if chain is not None:
+        caption = "Chain: " + " -> ".join(chain)
+        caption += (f"   net delay avg {net[0] * 1e3:.3f} ms, max {net[1] * 1e3:.3f} ms" if net
+                    else "   net delay n/a (static chain)")
+    table = Table(title=f"zentf tf monitor: {title}", caption=caption, expand=False)
+    for col, justify in (("Frame", "left"), ("Parent", "left"), ("Broadcaster", "left"), ("Rate (Hz)", "right"),
+                         ("Avg delay (ms)", "right"), ("Max delay (ms)", "right")):
+        table.add_column(col, justify=justify)  # type: ignore[arg-type]
+    for r in stats.rows(chain):
+        table.add_row(r[0], r[1], r[2], _fmt_rate(r[3], r[6]), f"{r[4] * 1e3:.3f}", f"{r[5] * 1e3:.3f}")
+    return table
+
+
+def _subscribe_tf(node: Any, stats: MonitorStats) -> list:
+    """Subscribe tf (plain) and tf_static (latched history) and feed wire.ingest_tf into `stats`."""
+    import zenoh.ext as zx
+
+    from zentf import wire
+    from zentf.names import topic_to_key
+
+    subs = []
+    for topic, is_static in (("tf_static", True), ("tf", False)):
+        key = topic_to_key(node.resolve_topic_name(topic))
+
+        def on_sample(sample: Any, is_static: bool = is_static, key: str = key) -> None:
+            try:
+                wire.ingest_tf(sample.payload.to_bytes(), stats,
+                               wire.authority_of(sample.attachment, key), is_static)
+            except Exception:  # noqa: BLE001 - bad payloads are the publisher's problem, never ours
+                pass
+
+        if is_static:
+            subs.append(zx.declare_advanced_subscriber(node.session, key, on_sample,
+                                                       history=zx.HistoryConfig(detect_late_publishers=True)))
+        else:
+            subs.append(node.session.declare_subscriber(key, on_sample))
+    return subs
+
+
+@tf.command("monitor", context_settings=CONTEXT_SETTINGS)
+@click.argument("frame_a", required=False)
+@click.argument("frame_b", required=False)
+@click.option("--duration", "-d", type=click.FloatRange(min=0.0, min_open=True), default=None,
+              help="Gather this many seconds, print one report and exit (default: run until Ctrl-C).")
+@click.option("--period", type=click.FloatRange(min=0.1), default=2.0, show_default=True,
+              help="Seconds between reports when stdout is not a terminal.")
+@click.option("--window", type=click.FloatRange(min=0.5), default=10.0, show_default=True,
+              help="Seconds of arrivals used for the rates.")
+@with_options
+def monitor(frame_a: Optional[str], frame_b: Optional[str], duration: Optional[float], period: float,
+            window: float, *, opts: CliOptions) -> None:
+    """Live table of every frame: parent, broadcaster, rate, average and max delay, like tf2_monitor.
+
+    With FRAME_A FRAME_B it also shows the chain between them and its net delay (now - stamp of
+    the latest lookup_transform(FRAME_A, FRAME_B)).
+    """
+    from .common import open_node
+
+    if (frame_a is None) != (frame_b is None):
+        raise click.UsageError("give both FRAME_A and FRAME_B, or neither")
+    pair = (frame_a, frame_b) if frame_a and frame_b else None
+    node = open_node(opts, "tf_monitor")
+    subs: list = []
+    try:
+        buffer = None
+        if pair:
+            from zentf.buffer import Buffer
+
+            buffer = Buffer()
+        stats = MonitorStats(buffer, window)
+        subs = _subscribe_tf(node, stats)
+        _run_monitor(stats, buffer, pair, duration, period)
+    finally:
+        for s in subs:
+            try:
+                s.undeclare()
+            except Exception:  # noqa: BLE001
+                pass
+        _close(node)
+
+
+def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str]], duration: Optional[float],
+                 period: float) -> None:
+    from collections import deque
+
+    from zentf.exceptions import TransformException
+
+    title = f"for {pair[0]} to {pair[1]}" if pair else "for all Frames"
+    started = time.monotonic()
+    end = None if duration is None else started + duration
+    net: deque = deque(maxlen=1000)
+    chain: Optional[list[str]] = None
+    reason = ""
+
+    def sample_chain() -> None:
+        nonlocal chain, reason
+        if buffer is None or pair is None:
+            return
+        try:
+            ts = buffer.lookup_transform(pair[0], pair[1], 0)
+            chain = buffer.chain_as_vector(pair[0], 0, pair[1], 0, pair[0])
+            stamp = ts.header.stamp.nanoseconds
+            if stamp:
+                net.append((time.time_ns() - stamp) / 1e9)
+            reason = ""
+        except TransformException as exc:
+            reason = " ".join(str(exc).split())
+
+    def net_figures() -> Optional[tuple[float, float]]:
+        return (sum(net) / len(net), max(net)) if net else None
+
+    live_tty = sys.stdout.isatty()
+    if live_tty:
+        from rich.console import Console
+        from rich.live import Live
+
+        console = Console()
+        with Live(console=console, refresh_per_second=4, transient=False) as live:
+            while end is None or time.monotonic() < end:
+                sample_chain()
+                if pair and chain is None:
+                    live.update(f"Waiting for transform {pair[0]} -> {pair[1]}: {reason or 'no data yet'}")
+                elif not stats.frames:
+                    live.update("Waiting for tf data...")
+                else:
+                    live.update(_monitor_table(stats, title, chain, net_figures()))
+                time.sleep(0.1)
+    else:
+        next_report = started + period
+        last_wait_msg = 0.0
+        while end is None or time.monotonic() < end:
+            sample_chain()
+            now = time.monotonic()
+            if pair and chain is None and reason and now - last_wait_msg >= 1.0:
+                sys.stderr.write(f"Waiting for transform {pair[0]} -> {pair[1]}: {reason}\n")
+                sys.stderr.flush()
+                last_wait_msg = now
+            if end is None and now >= next_report:
+                if stats.frames:
+                    print(format_monitor_text(stats, title, chain, net_figures()) + "\n", flush=True)
+                next_report += period
+            time.sleep(0.05)
+    if not stats.frames:
+        raise CliError(f"no tf data received in {duration:g} s" if duration else "no tf data received")
+    if pair and chain is None:
+        raise CliError(f"no transform {pair[0]} -> {pair[1]}: {reason or 'frames never connected'}")
+    if not live_tty:
+        print(format_monitor_text(stats, title, chain, net_figures()), flush=True)

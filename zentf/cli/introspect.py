@@ -1,0 +1,63 @@
+"""A settled snapshot of the liveliness graph for one-shot tools (node list, topic list, graph)."""
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any, Optional
+
+from .common import CliOptions, node_options, open_session, status
+
+__all__ = ["graph_snapshot", "graph_namespace"]
+
+#: A fresh peer-mode session may answer a liveliness query before the router has sent it the
+#: current tokens (measured: empty replies in ~1/3 of fresh sessions, tokens up to ~0.25 s late),
+#: so one-shot listings also watch token arrivals and wait until they stop for this long.
+QUIET = 0.25
+MIN_WAIT = 0.35
+
+
+def graph_namespace(opts: CliOptions) -> Optional[str]:
+    """Namespace to filter graph listings by (--namespace / ZENTF_NAMESPACE); None lists all."""
+    ns = node_options(opts, "_zentf_cli").namespace
+    return ns.strip("/") if ns and ns.strip("/") else None
+
+
+def graph_snapshot(opts: CliOptions, wait: float, namespace: Optional[str] = None) -> tuple[dict, dict]:
+    """(nodes, topics) as zentf.graph.build_graph returns them, once token arrivals have settled."""
+    from zentf.graph import GraphWatcher, build_graph, list_tokens
+
+    zopts = node_options(opts, "_zentf_cli").zenoh
+    session = open_session(opts)
+    opened = time.monotonic()
+    last_change = [opened]
+    lock = threading.Lock()
+
+    def on_change(_entry: Any, _alive: bool) -> None:
+        with lock:
+            last_change[0] = time.monotonic()
+
+    watcher = None
+    try:
+        with status("Querying the graph"):
+            if zopts.mode != "client":
+                watcher = GraphWatcher(session, on_change=on_change, namespace=namespace)
+            entries = set(list_tokens(session, namespace, timeout=max(0.1, wait)))
+            if watcher is not None:
+                deadline = opened + wait
+                while True:
+                    now = time.monotonic()
+                    with lock:
+                        quiet_since = last_change[0]
+                    settled = now - opened >= MIN_WAIT and now - quiet_since >= QUIET
+                    if settled or now >= deadline:
+                        break
+                    time.sleep(0.02)
+                # the watcher's live view is current: it also drops tokens that vanished meanwhile
+                nodes, topics = watcher.snapshot()
+                if nodes or not entries:
+                    return nodes, topics
+        return build_graph(entries)
+    finally:
+        if watcher is not None:
+            watcher.close()
+        session.close()
