@@ -122,6 +122,20 @@ def launch(file: str, args: tuple[str, ...], print_only: bool, show_args: bool, 
     Ctrl-C stops every node (SIGINT, then SIGTERM, then SIGKILL). The --namespace option puts the whole
     graph under a namespace. The file format is described in docs/launch.md.
     """
+    try:
+        code = _launch(file, args, print_only, show_args, log_dir, color, stop_timeout, opts)
+    except LaunchError as exc:  # `FILE:LINE: what` alone on a line, whoever runs this command
+        if opts.debug:
+            raise
+        sys.stderr.write(f"{exc}\n" if exc.file else f"zentf launch: error: {exc}\n")
+        raise click.exceptions.Exit(2) from None
+    if code:
+        raise click.exceptions.Exit(code)
+    return 0
+
+
+def _launch(file: str, args: tuple[str, ...], print_only: bool, show_args: bool, log_dir: Optional[Path],
+            color: Optional[bool], stop_timeout: float, opts: CliOptions) -> int:
     from .description import load_launch
 
     if show_args:
