@@ -325,6 +325,11 @@ def test_zentf_cli_delegates_launch_and_refuses_bad_zenoh_options(tmp_path):
     r = subprocess.run([sys.executable, "-m", "zentf.cli", "launch", "laser", "--connect", "nonsense"],
                        capture_output=True, text=True, timeout=60, cwd=tmp_path)
     assert r.returncode == 2 and "bad endpoint 'nonsense'" in r.stderr and len(r.stderr.splitlines()) == 1
+    (tmp_path / "bad.yaml").write_text("nodes:\n  - cmd: [true]\n    bad: 1\n")
+    r = subprocess.run([sys.executable, "-m", "zentf.cli", "launch", "bad.yaml"], capture_output=True, text=True,
+                       timeout=60, cwd=tmp_path)
+    assert r.returncode == 2 and r.stderr.startswith("bad.yaml:3: unknown key 'bad' in node")
+    assert len(r.stderr.splitlines()) == 1
 
 
 def test_mangled_launch_files_are_refused_in_one_line_never_crash(tmp_path):
