@@ -130,3 +130,48 @@ def test_transform_points_and_series() -> None:
     assert np.abs(series[k] - one[0]).max() < 1e-9
     with pytest.raises(ValueError):
         transform_points(core, np.zeros((3, 2)), "w", "cam", 0)
+
+
+def test_lookup_transforms_matches_single_lookups_on_dense_random_buffers() -> None:
+    """Re-parenting, statics, loops, repeated stamps: the batch raises what the first failing single
+    lookup raises (same class and text), or returns what the loop returns."""
+    import logging
+
+    logging.getLogger("zentf.buffer_core").setLevel(logging.CRITICAL)
+    try:
+        frames = ["a", "b", "c", "d", "e", "f"]
+        checked = errors = 0
+        for seed in range(25):
+            rng = np.random.default_rng(seed)
+            core = BufferCore(cache_time=float(rng.choice([1.0, 10.0])))
+            for _ in range(150):
+                parent, child = rng.choice(frames, 2, replace=False)
+                stamp = 1000 * S + int(rng.integers(0, 24)) * S // 4
+                q = Rotation.random(random_state=int(rng.integers(1 << 30))).as_quat()
+                core.set_transform_raw(str(parent), str(child), stamp, *rng.uniform(-2, 2, 3), *q, "r",
+                                       bool(rng.random() < 0.1))
+            for _ in range(10):
+                target, source = (str(x) for x in rng.choice(frames, 2))
+                times = 1000 * S + rng.integers(-S, 7 * S, 30)
+                times[rng.random(30) < 0.1] = 0
+                try:
+                    want = loop(core, target, source, times)
+                    want_exc = None
+                except Exception as e:  # noqa: BLE001 - compared below
+                    want_exc = e
+                try:
+                    got = lookup_transforms(core, target, source, times)
+                    got_exc = None
+                except Exception as e:  # noqa: BLE001
+                    got_exc = e
+                checked += 1
+                if want_exc is not None:
+                    errors += 1
+                    assert type(got_exc) is type(want_exc) and str(got_exc) == str(want_exc)
+                else:
+                    assert got_exc is None, got_exc
+                    assert np.abs(got[0] - want[0]).max() < 1e-9
+                    assert np.minimum(np.abs(got[1] - want[1]).max(1), np.abs(got[1] + want[1]).max(1)).max() < 1e-9
+        assert 0 < errors < checked
+    finally:
+        logging.getLogger("zentf.buffer_core").setLevel(logging.NOTSET)

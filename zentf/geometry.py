@@ -427,10 +427,13 @@ def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: An
             lct_bad = zero if lct_error else np.zeros(n, bool)  # these raise like a single lookup
             t = np.where(zero, 1 if lct is None else lct, t_asked) if zero.any() else t_asked
             walk = _Walk(tables, t)
-            src = walk.run(source_id, None, target_id, True, MAX_GRAPH_DEPTH)
+            # a walk longer than the number of frames must be going round a loop: stop there and
+            # let the single lookup produce tf2's loop error (it walks MAX_GRAPH_DEPTH steps)
+            depth_limit = min(MAX_GRAPH_DEPTH, len(core._caches))
+            src = walk.run(source_id, None, target_id, True, depth_limit)
             ends_at_target = src["early"]
             top = src["top"]
-            tgt = walk.run(target_id, np.where(ends_at_target, target_id, top), source_id, False, MAX_GRAPH_DEPTH)
+            tgt = walk.run(target_id, np.where(ends_at_target, target_id, top), source_id, False, depth_limit)
             ends_at_source = tgt["early"]
             full = ~ends_at_target & ~ends_at_source
             broken = tgt["failed"] | (full & (tgt["frame"] != top)) | lct_bad
