@@ -114,7 +114,12 @@ def resolve_launch_file(name: str, cwd: str | None = None) -> str:
     given = Path(name)
     if (base / given).is_file():
         return str(base / given) if not given.is_absolute() else str(given)
-    if given.is_absolute() or "/" in name:
+    if given.is_absolute():
+        raise LaunchError("launch file not found", name)
+    if "/" in name:  # `configs/drones.yaml` typed outside the checkout: the package's own copy
+        own = package_configs_dir().parent / given
+        if own.is_file():
+            return str(own)
         raise LaunchError("launch file not found", name)
     candidates: list[Path] = []
     for d in (base / "configs", package_configs_dir(), base):
