@@ -1,8 +1,6 @@
 """do_transform_*, transform(), and the vectorized extras against loops of single lookups."""
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation

@@ -7,9 +7,15 @@ the first cache type of a frame is kept on a static/dynamic switch, a repeated s
 messages use ROS 1 wording (times with 9 decimals, "Ds into the future").
 
 Storage is compact: each dynamic frame keeps parallel ``array.array`` columns (int64 stamps in
-ns, int32 parent ids, 7 float64 values per sample), oldest first, searched with ``bisect``.
-Frames are integer ids; one lock guards everything so a listener thread may insert while user
-threads look up.
+ns, int32 parent ids, 7 float64 values per sample; ~68 bytes a sample), oldest first, searched
+with ``bisect``. Frames are integer ids; one lock guards everything so a listener thread may insert
+while user threads look up.
+
+Speed in pure Python comes from three caches, all exact under inserts: ``lookup_transform``
+remembers results by (target, source, time) while a version counter (bumped by every stored
+change) is unchanged; each frame remembers its last interpolated query; and each frame keeps the
+slerp constants of recently queried sample intervals. A lookup at a time never asked before
+still walks the tree at roughly 3 µs per link (tf2's C++ needs ~0.2 µs): see bench/lookup.py.
 """
 from __future__ import annotations
 
@@ -347,7 +353,14 @@ class _Request:
 # --------------------------------------------------------------------------- BufferCore
 
 class BufferCore:
-    """tf2's BufferCore: stores the tree over time and answers lookups (thread-safe)."""
+    """tf2's BufferCore: stores the tree over time and answers lookups (thread-safe).
+
+    Times are ``Time`` or float seconds everywhere (0 = latest). Beyond tf2_py's API:
+    ``set_transform_raw``/``set_transforms_raw`` (insert without messages),
+    ``add_insert_callback`` (wake waiters), ``add_transformable_request`` (MessageFilter),
+    ``frame_info``/``chain_as_vector``/``get_parent``/``frame_exists`` (tools), and the numpy
+    batches ``lookup_transforms``/``transform_points`` (see zentf.geometry).
+    """
 
     def __init__(self, cache_time: Union[Duration, float, int] = DEFAULT_CACHE_TIME) -> None:
         if isinstance(cache_time, Duration):

@@ -6,13 +6,12 @@ the semantics of ``BufferCore.lookup_transform`` at every time (see ``lookup_tra
 """
 from __future__ import annotations
 
-from typing import Any, Callable, Optional, Sequence
+from typing import Any, Callable, Optional
 
 import numpy as np
 
 from .exceptions import TransformException, TypeException
-from .math3d import (matrix_from_quaternion, matrix_from_quaternion_batch, quat_rotate_batch,
-                     quaternion_multiply, quaternion_multiply_batch, slerp_batch)
+from .math3d import matrix_from_quaternion, matrix_from_quaternion_batch, quaternion_multiply
 from .messages import (Header, Point, PointStamped, Pose, PoseStamped, Quaternion, TransformStamped,
                        Vector3, Vector3Stamped)
 from .time import NSEC_PER_SEC, Time
