@@ -91,10 +91,10 @@ def test_latched_tf_static_reaches_a_late_joiner_during_playback(spawn, zenoh_en
     assert r.returncode == 0, r.stderr
     play = spawn([*ZENTF, "bag", "play", str(bag)])
     play.wait_for_line(r"playing: t = 1\.\d s", 20)  # tf_static (t = 0) went out a second ago
-    echo = spawn([*ZENTF, "topic", "echo", "tf_static", "--once", "--json", "--timeout", "10"])
-    assert echo.wait(15) == 0, echo.output()
-    msg = json.loads(next(ln for ln in echo.lines if ln.startswith("{")))
-    assert [t["child_frame_id"] for t in msg["transforms"]] == ["ground"]
+    listener = spawn.python("-m", "nodes.frame_listener", "-p", "target_frame:=world", "-p", "source_frame:=ground",
+                            "-p", "period:=0.2")
+    m = listener.wait_for_line(rf"ground in world: translation {TRIPLE}", 15)
+    assert tuple(float(g) for g in m.groups()) == (0.0, 0.0, -0.5)
     play.signal(2)
     assert play.wait(10) == 0
     assert re.search(r"played \d+ msgs", play.output())
@@ -183,3 +183,24 @@ def test_killed_recorder_leaves_a_readable_bag(spawn, tmp_path):
     info = info_json(bag)
     assert not info["complete"] and ("no summary" in info["problem"] or "truncated" in info["problem"])
     assert counts(info)["tf"] >= 20
+
+
+def test_play_start_offset_and_loop(spawn, zenoh_session, test_namespace, tmp_path):
+    from zentf.bag import write_drones_demo
+
+    bag = tmp_path / "two.mcap"
+    write_drones_demo(bag, 2.0)  # tf_static at t0, tf at t0 + 20 ms * i + 0.2 ms (i = 0..100)
+    tf = Counter(zenoh_session, f"{test_namespace}/tf")
+    static = Counter(zenoh_session, f"{test_namespace}/tf_static")
+    play = spawn([*ZENTF, "bag", "play", str(bag), "--start", "1", "--rate", "10", "--delay", "0.3"])
+    assert play.wait(20) == 0, play.output()
+    assert (tf.n, static.n) == (51, 1)  # i = 50..100, and the latched set from before --start
+    tf.n = 0
+    play = spawn([*ZENTF, "bag", "play", str(bag), "--loop", "--rate", "20", "--delay", "0.3"])
+    play.wait_for_line(r"playing: t = ", 20)
+    deadline = __import__("time").monotonic() + 20
+    while tf.n < 2 * 101 + 10 and __import__("time").monotonic() < deadline:
+        play.wait_for_line(r"playing: t = ", 5)
+    play.signal(2)
+    assert play.wait(10) == 0
+    assert tf.n > 2 * 101

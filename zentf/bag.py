@@ -484,6 +484,7 @@ class Player:
     def play(self, progress: Callable[[PlayStats], None] | None = None) -> PlayStats:
         """Play once (or until stopped with ``loop``); returns the counts and any file problem."""
         skip_clock = self.clock_hz > 0
+        last_report = time.monotonic()
         while not self.stop_event.is_set():
             reader = BagReader(self.path)
             it = iter(reader)
@@ -506,7 +507,6 @@ class Player:
                 self._send(m)
             wall0 = time.monotonic()
             base = (wall0, begin)
-            last_report = wall0
             while pending is not None:
                 m = pending
                 if not (skip_clock and m.key == "clock"):

@@ -87,7 +87,7 @@ def _resolve_keys(opts: CliOptions, topics: tuple[str, ...], all_topics: bool) -
     if all_topics:
         if topics:
             raise CliError("give topics or --all, not both", code=2)
-        return ["**"], ns
+        return [f"{ns}/**" if ns else "**"], ns
     if not topics:
         raise CliError("nothing to record: give topic names or --all", code=2)
     keys = []
@@ -101,7 +101,8 @@ def _resolve_keys(opts: CliOptions, topics: tuple[str, ...], all_topics: bool) -
 
 @bag.command("record", context_settings=CONTEXT_SETTINGS)
 @click.argument("topics", nargs=-1)
-@click.option("--all", "-a", "all_topics", is_flag=True, help="Record every topic.")
+@click.option("--all", "-a", "all_topics", is_flag=True,
+              help="Record every topic (of --namespace if one is set, else of the whole network).")
 @click.option("--output", "-o", type=click.Path(dir_okay=False, writable=True), default=None,
               help="Output file [default: zentf_<date>_<time>.mcap].")
 @click.option("--duration", type=click.FloatRange(min=0.0, min_open=True), default=None,
