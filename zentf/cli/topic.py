@@ -140,11 +140,17 @@ def _subscribe(session: Any, key: str, history: bool) -> tuple[Any, "queue.Queue
 def topic_echo(name: str, once: bool, count: int, as_json: bool, timeout: Optional[float], no_history: bool,
                *, opts: CliOptions) -> None:
     """Print messages on a topic, decoded by their carried type (raw bytes when unknown)."""
+    from .common import open_node
+
     fq, key = _resolve(opts, name)
     limit = 1 if once else count
-    session = open_session(opts)
+    node = open_node(opts, "topic_echo")
+    token = None
     try:
-        sub, inbox = _subscribe(session, key, history=not no_history)
+        sub, inbox = _subscribe(node.session, key, history=not no_history)
+        declare = getattr(node, "_declare_entity", None)
+        if declare is not None:  # show up as a subscriber, so `topic pub` and `graph` see us
+            token = declare("sub", "", key)
         started = time.monotonic()
         shown = 0
         while not limit or shown < limit:
@@ -166,7 +172,13 @@ def topic_echo(name: str, once: bool, count: int, as_json: bool, timeout: Option
             shown += 1
         sub.undeclare()
     finally:
-        session.close()
+        for obj in (token,):
+            if obj is not None:
+                try:
+                    obj.undeclare()
+                except Exception:  # noqa: BLE001
+                    pass
+        node.shutdown()
 
 
 @topic.command("hz", context_settings=CONTEXT_SETTINGS)

@@ -1,0 +1,96 @@
+"""`zentf tf echo | monitor | frames` as subprocesses against real node processes on loopback."""
+from __future__ import annotations
+
+import re
+import shutil
+
+import pytest
+from cli_helpers import ZENTF, zentf
+
+NUM = r"(-?\d+\.\d+)"
+
+
+def _static(spawn, *args: str):
+    p = spawn.python("-m", "nodes.static_transform_publisher", *args)
+    p.wait_for_line(r"Spinning until stopped", 30)
+    return p
+
+
+def test_tf_echo_waits_says_why_then_prints_camera_from_laser(spawn):
+    """Started before any frame exists: it reports the tf2 reason, then recovers by itself."""
+    echo = spawn([*ZENTF, "tf", "echo", "camera", "laser", "--rate", "5", "--count", "2"])
+    echo.wait_for_line(r'Waiting for transform camera -> laser: .*does not exist', 30)
+    _static(spawn, "--x", "0.4", "--z", "0.2", "--yaw", "0.5", "--frame-id", "base_link", "--child-frame-id", "laser")
+    _static(spawn, "-0.5", "0", "0.4", "0", "0", "0", "base_link", "camera")
+    echo.wait_for_line(r"^At time \d+\.\d{9}$", 30)
+    m = echo.wait_for_line(rf"^- Translation: \[{NUM}, {NUM}, {NUM}\]$", 5)
+    assert [float(g) for g in m.groups()] == pytest.approx([0.9, 0.0, -0.2], abs=1e-3)
+    echo.wait_for_line(r"^- Rotation: in Quaternion \(xyzw\) \[0\.000, 0\.000, 0\.247, 0\.969\]$", 5)
+    echo.wait_for_line(r"^- Rotation: in RPY \(radian\) \[0\.000, -?0\.000, 0\.500\]$", 5)
+    echo.wait_for_line(r"^- Rotation: in RPY \(degree\) \[0\.000, -?0\.000, 28\.648\]$", 5)
+    echo.wait_for_line(r"^- Matrix:$", 5)
+    echo.wait_for_line(r"^\s+0\.878\s+-0\.479\s+0\.000\s+0\.900$", 5)
+    assert echo.wait(30) == 0, echo.output()
+    assert len([ln for ln in echo.lines if ln.startswith("At time")]) == 2
+
+
+def test_tf_monitor_reports_the_drones_at_about_50_hz(spawn, zenoh_env):
+    frames = spawn.python("-m", "nodes.frames_publisher")
+    frames.wait_for_line(r"publishing av1 and av2 in world", 30)
+    proc = zentf(["tf", "monitor", "--duration", "3"], zenoh_env)
+    assert proc.returncode == 0, proc.stderr
+    rows = {}
+    for line in proc.stdout.splitlines():
+        m = re.match(rf"^(av[12])\s+(\S+)\s+(\S+)\s+{NUM}\s+{NUM}\s+{NUM}$", line)
+        if m:
+            rows[m.group(1)] = m.groups()
+    assert set(rows) == {"av1", "av2"}, proc.stdout
+    for frame, parent, broadcaster, rate, avg, mx in rows.values():
+        assert parent == "world"
+        assert broadcaster.endswith("/frames_publisher")
+        assert 35.0 < float(rate) < 65.0, proc.stdout  # 50 Hz publisher; loose for a loaded CI box
+        assert 0.0 <= float(avg) <= float(mx)
+    assert re.search(r"^Node: \S+/frames_publisher \d+\.\d Hz", proc.stdout, re.M), proc.stdout
+
+
+def test_tf_monitor_chain_between_two_frames(spawn, zenoh_env):
+    frames = spawn.python("-m", "nodes.frames_publisher")
+    frames.wait_for_line(r"publishing av1 and av2 in world", 30)
+    proc = zentf(["tf", "monitor", "av1", "av2", "--duration", "2"], zenoh_env)
+    assert proc.returncode == 0, proc.stderr
+    assert "RESULTS: for av1 to av2" in proc.stdout
+    assert re.search(r"^Chain is: av2 -> world -> av1$", proc.stdout, re.M), proc.stdout
+    assert re.search(rf"^Net delay\s+avg = {NUM} ms: max = {NUM} ms$", proc.stdout, re.M), proc.stdout
+
+
+def test_tf_frames_writes_dot_with_edges_and_an_image(spawn, zenoh_env, tmp_path):
+    frames = spawn.python("-m", "nodes.frames_publisher")
+    frames.wait_for_line(r"publishing av1 and av2 in world", 30)
+    _static(spawn, "--x", "0.4", "--z", "0.2", "--frame-id", "base_link", "--child-frame-id", "laser")
+    out = tmp_path / "frames"
+    proc = zentf(["tf", "frames", "--wait", "1.5", "-o", str(out), "--print"], zenoh_env)
+    assert proc.returncode == 0, proc.stderr
+    dot = (tmp_path / "frames.gv").read_text()
+    edges = set(re.findall(r'^\s*"([^"]+)" -> "([^"]+)"', dot, re.M))
+    assert edges == {("world", "av1"), ("world", "av2"), ("base_link", "laser")}
+    assert re.search(r'"world" -> "av1" \[label="Broadcaster: /\S+/frames_publisher\\nAverage rate: \d+\.\d+ Hz'
+                     r'\\nMost recent transform: \d+\.\d+ \( \d+\.\d+ sec old\)\\nOldest transform: \d+\.\d+'
+                     r'\\nBuffer length: \d+\.\d+ sec', dot), dot
+    assert "static_transform_publisher" in dot and "Most recent transform: 0.000 (static)" in dot
+    assert dot.count("subgraph cluster_") == 3  # two disconnected trees + the legend
+    assert "base_link\n└── laser  (static, " in proc.stdout
+    assert re.search(r"^world\n├── av1  \(\d+\.\d Hz, \S+/frames_publisher\)\n└── av2", proc.stdout, re.M)
+    if shutil.which("dot"):
+        pdf = tmp_path / "frames.pdf"
+        assert pdf.read_bytes()[:5] == b"%PDF-"
+        assert f"Wrote {tmp_path / 'frames.gv'} and {pdf}" in proc.stdout
+
+
+@pytest.mark.skipif(shutil.which("dot") is None, reason="graphviz not installed")
+def test_tf_frames_svg_output(spawn, zenoh_env, tmp_path):
+    _static(spawn, "1", "2", "3", "0", "0", "0", "map", "odom")
+    proc = zentf(["tf", "frames", "-w", "0.5", "-o", str(tmp_path / "tree.svg")], zenoh_env)
+    assert proc.returncode == 0, proc.stderr
+    svg = (tmp_path / "tree.svg").read_text()
+    assert "<svg" in svg and "odom" in svg
+    assert '"map" -> "odom"' in (tmp_path / "tree.gv").read_text()
