@@ -86,7 +86,7 @@ class _TimeCache:
     """Samples of one dynamic frame, oldest first (tf2 TimeCache)."""
 
     __slots__ = ("stamps", "parents", "data", "start", "max_ns", "latest", "newest", "oldest",
-                 "memo_t", "memo", "spans")
+                 "memo_t", "memo", "spans", "last_span")
     is_static = False
 
     def __init__(self, max_ns: int) -> None:
@@ -106,6 +106,8 @@ class _TimeCache:
         # interpolation constants of recently queried intervals, by older stamp (validated
         # against the newer stamp, so inserts in between are noticed); small and bounded
         self.spans: dict[int, tuple] = {}
+        self.last_span: Optional[tuple] = None  # (t0, t1, span) of the last query: time series
+                                                # walk forward inside one interval, no bisect
 
     def __len__(self) -> int:
         return len(self.stamps) - self.start
@@ -141,6 +143,7 @@ class _TimeCache:
             k = 7 * i
             self.data[k:k] = array("d", values)
             self.memo_t = -1
+            self.last_span = None  # an interval was split
             if i == self.start:
                 self.oldest = stamp
         if self.oldest < newest - self.max_ns:
@@ -177,12 +180,18 @@ class _TimeCache:
             return None
         if t == oldest:
             return self._sample(self.start)
-        st = self.stamps
-        i = bisect_right(st, t, self.start, len(st)) - 1
-        t0 = st[i]
-        span = self.spans.get(t0)
-        if span is None or span[0] != st[i + 1]:
-            span = self._span(i)
+        last = self.last_span
+        if last is not None and last[0] <= t < last[1]:
+            t0 = last[0]
+            span = last[2]
+        else:
+            st = self.stamps
+            i = bisect_right(st, t, self.start, len(st)) - 1
+            t0 = st[i]
+            span = self.spans.get(t0)
+            if span is None or span[0] != st[i + 1]:
+                span = self._span(i)
+            self.last_span = (t0, span[0], span)
         if span[1] is None:
             return span[2]  # different parents: no interpolation, the older sample applies
         _, inv_dt, p, x0, y0, z0, dx, dy, dz, qx, qy, qz, qw, ax, ay, az, aw, theta = span
