@@ -172,17 +172,18 @@ def test_bad_arguments_are_one_line_errors(tmp_path):
         assert r.stderr.startswith("zentf: error: ") and "Traceback" not in r.stderr, r.stderr
 
 
-def test_killed_recorder_leaves_a_readable_bag(spawn, tmp_path):
+def test_killed_recorder_leaves_a_readable_bag(spawn, tmp_path, test_namespace):
     bag = tmp_path / "killed.mcap"
     frames = spawn.python("-m", "nodes.frames_publisher")
     frames.wait_for_line(r"publishing av1 and av2", 20)
-    rec = spawn([*ZENTF, "bag", "record", "tf", "-o", str(bag)])
+    rec = spawn([*ZENTF, "bag", "record", "--all", "-o", str(bag)])  # --all = this test's namespace
     rec.wait_for_line(r"recording: [1-9]\d* msgs, .*, 1\.\d s", 20)
     rec.wait_for_line(r"recording: \d+ msgs, .*, 2\.\d s", 20)  # a flush happened after 1 s
     rec.kill()
     info = info_json(bag)
     assert not info["complete"] and ("no summary" in info["problem"] or "truncated" in info["problem"])
     assert counts(info)["tf"] >= 20
+    assert {t["key"] for t in info["topics"]} == {f"{test_namespace}/tf"}
 
 
 def test_play_start_offset_and_loop(spawn, zenoh_session, test_namespace, tmp_path):

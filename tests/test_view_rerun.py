@@ -86,3 +86,31 @@ def test_view_errors_are_one_line(zenoh_env, tmp_path):
                        timeout=30, cwd=REPO)
     assert r.returncode == 1 and r.stderr == "zentf: error: zentf view needs Rerun: pip install 'zentf[view]' " \
                                              "(or: pip install rerun-sdk)\n", r.stderr
+
+
+def test_view_follows_a_bag_played_with_clock(spawn, isolated_router, test_namespace, tmp_path):
+    """Sim time end to end: `bag play --clock` drives the view's time line (the bag's 2023 stamps)."""
+    import pyarrow as pa
+
+    env = dict(os.environ)
+    for var in ("ZENTF_PARAMS", "ZENTF_REMAP", "ZENTF_NODE_NAME", "ZENTF_PARAMS_FILE", "ZENTF_LISTEN"):
+        env.pop(var, None)
+    env.update({"ZENTF_CONNECT": isolated_router, "ZENTF_MODE": "client", "ZENTF_NO_MULTICAST": "1",
+                "ZENTF_NAMESPACE": test_namespace, "PYTHONUNBUFFERED": "1"})
+    bag, rrd = tmp_path / "d.mcap", tmp_path / "sim.rrd"
+    from zentf.bag import write_drones_demo
+
+    write_drones_demo(bag, 30.0, start=1_700_000_000.0)
+    view = spawn([*ZENTF, "view", "--use-sim-time", "--save", str(rrd), "--duration", "3", "--rate", "10"], env=env)
+    view.wait_for_line(r"viewing ", 20)
+    play = spawn([*ZENTF, "bag", "play", str(bag), "--clock"], env=env)
+    assert view.wait(30) == 0, view.output()
+    play.signal(2)
+    assert play.wait(10) == 0, play.output()
+    times = []
+    for ch in rerun_chunk.RrdReader(str(rrd)).stream():
+        if ch.entity_path == "/tf/av1":
+            rb = ch.to_record_batch()
+            times += rb.column("ros_time").cast(pa.int64()).to_pylist()
+    assert len(times) >= 5
+    assert all(1_700_000_000 * 10**9 <= t <= 1_700_000_030 * 10**9 for t in times), times[:5]

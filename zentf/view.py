@@ -123,20 +123,23 @@ class Viewer:
             return
         origins: dict[str, list[float]] = {}
         for frame in frames:
+            path = frame_path(frame)
             try:
                 ts = self.buffer.lookup_transform(self.fixed_frame, frame, 0)
             except TransformException:
+                if frame in self._shown_frames:  # gone from the tree (buffer cleared, link lost): hide it
+                    self._shown_frames.discard(frame)
+                    self.rec.log(path, rr.Clear(recursive=False))
                 continue  # not connected to the fixed frame (yet)
             p, q = ts.transform.translation, ts.transform.rotation
             origins[frame] = [p.x, p.y, p.z]
-            path = frame_path(frame)
-            self.rec.log(path, rr.Transform3D(translation=[p.x, p.y, p.z], quaternion=rr.Quaternion(xyzw=[q.x, q.y, q.z, q.w])),
-                         rr.TransformAxes3D(self.axis_length))
+            parts = [rr.Transform3D(translation=[p.x, p.y, p.z], quaternion=rr.Quaternion(xyzw=[q.x, q.y, q.z, q.w])),
+                     rr.TransformAxes3D(self.axis_length)]
             if frame not in self._shown_frames:
                 self._shown_frames.add(frame)
                 if self.label_frames:
-                    self.rec.log(path, rr.Points3D([[0.0, 0.0, 0.0]], radii=0.01, labels=[frame], show_labels=True),
-                                 static=True)
+                    parts.append(rr.Points3D([[0.0, 0.0, 0.0]], radii=0.01, labels=[frame], show_labels=True))
+            self.rec.log(path, *parts)
         links = []
         for info in self.buffer.frame_info():
             a, b = origins.get(info["frame"]), origins.get(info["parent"])
