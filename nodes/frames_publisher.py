@@ -4,7 +4,8 @@ At time t (seconds of the node's clock): av1 at (cos t, sin t, 0) with yaw t; av
 (sin t, 0, cos 2t) without rotation. Seen from av1, av2 then traces an ellipse of semi-axes 1/2
 and sqrt(5)/2 in the plane 2y - z + 1 = 0.
 
-Parameters: `rate` (Hz, default 50), `static` (default false). With `static:=true` the two poses
+Parameters: `rate` (Hz, default 50), `static` (default false), `frame_prefix` (default "", e.g.
+`robot1/` names the drones robot1/av1 and robot1/av2 so robots share `world` without clashes). With `static:=true` the two poses
 at t = 0 (av1 at (1, 0, 0), av2 at (0, 0, 1)) are published once on tf_static (latched) and the
 node then just keeps them alive.
 """
@@ -42,10 +43,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     return _common.main(PROG, argv, _run, __doc__)
 
 
-def _stamped(stamp: object, poses: list[Pose7]) -> list:
+def _stamped(stamp: object, poses: list[Pose7], prefix: str = "") -> list:
     from zentf.messages import Header, Quaternion, Transform, TransformStamped, Vector3
 
-    return [TransformStamped(header=Header(stamp=stamp, frame_id=p), child_frame_id=c,
+    return [TransformStamped(header=Header(stamp=stamp, frame_id=p), child_frame_id=prefix + c,
                              transform=Transform(Vector3(*tr), Quaternion(*q)))
             for p, c, tr, q in poses]
 
@@ -56,8 +57,9 @@ def _run(opts: object) -> None:
 
     with _common.make_node(opts, PROG) as node:
         clock = node.get_clock()
+        prefix = str(_common.param(node, "frame_prefix", "") or "")
         if _common.param_bool(node, "static", False):
-            StaticTransformBroadcaster(node).send_transform(_stamped(clock.now(), drone_poses(0.0)))
+            StaticTransformBroadcaster(node).send_transform(_stamped(clock.now(), drone_poses(0.0), prefix))
             _common.say("published static poses of av1 and av2 (t = 0) on tf_static")
             node.spin()
             return
@@ -68,10 +70,10 @@ def _run(opts: object) -> None:
             now = clock.now()
             if now.nanoseconds == 0:  # sim time before the first /clock message
                 return
-            broadcaster.send_transform(_stamped(now, drone_poses(now.nanoseconds / 1e9)))
+            broadcaster.send_transform(_stamped(now, drone_poses(now.nanoseconds / 1e9), prefix))
 
         node.create_timer(1.0 / rate, tick)
-        _common.say(f"publishing av1 and av2 in world at {rate:g} Hz")
+        _common.say(f"publishing {prefix}av1 and {prefix}av2 in world at {rate:g} Hz")
         node.spin()
 
 

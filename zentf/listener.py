@@ -48,12 +48,16 @@ class TransformListener:
         self._subs.append(zx.declare_advanced_subscriber(
             session, static_key, lambda s: self._on_sample(s, True),
             history=zx.HistoryConfig(detect_late_publishers=True)))
-        self._tokens.append(self.node._declare_entity("sub", TFMessage.TYPE_NAME, static_key))
+        self._declare_token(static_key)
         if not static_only:
             key = wire_key(self.node, tf_topic)
             self._subs.append(session.declare_subscriber(key, lambda s: self._on_sample(s, False)))
-            self._tokens.append(self.node._declare_entity("sub", TFMessage.TYPE_NAME, key))
+            self._declare_token(key)
         self._jump = self.node.get_clock().add_jump_callback(self._on_jump)
+
+    def _declare_token(self, key: str) -> None:
+        if "*" not in key:  # a liveliness token cannot hold a wildcard; '*/tf' listeners stay unlisted
+            self._tokens.append(self.node._declare_entity("sub", TFMessage.TYPE_NAME, key))
 
     def _on_sample(self, sample: Any, is_static: bool) -> None:
         """Zenoh thread: decode and insert; every failure is contained here."""
@@ -125,6 +129,15 @@ class StaticTransformListener(TransformListener):
 
 
 def wire_key(node: Node, topic: str) -> str:
+    """Key of a tf topic; '*' / '**' parts make it a pattern ('*/tf' = the tf of every robot namespace)."""
     from .names import topic_to_key
 
-    return topic_to_key(node.resolve_topic_name(topic))
+    if "*" not in topic:
+        return topic_to_key(node.resolve_topic_name(topic))
+    marks = {"**": "zentf_wild2_", "*": "zentf_wild1_"}
+    parts = topic.split("/")
+    for part in parts:
+        if "*" in part and part not in marks:
+            raise ValueError(f"invalid tf topic {topic!r}: a wildcard must be a whole part ('*' or '**')")
+    key = topic_to_key(node.resolve_topic_name("/".join(marks.get(p, p) for p in parts)))
+    return "/".join({v: k for k, v in marks.items()}.get(c, c) for c in key.split("/"))

@@ -28,10 +28,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m zentf.router",
                                      description="Run a Zenoh router for zentf nodes.")
     add_zenoh_arguments(parser)
+    parser.add_argument("--config", dest="zenoh_config", metavar="FILE", help="same as --zenoh-config")
     args = parser.parse_args(argv)
     try:
-        opts = ZenohOptions.from_values(args.zenoh_config, args.connect, args.listen or [DEFAULT_ENDPOINT],
-                                        "router", args.no_multicast, env={})
+        # A config file's own listen endpoints win over the default one (not over --listen).
+        listen = args.listen or ([] if args.zenoh_config else [DEFAULT_ENDPOINT])
+        opts = ZenohOptions.from_values(args.zenoh_config, args.connect, listen, "router", args.no_multicast,
+                                        env={})
+        cfg = opts.config()
+        endpoints = opts.listen or _listen_endpoints(cfg) or [DEFAULT_ENDPOINT]
         session = opts.open_session()
     except OptionsError as e:
         print(f"error: {e}", file=sys.stderr)
@@ -39,13 +44,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())
-    print(f"zentf router {session.zid()} listening on {', '.join(opts.listen)}", flush=True)
+    print(f"zentf router {session.zid()} listening on {', '.join(endpoints)}", flush=True)
     try:
         while not stop.wait(0.5):
             pass
     finally:
         session.close()
     return 0
+
+
+def _listen_endpoints(cfg: Any) -> list[str]:
+    """The listen endpoints a config holds (a list, or a per-mode mapping)."""
+    import json
+
+    try:
+        value = json.loads(cfg.get_json("listen/endpoints"))
+    except Exception:
+        return []
+    if isinstance(value, dict):
+        value = value.get("router", [])
+    return [str(v) for v in value] if isinstance(value, list) else []
 
 
 if __name__ == "__main__":
