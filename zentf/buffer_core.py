@@ -379,6 +379,7 @@ class BufferCore:
         self._lock = threading.Lock()
         # frame id 0 is tf2's "NO_PARENT" sentinel; it never has a cache
         self._ids: dict[str, int] = {"NO_PARENT": 0}
+        self._clean: dict[str, int] = {}  # ids of names usable as given (no leading '/')
         self._names: list[str] = ["NO_PARENT"]
         self._caches: list[Any] = [None]
         self._authority: dict[int, str] = {}
@@ -437,47 +438,30 @@ class BufferCore:
 
     def _store(self, parent: str, child: str, stamp: int, tx: float, ty: float, tz: float,
                qx: float, qy: float, qz: float, qw: float, authority: str, is_static: bool) -> bool:
-        # one combined test for the common, valid case; anything unusual takes the slow path,
-        # which strips slashes, logs every tf2 complaint and refuses the sample
-        if not (child and parent and child != parent and child[0] != "/" and parent[0] != "/"
-                and -0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
+        # The common case first: a valid sample, newer than everything stored, for an edge whose
+        # frames are known by clean names (non-empty, no leading '/'). Anything else - new frames,
+        # statics, out-of-order stamps, bad input - takes _store_checked, tf2's full path.
+        if (-0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
                 and tx == tx and ty == ty and tz == tz and type(stamp) is int and stamp >= 0):
-            return self._store_checked(parent, child, stamp, tx, ty, tz, qx, qy, qz, qw, authority, is_static)
-        with self._lock:
-            ids = self._ids
-            cid = ids.get(child)
-            if cid is None:
-                cid = self._add_frame(child)
-            pid = ids.get(parent)
-            if pid is None:
-                pid = self._add_frame(parent)
-            if not cid:
-                return True  # tf2 stores a child named NO_PARENT in a slot nobody can read
-            cache = self._caches[cid]
-            if cache is None:
-                # ROS 1: the type chosen here is kept forever (ROS 2 replaces the cache on a switch)
-                cache = _StaticCache() if is_static else _TimeCache(self._cache_ns)
-                self._caches[cid] = cache
-            if type(cache) is _TimeCache and stamp > cache.newest >= 0:
-                # the common case inlined: a newer sample appended to a dynamic frame
-                cache.stamps.append(stamp)
-                cache.parents.append(pid)
-                cache.data.extend((tx, ty, tz, qx, qy, qz, qw))
-                cache.newest = stamp
-                cache.latest = None
-                cache.memo_t = -1
-                if cache.oldest < stamp - cache.max_ns:
-                    cache.prune()
-                self._version += 1
-                self._authority[cid] = authority
-                return True
-            res = cache.insert(stamp, pid, (tx, ty, tz, qx, qy, qz, qw))
-            if res == _OK:
-                self._version += 1
-                self._authority[cid] = authority
-                return True
-        self._log_refused(res, child, stamp, authority)
-        return False
+            with self._lock:
+                clean = self._clean
+                cid = clean.get(child)
+                pid = clean.get(parent)
+                if cid is not None and pid is not None and cid != pid:
+                    cache = self._caches[cid]
+                    if type(cache) is _TimeCache and stamp > cache.newest >= 0:
+                        cache.stamps.append(stamp)
+                        cache.parents.append(pid)
+                        cache.data.extend((tx, ty, tz, qx, qy, qz, qw))
+                        cache.newest = stamp
+                        cache.latest = None
+                        cache.memo_t = -1
+                        if cache.oldest < stamp - cache.max_ns:
+                            cache.prune()
+                        self._version += 1
+                        self._authority[cid] = authority
+                        return True
+        return self._store_checked(parent, child, stamp, tx, ty, tz, qx, qy, qz, qw, authority, is_static)
 
     def _store_checked(self, parent: str, child: str, stamp: Any, tx: float, ty: float, tz: float,
                        qx: float, qy: float, qz: float, qw: float, authority: str, is_static: bool) -> bool:
@@ -558,6 +542,8 @@ class BufferCore:
         fid = len(self._names)
         self._version += 1
         self._ids[name] = fid
+        if name[:1] != "/":
+            self._clean[name] = fid
         self._names.append(name)
         self._caches.append(None)
         return fid
