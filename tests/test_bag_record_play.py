@@ -170,6 +170,9 @@ def test_bad_arguments_are_one_line_errors(tmp_path):
         r = subprocess.run([*ZENTF, "bag", *args], capture_output=True, text=True, timeout=30, cwd=REPO)
         assert r.returncode == 2, (args, r.stderr)
         assert r.stderr.startswith("zentf: error: ") and "Traceback" not in r.stderr, r.stderr
+    r = subprocess.run([*ZENTF, "bag", "record", "tf", "-o", str(tmp_path / "no" / "dir.mcap")], capture_output=True,
+                       text=True, timeout=30, cwd=REPO)
+    assert r.returncode == 1 and r.stderr.startswith("zentf: error: cannot write "), r.stderr
 
 
 def test_killed_recorder_leaves_a_readable_bag(spawn, tmp_path, test_namespace):

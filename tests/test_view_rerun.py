@@ -30,7 +30,7 @@ def read_rrd(path: Path) -> dict[str, list]:
     return out
 
 
-def test_view_saves_frames_trails_and_points_of_the_drones_demo(spawn, tmp_path):
+def test_view_saves_frames_trails_and_points_of_the_drones_demo(spawn, tmp_path, zenoh_session, test_namespace):
     frames = spawn.python("-m", "nodes.frames_publisher")
     spawn.python("-m", "nodes.plots_publisher", "-p", "rate:=10")
     spawn.python("-m", "nodes.static_transform_publisher", "0.2", "0", "0", "0", "0", "0", "av1", "laser")
@@ -39,8 +39,19 @@ def test_view_saves_frames_trails_and_points_of_the_drones_demo(spawn, tmp_path)
     rrd = tmp_path / "drones.rrd"
     view = spawn([*ZENTF, "view", "--save", str(rrd), "--duration", "3", "--rate", "10"])
     view.wait_for_line(r"viewing /t_\w+ in fixed frame 'world'", 20)
+    # Bad input on visual topics is dropped without stopping the view.
+    from zentf import wire
+    from zentf.messages import Marker, MarkerArray
+
+    enc = wire.encoding_for(MarkerArray.TYPE_NAME)
+    for junk in (b"\xc1garbage", wire.pack({"markers": "nope"}), wire.pack([1, 2, 3]),
+                 wire.encode(MarkerArray(markers=[Marker(type=99, ns="junk")]))):
+        zenoh_session.put(f"{test_namespace}/junk_markers", junk, encoding=enc)
+    zenoh_session.put(f"{test_namespace}/junk_point", b"\x00", encoding=wire.encoding_for("geometry_msgs/msg/PointStamped"))
     assert view.wait(30) == 0, view.output()
     assert "Traceback" not in view.output()
+    assert int(view.wait_for_line(r"view: \d+ refreshes, \d+ frames shown, (\d+) bad messages dropped", 1,
+                                  from_start=True).group(1)) >= 3
 
     data = read_rrd(rrd)
     for entity in ("/tf/world", "/tf/av1", "/tf/av2", "/tf/laser", "/tf_links",

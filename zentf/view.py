@@ -78,6 +78,9 @@ class Viewer:
         self.ticks = 0
         self.problems = 0
         self._warned_fixed = 0.0
+        from .node import RateLimitedLog
+
+        self._complain = RateLimitedLog(log)
         self.rec.log("tf", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
 
     def _on_sample(self, sample: Any) -> None:  # Zenoh thread: filter by carried type, copy, hand over
@@ -105,7 +108,7 @@ class Viewer:
                 self._log_message(key, msg)
             except Exception as e:  # noqa: BLE001 - one bad message must not stop the view
                 self.problems += 1
-                log.debug("cannot show a %s from %s: %s", type_name, key, e)
+                self._complain(f"bad:{key}", f"dropped bad {type_name} on '{key}': {e}")
         self.ticks += 1
 
     def _log_frames(self) -> None:

@@ -116,13 +116,18 @@ def bag_record(topics: tuple[str, ...], all_topics: bool, output: Optional[str],
 
     keys, ns = _resolve_keys(opts, topics, all_topics)
     path = output or time.strftime("zentf_%Y%m%d_%H%M%S.mcap")
-    node = open_node(opts, "bag")
+    try:
+        writer = BagWriter(path, namespace=ns, compression=compression)
+    except BagError as exc:
+        raise CliError(str(exc)) from exc
+    try:
+        node = open_node(opts, "bag")
+    except BaseException:
+        writer.close()
+        os.unlink(path)
+        raise
     try:
         with _stop_on_signals() as stop:
-            try:
-                writer = BagWriter(path, namespace=ns, compression=compression)
-            except BagError as exc:
-                raise CliError(str(exc)) from exc
             recorder = Recorder(node.session, writer, keys,
                                 declare_token=lambda k: node._declare_entity("sub", "", k))
             progress = _Progress()

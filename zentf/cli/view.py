@@ -83,7 +83,8 @@ def view(fixed_frame: str, web: bool, web_port: int, grpc_port: int, bind: str, 
                 viewer.run(stop, rate=rate, duration=duration)
             finally:
                 viewer.close()
-        sys.stderr.write(f"view: {viewer.ticks} refreshes, {len(viewer._shown_frames)} frames shown\n")
+        sys.stderr.write(f"view: {viewer.ticks} refreshes, {len(viewer._shown_frames)} frames shown, "
+                         f"{viewer.problems} bad messages dropped\n")
     finally:
         try:
             rec.flush()
