@@ -1,0 +1,94 @@
+"""The split drones demo across separate network stacks: host a, router, host b (network namespaces).
+
+Machine A runs ``zentf launch configs/split/machine_a.yaml``, machine B runs
+``zentf launch configs/split/machine_b.yaml``, the router namespace runs ``zentf router --config
+configs/zenoh/router.json5``; the only path between a and b is the router process. Skipped unless
+root with iproute2 (CI runs as root).
+"""
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Iterator
+
+import pytest
+
+from conftest import REPO, Proc
+from netns_topology import Topology, unavailable_reason
+
+pytestmark = pytest.mark.timeout(120)
+
+
+def net_env() -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("ZENTF_")}
+    env.update(PYTHONUNBUFFERED="1", PYTHONPATH=os.pathsep.join(
+        p for p in (str(REPO), os.environ.get("PYTHONPATH", "")) if p))
+    return env
+
+
+@pytest.fixture
+def net() -> Iterator[Topology]:
+    reason = unavailable_reason()
+    if reason:
+        pytest.skip(reason)
+    with Topology(["a", "b"]) as topo:
+        yield topo
+
+
+@pytest.fixture
+def run_in(net: Topology) -> Iterator:
+    """``run_in(host, *argv) -> Proc`` inside a namespace; all stopped before the namespaces go."""
+    procs: list[Proc] = []
+
+    def _run(where: str, *argv: str, env: dict[str, str] | None = None) -> Proc:
+        p = Proc(net.cmd(where, *argv), env=env or net_env())
+        procs.append(p)
+        return p
+
+    try:
+        yield _run
+    finally:
+        for p in reversed(procs):
+            try:
+                p.stop(timeout=3)
+            except Exception:
+                p.kill()
+
+
+def start_router(net: Topology, run_in) -> Proc:
+    router = run_in("r", sys.executable, "-m", "zentf.cli", "router", "--config",
+                    str(REPO / "configs/zenoh/router.json5"))
+    router.wait_for_line(r"listening on tcp/0\.0\.0\.0:7447", 30)
+    return router
+
+
+def on_ellipse(x: float, y: float, z: float, tol: float = 1e-3) -> bool:
+    """av2 seen from av1: (x+1)^2 + (y+1/2)^2 = 1/4 and z = 2 (y + 1/2) (frames_publisher.av2_in_av1)."""
+    return abs((x + 1) ** 2 + (y + 0.5) ** 2 - 0.25) < tol and abs(z - 2 * (y + 0.5)) < tol
+
+
+def test_on_ellipse_rejects_points_off_it() -> None:
+    from nodes.frames_publisher import av2_in_av1
+
+    assert all(on_ellipse(*av2_in_av1(t / 7)) for t in range(50))
+    assert not on_ellipse(0.0, 0.0, 0.0) and not on_ellipse(-1.0, -0.5, 0.5)
+
+
+def test_split_drones_demo_across_three_hosts(net: Topology, run_in) -> None:
+    assert net.reaches("a") and net.reaches("b"), "veth wiring broken"
+    assert not net.reaches("a", net.host_ip("b")), "hosts a and b must only meet through the router process"
+    start_router(net, run_in)
+    launch = [sys.executable, "-m", "zentf.cli", "launch"]
+    b = run_in("b", *launch, str(REPO / "configs/split/machine_b.yaml"), f"router:=tcp/{net.router_ip('b')}:7447",
+               "period:=0.2")
+    a = run_in("a", *launch, str(REPO / "configs/split/machine_a.yaml"), f"router:=tcp/{net.router_ip('a')}:7447")
+    a.wait_for_line(r"publishing av1 and av2 in world", 30)
+    points = []
+    for _ in range(5):
+        m = b.wait_for_line(r"\[av2_in_av1\] av2 in av1: translation \((\S+), (\S+), (\S+)\)", 30)
+        points.append(tuple(float(v) for v in m.groups()))
+    assert all(on_ellipse(*p, tol=0.02) for p in points), points  # 3 decimals printed
+    assert len(set(points)) > 1, f"av2 does not move in av1: {points}"
+    # plots_publisher on b drew the same trail (4 decimals)
+    m = b.wait_for_line(r"\[plots_publisher\] av2 in av1: \((\S+), (\S+), (\S+)\)", 20, from_start=True)
+    assert on_ellipse(*(float(v) for v in m.groups()), tol=2e-3)
