@@ -372,6 +372,7 @@ def test_times_accept_seconds_and_reject_garbage() -> None:
     core = BufferCore()
     core.set_transform(ts("a", "b", 1), "x")
     assert core.can_transform("a", "b", 1) and core.can_transform("a", "b", Time(1))
+    assert core.can_transform("a", "b", np.float64(1.0)) and core.can_transform("a", "b", np.int64(1))
     with pytest.raises(TypeError):
         core.lookup_transform("a", "b", "now")
     with pytest.raises(ValueError):

@@ -60,6 +60,8 @@ def _ns(t: Any) -> int:
         return t._ns
     if isinstance(t, Time):
         return t.nanoseconds
+    if hasattr(t, "item") and not isinstance(t, (int, float)):
+        t = t.item()  # numpy scalars
     if isinstance(t, bool) or not isinstance(t, (int, float)):
         raise TypeError(f"time must be a Time or seconds, got {type(t).__name__}")
     if isinstance(t, int):
