@@ -2,11 +2,13 @@
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
+import time
 
 import pytest
-from cli_helpers import assert_one_line_error, zentf
+from cli_helpers import ZENTF, assert_one_line_error, zentf
 
 from conftest import free_port
 
@@ -104,3 +106,17 @@ def test_missing_optional_command_breaks_only_itself(offline_env):
     proc = subprocess.run([sys.executable, "-c", code, "tf", "--help"], capture_output=True, text=True,
                           env=offline_env, timeout=30)
     assert proc.returncode == 0 and "echo" in proc.stdout
+
+
+@pytest.mark.parametrize("args", [["tf", "echo", "a", "b"], ["tf", "monitor"], ["topic", "echo", "x"],
+                                  ["topic", "pub", "x", "geometry_msgs/msg/Point", "{x: 1}"]])
+def test_ctrl_c_stops_cleanly(spawn, zenoh_env, args):
+    """SIGINT ends a long-running tool promptly, exit 0, no traceback (its node owns SIGINT)."""
+    proc = spawn([*ZENTF, *args])
+    # the tool's hidden node shows up in the graph once its session is up: wait for that
+    deadline = time.monotonic() + 30
+    while "_zentf_" not in zentf(["node", "list", "--all"], zenoh_env).stdout:
+        assert time.monotonic() < deadline, proc.output()
+    proc.signal(signal.SIGINT)
+    assert proc.wait(10) == 0, proc.output()
+    assert "Traceback" not in proc.output()

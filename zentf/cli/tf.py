@@ -76,52 +76,65 @@ def echo(source: str, target: str, rate: float, precision: int, at_time: Optiona
     try:
         when = Time() if at_time is None else Time.from_sec(at_time)
         period = 1.0 / rate
-        started = time.monotonic()
-        printed = 0
-        last_reason = ""
-        last_reason_at = 0.0
-        next_tick = started
-        while True:
-            now = time.monotonic()
-            if timeout is not None and printed == 0:
-                left = started + timeout - now
-                step = max(0.0, min(1.0, left))
-            else:
-                left = None
-                step = 1.0
-            try:
-                if printed == 0:
-                    with status(f"Waiting for transform {source} -> {target}"):
-                        ts = buffer.lookup_transform(source, target, when, timeout=Duration.from_sec(step))
-                else:
-                    ts = buffer.lookup_transform(source, target, when)
-            except TransformException as exc:
-                reason = " ".join(str(exc).split())
-                if left is not None and left <= 0:
-                    raise CliError(f"no transform {source} -> {target} after {timeout:g} s: {reason}") from exc
-                now = time.monotonic()
-                if printed:
-                    sys.stderr.write(f"Failure at {time.time():.6f}: {reason}\n")
-                    sys.stderr.flush()
-                    next_tick += period
-                    time.sleep(max(0.0, next_tick - time.monotonic()))
-                elif reason != last_reason or now - last_reason_at >= 1.0:
-                    sys.stderr.write(f"Waiting for transform {source} -> {target}: {reason}\n")
-                    sys.stderr.flush()
-                    last_reason, last_reason_at = reason, now
-                continue
+
+        def show(ts: Any) -> None:
             tr, rot = ts.transform.translation, ts.transform.rotation
             stamp = ts.header.stamp
             stamp_ns = stamp.nanoseconds if hasattr(stamp, "nanoseconds") else int(stamp)
-            sys.stdout.write(format_echo(stamp_ns, (tr.x, tr.y, tr.z), (rot.x, rot.y, rot.z, rot.w), precision) + "\n")
+            sys.stdout.write(format_echo(stamp_ns, (tr.x, tr.y, tr.z), (rot.x, rot.y, rot.z, rot.w), precision)
+                             + "\n")
             sys.stdout.flush()
-            printed += 1
-            if count and printed >= count:
+
+        # Phase 1: wait for the first transform (woken by every insert), saying why once a second.
+        started = time.monotonic()
+        deadline = None if timeout is None else started + timeout
+        last_reason, last_reason_at = "", float("-inf")
+        first = None
+        with status(f"Waiting for transform {source} -> {target}") as st:
+            while first is None and node.ok():
+                step = 0.2 if deadline is None else max(0.0, min(0.2, deadline - time.monotonic()))
+                try:
+                    first = buffer.lookup_transform(source, target, when, timeout=Duration.from_sec(step))
+                except TransformException as exc:
+                    reason = " ".join(str(exc).split())
+                    now = time.monotonic()
+                    if deadline is not None and now >= deadline:
+                        raise CliError(f"no transform {source} -> {target} after {timeout:g} s: {reason}") from exc
+                    if reason != last_reason or now - last_reason_at >= 1.0:
+                        sys.stderr.write(f"Waiting for transform {source} -> {target}: {reason}\n")
+                        sys.stderr.flush()
+                        last_reason, last_reason_at = reason, now
+                    st.update(f"Waiting for transform {source} -> {target}: {reason}")
+        if first is None:  # Ctrl-C / SIGTERM while waiting
+            return
+        show(first)
+        printed = 1
+        # Phase 2: one lookup per tick; failures are reported and the ticking goes on.
+        next_tick = time.monotonic() + period
+        while not count or printed < count:
+            if not _sleep_until(node, next_tick):
                 return
-            next_tick = max(next_tick + period, time.monotonic() - period) if printed > 1 else time.monotonic() + period
-            time.sleep(max(0.0, next_tick - time.monotonic()))
+            next_tick += period
+            if next_tick < time.monotonic():  # fell behind (slow terminal): do not burst
+                next_tick = time.monotonic() + period
+            try:
+                show(buffer.lookup_transform(source, target, when))
+                printed += 1
+            except TransformException as exc:
+                sys.stderr.write(f"Failure at {time.time():.6f}: {' '.join(str(exc).split())}\n")
+                sys.stderr.flush()
     finally:
         _close(node, listener)
+
+
+def _sleep_until(node: Any, when: float) -> bool:
+    """Sleep until monotonic time `when` in short steps; False as soon as the node is asked to stop."""
+    while node.ok():
+        left = when - time.monotonic()
+        if left <= 0:
+            return True
+        time.sleep(min(0.1, left))
+    return False
 
 
 def _render(dot_path: Path, fmt: str, out_path: Path) -> Optional[str]:
@@ -194,14 +207,17 @@ def frames(output: Optional[str], wait: float, print_tree: bool, *, opts: CliOpt
     try:
         deadline = time.monotonic() + wait
         with status(f"Listening to tf for {wait:g} s") as st:
-            while (left := deadline - time.monotonic()) > 0:
+            while (left := deadline - time.monotonic()) > 0 and node.ok():
                 st.update(f"Listening to tf for {wait:g} s ({left:.1f} s left)")
                 time.sleep(min(0.1, left))
         stats = _frame_stats(buffer)
         recorded = _now_sec(node)
+        interrupted = not node.ok()
     finally:
         _close(node, listener)
     if not stats:
+        if interrupted:
+            raise CliError("stopped before any tf data was received", code=130)
         raise CliError(f"no tf data received in {wait:g} s (is anything publishing on "
                        f"{_tf_topics(opts)}?)")
     stem = time.strftime("frames_%Y-%m-%d_%H.%M.%S")
@@ -428,7 +444,7 @@ def monitor(frame_a: Optional[str], frame_b: Optional[str], duration: Optional[f
             buffer = Buffer()
         stats = MonitorStats(buffer, window)
         subs = _subscribe_tf(node, stats)
-        _run_monitor(stats, buffer, pair, duration, period)
+        _run_monitor(stats, buffer, pair, duration, period, node.ok)
     finally:
         for s in subs:
             try:
@@ -439,7 +455,7 @@ def monitor(frame_a: Optional[str], frame_b: Optional[str], duration: Optional[f
 
 
 def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str]], duration: Optional[float],
-                 period: float) -> None:
+                 period: float, ok: Any = lambda: True) -> None:
     from collections import deque
 
     from zentf.exceptions import TransformException
@@ -475,7 +491,7 @@ def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str
 
         console = Console()
         with Live(console=console, refresh_per_second=4, transient=False) as live:
-            while end is None or time.monotonic() < end:
+            while (end is None or time.monotonic() < end) and ok():
                 sample_chain()
                 if pair and chain is None:
                     live.update(f"Waiting for transform {pair[0]} -> {pair[1]}: {reason or 'no data yet'}")
@@ -487,7 +503,7 @@ def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str
     else:
         next_report = started + period
         last_wait_msg = 0.0
-        while end is None or time.monotonic() < end:
+        while (end is None or time.monotonic() < end) and ok():
             sample_chain()
             now = time.monotonic()
             if pair and chain is None and reason and now - last_wait_msg >= 1.0:
@@ -499,6 +515,10 @@ def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str
                     print(format_monitor_text(stats, title, chain, net_figures()) + "\n", flush=True)
                 next_report += period
             time.sleep(0.05)
+    if not ok():  # stopped by Ctrl-C / SIGTERM: a last report if there is anything to report
+        if stats.frames and not live_tty:
+            print(format_monitor_text(stats, title, chain, net_figures()), flush=True)
+        return
     if not stats.frames:
         raise CliError(f"no tf data received in {duration:g} s" if duration else "no tf data received")
     if pair and chain is None:

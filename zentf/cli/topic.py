@@ -153,7 +153,7 @@ def topic_echo(name: str, once: bool, count: int, as_json: bool, timeout: Option
             token = declare("sub", "", key)
         started = time.monotonic()
         shown = 0
-        while not limit or shown < limit:
+        while (not limit or shown < limit) and node.ok():
             wait = 0.5
             if timeout is not None and shown == 0:
                 wait = started + timeout - time.monotonic()
@@ -298,14 +298,17 @@ def topic_pub(name: str, type_name: str, data: str, rate: float, once: bool, tim
         _wait_for_subscriber(node, topic_to_key(pub.topic_name), wait_matching)
         sent = 0
         next_t = time.monotonic()
-        while not limit or sent < limit:
+        from .tf import _sleep_until
+
+        while (not limit or sent < limit) and node.ok():
             pub.publish(msg)
             sent += 1
             print(f"publishing #{sent}: {type(msg).__name__} on {pub.topic_name}", flush=True)
             if limit and sent >= limit:
                 break
             next_t += 1.0 / rate
-            time.sleep(max(0.0, next_t - time.monotonic()))
+            if not _sleep_until(node, next_t):
+                break
     finally:
         node.shutdown()
 
