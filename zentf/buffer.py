@@ -32,17 +32,23 @@ class Buffer(BufferCore):
         self.node = node
         self._cond = threading.Condition()
         self._generation = 0
+        self._waiters = 0
         self._closed = False
         self.add_insert_callback(self._wake)
 
     def _wake(self) -> None:
-        with self._cond:
-            self._generation += 1
-            self._cond.notify_all()
+        # Hot path (every inserted message): lock-free unless someone waits. A waiter reads the
+        # generation before checking and re-checks it inside wait_for, so no wake-up is lost.
+        self._generation += 1
+        if self._waiters:
+            with self._cond:
+                self._cond.notify_all()
 
     def clear(self) -> None:
         super().clear()
-        self._wake()
+        with self._cond:
+            self._generation += 1
+            self._cond.notify_all()
 
     def close(self) -> None:
         """Release every blocked waiter (they report failure)."""
@@ -65,7 +71,11 @@ class Buffer(BufferCore):
                 return False, (msg + (". " if msg else "") +
                                f"canTransform returned after {limit - max(left, 0.0):.6f} timeout was {limit:.6f}.")
             with self._cond:
-                self._cond.wait_for(lambda: self._generation != gen or self._closed, left)
+                self._waiters += 1
+                try:
+                    self._cond.wait_for(lambda: self._generation != gen or self._closed, left)
+                finally:
+                    self._waiters -= 1
 
     def wait_for(self, predicate: Any, timeout: TimeoutArg) -> bool:
         """Block until ``predicate()`` is true, re-checking after every insert (or the timeout passes)."""

@@ -54,6 +54,7 @@ class TransformListener:
             self._subs.append(session.declare_subscriber(key, lambda s: self._on_sample(s, False)))
             self._declare_token(key)
         self._jump = self.node.get_clock().add_jump_callback(self._on_jump)
+        self.node.add_on_shutdown(self.unregister)
 
     def _declare_token(self, key: str) -> None:
         if "*" not in key:  # a liveliness token cannot hold a wildcard; '*/tf' listeners stay unlisted
@@ -109,7 +110,7 @@ class TransformListener:
                 pass
         self._subs.clear()
         self._tokens.clear()
-        if self._own_node:
+        if self._own_node and not self.node._closed:
             self.node.shutdown()
 
     close = unregister

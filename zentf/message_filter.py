@@ -87,6 +87,8 @@ class MessageFilter:
             raise TypeError(f"MessageFilter source must be a Subscription, a topic name or None, "
                             f"got {type(source).__name__}")
         self.node = node
+        if node is not None:
+            node.add_on_shutdown(self.close)
         buffer.add_insert_callback(self._kick)
         self._worker = threading.Thread(target=self._run, name="zentf-message-filter", daemon=True)
         self._worker.start()

@@ -274,6 +274,24 @@ def _on_signal(signum: int, frame: Any) -> None:
         node.request_shutdown()
 
 
+def _shutdown_all_nodes() -> None:
+    """At interpreter exit (before non-daemon threads are joined): close what programs left open,
+    otherwise Zenoh's callback threads would keep the process alive."""
+    for node in list(_live_nodes):
+        try:
+            node.shutdown()
+        except Exception:
+            pass
+
+
+try:  # runs before threading joins non-daemon threads, unlike atexit
+    threading._register_atexit(_shutdown_all_nodes)  # type: ignore[attr-defined]
+except Exception:  # pragma: no cover - other interpreters
+    import atexit
+
+    atexit.register(_shutdown_all_nodes)
+
+
 def _register_node(node: "Node") -> None:
     global _signal_count
     with _signals_lock:
@@ -322,6 +340,7 @@ class Node:
         self._subscriptions: set[Subscription] = set()
         self._timers: set[Timer] = set()
         self._tokens: list[Any] = []
+        self._on_shutdown: list[Callable[[], None]] = []
         self._queue: queue.SimpleQueue = queue.SimpleQueue()
         self._shutdown = threading.Event()
         self._closed = False
@@ -574,6 +593,12 @@ class Node:
         self._queue.put(_STOP)
         if threading.current_thread() is not self._executor:
             self._executor.join(timeout=2.0)
+        for cb in reversed(self._on_shutdown):
+            try:
+                cb()
+            except Exception:
+                log.debug("on-shutdown callback failed", exc_info=True)
+        self._on_shutdown.clear()
         for obj in [*self._subscriptions, *self._publishers]:
             obj.destroy()
         self._timers.clear()
@@ -591,6 +616,10 @@ class Node:
         self._close_session()
 
     destroy_node = shutdown
+
+    def add_on_shutdown(self, callback: Callable[[], None]) -> None:
+        """Run ``callback()`` when the node shuts down (listeners, filters... undeclare themselves)."""
+        self._on_shutdown.append(callback)
 
     def _close_session(self) -> None:
         if self._owns_session:

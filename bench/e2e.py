@@ -1,0 +1,277 @@
+"""End-to-end transport benchmark: zentf (send_transform -> lookup-able in another process) side by side
+with raw zenoh-python put -> callback, measured in the same run on loopback.
+
+    python bench/e2e.py [--n-lat 2000] [--n-batch 1500] [--n-single 60000]
+
+Two processes talk peer to peer (receiver listens on a free loopback port, sender connects; no
+multicast, no router). Latency: one message every ~1 ms, one-way time from just before
+``send_transform`` / ``put`` to the receiver's moment of "lookup-able" (TransformListener inserted
+it and ``lookup_transform`` answers) / callback entry; both stamps are CLOCK_REALTIME on one host.
+Ingest: the sender floods pre-encoded TFMessages (100 transforms each, then 1 each); the rate is
+transforms accepted by the listener's Buffer per second, against raw messages per second received
+by a bare callback. Also the in-process ingest ceiling (wire.ingest_tf into a Buffer, no network).
+Targets (issue 3): zentf p50 <= 1.5x raw one-way latency; ingest >= 200k transforms/s batched.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import socket
+import statistics
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+import msgpack  # noqa: E402
+
+NS = 1_000_000_000
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def zopts(listen: str | None = None, connect: str | None = None):
+    from zentf.options import ZenohOptions
+
+    return ZenohOptions(listen=[listen] if listen else [], connect=[connect] if connect else [],
+                        mode="peer", no_multicast=True)
+
+
+def tf_dict(parent: str, child: str, stamp_ns: int, x: float = 1.0) -> dict:
+    return {"header": {"stamp": {"sec": stamp_ns // NS, "nanosec": stamp_ns % NS}, "frame_id": parent},
+            "child_frame_id": child,
+            "transform": {"translation": {"x": x, "y": 2.0, "z": 3.0},
+                          "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}
+
+
+def payloads(n_msgs: int, per_msg: int, base_ns: int) -> list[bytes]:
+    """Pre-encoded TFMessages; each child's stamps strictly increase (no TF_REPEATED_DATA)."""
+    out = []
+    for i in range(n_msgs):
+        stamp = base_ns + i * 1000
+        if per_msg == 1:
+            out.append(msgpack.packb({"transforms": [tf_dict("world", f"f{i % 100}", stamp)]}))
+        else:
+            out.append(msgpack.packb({"transforms": [tf_dict("world", f"f{j}", stamp) for j in range(per_msg)]}))
+    return out
+
+
+# ------------------------------------------------------------------ receiver (child process)
+
+def receiver(args: argparse.Namespace) -> None:
+    result: dict = {}
+    done = threading.Event()
+    if args.impl == "raw":
+        session = zopts(listen=args.endpoint).open_session()
+        lat: list[int] = []
+        count = [0, 0, 0]  # messages, first ns, last ns
+
+        def on_lat(sample) -> None:
+            now = time.time_ns()
+            sent = int.from_bytes(sample.payload.to_bytes()[:8], "little")
+            lat.append(now - sent)
+            if len(lat) >= args.count:
+                done.set()
+
+        def on_thr(sample) -> None:
+            sample.payload.to_bytes()
+            now = time.perf_counter_ns()
+            if count[0] == 0:
+                count[1] = now
+            count[0] += 1
+            count[2] = now
+            if count[0] >= args.count:
+                done.set()
+
+        session.declare_subscriber("bench/tf", on_lat if args.kind == "lat" else on_thr)
+        print("ready", flush=True)
+        done.wait(120)
+        if args.kind == "lat":
+            result = {"lat_ns": lat}
+        else:
+            result = {"items": count[0] * args.per_msg, "secs": (count[2] - count[1]) / NS}
+        print("RESULT " + json.dumps(result), flush=True)
+        session.close()
+        return
+
+    from zentf.buffer import Buffer
+    from zentf.listener import TransformListener
+    from zentf.node import Node
+    from zentf.options import NodeOptions
+    from zentf.time import Time
+
+    node = Node("bench_listener", options=NodeOptions(namespace="bench", zenoh=zopts(listen=args.endpoint)),
+                check_unique=False)
+    buf = Buffer(node=node)
+    lat = []
+    state = [0, 0, 0]  # first ns, last ns, messages inserted (one insert callback per message)
+
+    def on_insert_lat() -> None:
+        t = buf.lookup_transform("world", "lat", Time())   # lookup-able now
+        now = time.time_ns()
+        lat.append(now - t.header.stamp.nanoseconds)
+        if len(lat) >= args.count:
+            done.set()
+
+    def on_insert_thr() -> None:
+        now = time.perf_counter_ns()
+        if state[0] == 0:
+            state[0] = now
+        state[1] = now
+        state[2] += 1
+        if state[2] >= args.count:
+            done.set()
+
+    buf.add_insert_callback(on_insert_lat if args.kind == "lat" else on_insert_thr)
+    tl = TransformListener(buf, node)
+    print("ready", flush=True)
+    done.wait(120)
+    time.sleep(0.05)  # the listener's counters are updated just after the last insert callback
+    if args.kind == "lat":
+        result = {"lat_ns": lat}
+    else:
+        result = {"items": tl.transforms, "secs": (state[1] - state[0]) / NS, "stats": tl.stats()}
+    print("RESULT " + json.dumps(result), flush=True)
+    node.shutdown()
+
+
+# ------------------------------------------------------------------ sender (this process)
+
+def run_case(impl: str, kind: str, count: int, per_msg: int) -> dict:
+    port = free_port()
+    ep = f"tcp/127.0.0.1:{port}"
+    child = subprocess.Popen([sys.executable, __file__, "--role", "recv", "--impl", impl, "--kind", kind,
+                              "--endpoint", ep, "--count", str(count), "--per-msg", str(per_msg)],
+                             stdout=subprocess.PIPE, text=True)
+    try:
+        assert child.stdout is not None
+        line = child.stdout.readline()
+        if not line.startswith("ready"):
+            raise RuntimeError(f"receiver failed to start: {line!r}")
+        if impl == "raw":
+            import zenoh
+
+            session = zopts(connect=ep).open_session()
+            pub = session.declare_publisher("bench/tf", congestion_control=zenoh.CongestionControl.BLOCK)
+            while not pub.matching_status:
+                time.sleep(0.005)
+            send_raw = pub.put
+            node = None
+        else:
+            from zentf.broadcaster import TransformBroadcaster
+            from zentf.messages import Header, Quaternion, Transform, TransformStamped, Vector3
+            from zentf.node import Node
+            from zentf.options import NodeOptions
+            from zentf.time import Time
+
+            node = Node("bench_sender", options=NodeOptions(namespace="bench", zenoh=zopts(connect=ep)),
+                        check_unique=False)
+            br = TransformBroadcaster(node)
+            if not br.wait_for_subscribers(20):
+                raise RuntimeError("listener never matched")
+            session = None
+            send_raw = br._pub.publish_bytes
+        time.sleep(0.2)  # let the link settle (gossip/route setup) before timing
+        if kind == "lat":
+            pad = b"x" * 92
+            for i in range(count + 20):
+                if impl == "raw":
+                    send_raw(time.time_ns().to_bytes(8, "little") + pad)
+                else:
+                    t0 = time.time_ns()
+                    br.send_transform(TransformStamped(Header(Time(nanoseconds=t0), "world"), "lat",
+                                                       Transform(Vector3(1.0, 2.0, 3.0), Quaternion(0, 0, 0, 1))))
+                time.sleep(0.001)
+        else:
+            data = payloads(count, per_msg, time.time_ns())
+            for p in data:
+                send_raw(p)
+        out = child.stdout.readline()
+        while out and not out.startswith("RESULT "):
+            out = child.stdout.readline()
+        if not out:
+            raise RuntimeError(f"{impl}/{kind}: receiver gave no result")
+        res = json.loads(out[len("RESULT "):])
+        if node is not None:
+            node.shutdown()
+        if session is not None:
+            session.close()
+        return res
+    finally:
+        child.terminate()
+        try:
+            child.wait(5)
+        except subprocess.TimeoutExpired:
+            child.kill()
+
+
+def inprocess_ceiling(per_msg: int, n: int) -> float:
+    from zentf import wire
+    from zentf.buffer import Buffer
+
+    data = payloads(n, per_msg, time.time_ns())
+    buf = Buffer()
+    t0 = time.perf_counter()
+    total = 0
+    for p in data:
+        total += wire.ingest_tf(p, buf, "/bench", False)[0]
+    return total / (time.perf_counter() - t0)
+
+
+def pct(values: list[int], q: float) -> float:
+    s = sorted(values)
+    return s[min(len(s) - 1, int(q * len(s)))] / 1000.0
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--role", default="main", choices=["main", "recv"])
+    ap.add_argument("--impl", choices=["raw", "zentf"])
+    ap.add_argument("--kind", choices=["lat", "thr"])
+    ap.add_argument("--endpoint")
+    ap.add_argument("--count", type=int, default=0)
+    ap.add_argument("--per-msg", type=int, default=1)
+    ap.add_argument("--n-lat", type=int, default=2000)
+    ap.add_argument("--n-batch", type=int, default=1500, help="TFMessages of 100 transforms in the flood")
+    ap.add_argument("--n-single", type=int, default=60000, help="TFMessages of 1 transform in the flood")
+    args = ap.parse_args()
+    if args.role == "recv":
+        receiver(args)
+        return
+
+    print(f"# zentf e2e bench  (python {sys.version.split()[0]}, {os.cpu_count()} cpus; loopback, peer to peer)")
+    rl = run_case("raw", "lat", args.n_lat, 1)["lat_ns"]
+    zl = run_case("zentf", "lat", args.n_lat, 1)["lat_ns"]
+    r50, r99, z50, z99 = pct(rl, .5), pct(rl, .99), pct(zl, .5), pct(zl, .99)
+    print()
+    print("| one-way latency (µs) | raw zenoh put->callback | zentf send_transform->lookup-able | ratio |")
+    print("|---|---|---|---|")
+    print(f"| p50 | {r50:.1f} | {z50:.1f} | {z50 / r50:.2f}x (target <= 1.5x) |")
+    print(f"| p99 | {r99:.1f} | {z99:.1f} | {z99 / r99:.2f}x |")
+    print(f"| mean | {statistics.mean(rl) / 1000:.1f} | {statistics.mean(zl) / 1000:.1f} | |")
+    print()
+    print("| ingest | raw zenoh msgs/s (callback only) | zentf transforms/s into the Buffer | in-process ceiling (no network) |")
+    print("|---|---|---|---|")
+    for label, per_msg, n in (("100 frames per message", 100, args.n_batch), ("1 frame per message", 1, args.n_single)):
+        raw = run_case("raw", "thr", n, per_msg)
+        zt = run_case("zentf", "thr", n, per_msg)
+        raw_rate = raw["items"] / per_msg / raw["secs"] if raw["secs"] else float("nan")
+        z_rate = zt["items"] / zt["secs"] if zt["secs"] else float("nan")
+        ceil = inprocess_ceiling(per_msg, min(n, 3000 if per_msg > 1 else 100000))
+        note = " (target >= 200k)" if per_msg > 1 else ""
+        print(f"| {label} | {raw_rate:,.0f} msgs/s = {raw_rate * per_msg:,.0f} transforms/s | "
+              f"{z_rate:,.0f}{note} | {ceil:,.0f} |")
+    print()
+    print("Noisy on a shared machine; compare the columns of one run, not runs with each other.")
+
+
+if __name__ == "__main__":
+    main()
