@@ -7,59 +7,15 @@ root with iproute2 (CI runs as root).
 """
 from __future__ import annotations
 
-import os
 import sys
-from collections.abc import Iterator
 
 import pytest
 
-from conftest import REPO, Proc
-from netns_topology import Topology, unavailable_reason
+from conftest import REPO
+from netns_fixtures import net, run_in, start_router  # noqa: F401
+from netns_topology import Topology
 
 pytestmark = pytest.mark.timeout(120)
-
-
-def net_env() -> dict[str, str]:
-    env = {k: v for k, v in os.environ.items() if not k.startswith("ZENTF_")}
-    env.update(PYTHONUNBUFFERED="1", PYTHONPATH=os.pathsep.join(
-        p for p in (str(REPO), os.environ.get("PYTHONPATH", "")) if p))
-    return env
-
-
-@pytest.fixture
-def net() -> Iterator[Topology]:
-    reason = unavailable_reason()
-    if reason:
-        pytest.skip(reason)
-    with Topology(["a", "b"]) as topo:
-        yield topo
-
-
-@pytest.fixture
-def run_in(net: Topology) -> Iterator:
-    """``run_in(host, *argv) -> Proc`` inside a namespace; all stopped before the namespaces go."""
-    procs: list[Proc] = []
-
-    def _run(where: str, *argv: str, env: dict[str, str] | None = None) -> Proc:
-        p = Proc(net.cmd(where, *argv), env=env or net_env())
-        procs.append(p)
-        return p
-
-    try:
-        yield _run
-    finally:
-        for p in reversed(procs):
-            try:
-                p.stop(timeout=3)
-            except Exception:
-                p.kill()
-
-
-def start_router(net: Topology, run_in) -> Proc:
-    router = run_in("r", sys.executable, "-m", "zentf.cli", "router", "--config",
-                    str(REPO / "configs/zenoh/router.json5"))
-    router.wait_for_line(r"listening on tcp/0\.0\.0\.0:7447", 30)
-    return router
 
 
 def on_ellipse(x: float, y: float, z: float, tol: float = 1e-3) -> bool:
@@ -77,7 +33,7 @@ def test_on_ellipse_rejects_points_off_it() -> None:
 def test_split_drones_demo_across_three_hosts(net: Topology, run_in) -> None:
     assert net.reaches("a") and net.reaches("b"), "veth wiring broken"
     assert not net.reaches("a", net.host_ip("b")), "hosts a and b must only meet through the router process"
-    start_router(net, run_in)
+    start_router(run_in)
     launch = [sys.executable, "-m", "zentf.cli", "launch"]
     b = run_in("b", *launch, str(REPO / "configs/split/machine_b.yaml"), f"router:=tcp/{net.router_ip('b')}:7447",
                "period:=0.2")
