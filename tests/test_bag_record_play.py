@@ -113,6 +113,8 @@ def test_demo_bag_info_counts(tmp_path):
     text = subprocess.run([*ZENTF, "bag", "info", str(bag)], capture_output=True, text=True, timeout=30, cwd=REPO)
     assert re.search(r"tf\s+101 msgs\s+50\.00 Hz\s+tf2_msgs/msg/TFMessage", text.stdout), text.stdout
     assert "(latched)" in text.stdout
+    shipped = info_json(REPO / "configs" / "recordings" / "drones.mcap")  # the newcomer's recording
+    assert shipped["complete"] and counts(shipped) == {"tf": 501, "tf_static": 1, "visual_markers": 51}
 
 
 class Counter:
