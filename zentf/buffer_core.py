@@ -655,6 +655,7 @@ class BufferCore:
             if depth > MAX_GRAPH_DEPTH:
                 raise LookupException(self._loop_message())
 
+        source_links = depth
         # target walk: accumulate target -> top
         frame = target_id
         depth = 0
@@ -697,7 +698,12 @@ class BufferCore:
                     f"to frame [{target}]")
             raise ConnectivityException(self._connectivity_message(source_id, target_id))
 
-        # full path: inverse(target -> top) * (source -> top)
+        # full path: inverse(target -> top) * (source -> top); when one side is empty this is
+        # exactly the other side (identity terms add zeros), so skip the arithmetic
+        if not depth:
+            return (t, sx, sy, sz, sqx, sqy, sqz, sqw)
+        if not source_links:
+            return (t, *_inverse(tx, ty, tz, tqx, tqy, tqz, tqw))
         ix, iy, iz, iqx, iqy, iqz, iqw = _inverse(tx, ty, tz, tqx, tqy, tqz, tqw)
         x, y, z, w = iqx, iqy, iqz, iqw
         ax = w * sx + y * sz - z * sy
