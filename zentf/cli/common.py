@@ -137,7 +137,7 @@ def open_node(opts: CliOptions, tool: str) -> Any:
     except Exception as exc:  # zenoh raises plain ZError / Exception here
         if opts.debug:
             raise
-        raise CliError(f"cannot open a Zenoh session{_where(opts)}: {clean_error(exc)}") from exc
+        raise CliError(_session_error(exc, opts)) from exc
 
 
 def open_session(opts: CliOptions) -> Any:
@@ -148,7 +148,14 @@ def open_session(opts: CliOptions) -> Any:
     except Exception as exc:
         if opts.debug:
             raise
-        raise CliError(f"{clean_error(exc)}{_where(opts, ' (endpoint ')}") from exc
+        raise CliError(_session_error(exc, opts)) from exc
+
+
+def _session_error(exc: BaseException, opts: CliOptions) -> str:
+    text = clean_error(exc)
+    if "zenoh session" not in text.lower():
+        text = f"cannot open Zenoh session: {text}"
+    return text + _where(opts, " (endpoint ")
 
 
 def _where(opts: CliOptions, prefix: str = " to ") -> str:
