@@ -179,3 +179,43 @@ def test_stats_from_frame_info() -> None:
          "most_recent_transform": Time(), "oldest_transform": Time(), "rate": 10000.0}])
     assert stats[0].buffer_length == pytest.approx(2.0) and not stats[0].is_static
     assert stats[1].is_static and stats[1].broadcaster == "/s"
+
+
+def test_monitor_stats_rates_delays_and_report() -> None:
+    import time as _time
+
+    from zentf.cli.tf import MonitorStats, format_monitor_text
+
+    class Sink:
+        def __init__(self) -> None:
+            self.got: list = []
+
+        def set_transforms_raw(self, samples, authority, is_static):  # noqa: ANN001
+            self.got.append((len(samples), authority, is_static))
+            return len(samples)
+
+    sink = Sink()
+    stats = MonitorStats(forward=sink)
+    now = _time.time_ns()
+    sample = lambda parent, child, age_s: (parent, child, now - int(age_s * 1e9), 0.0, 0.0, 0.0,  # noqa: E731
+                                           0.0, 0.0, 0.0, 1.0)
+    assert stats.set_transforms_raw([sample("world", "av1", 0.010), sample("world", "av2", 0.030)], "/fp", False) == 2
+    stats.set_transform_raw(*sample("base_link", "laser", 100.0), "/static", True)
+    # fake 50 Hz arrivals for av1
+    f = stats.frames["av1"]
+    f.arrivals.clear()
+    t0 = _time.monotonic() - 1.0
+    f.arrivals.extend(t0 + k * 0.02 for k in range(51))
+    rows = {r[0]: r for r in stats.rows()}
+    assert rows["av1"][1:3] == ("world", "/fp") and rows["av1"][3] == pytest.approx(50.0)
+    assert rows["av1"][4] == pytest.approx(0.010, abs=0.005) and rows["av2"][5] == pytest.approx(0.030, abs=0.005)
+    assert rows["laser"][6] and rows["laser"][4] == 0.0  # static: no delay, no rate
+    assert sink.got == [(2, "/fp", False), (1, "/static", True)]
+    text = format_monitor_text(stats, "for all Frames")
+    assert text.startswith("RESULTS: for all Frames")
+    assert any(ln.split()[:4] == ["av1", "world", "/fp", "50.0"] for ln in text.splitlines()), text
+    assert any(ln.split()[:4] == ["laser", "base_link", "/static", "static"] for ln in text.splitlines()), text
+    assert "Node: /static static, Average Delay: 0.000 ms" in text
+    chain_text = format_monitor_text(stats, "for world to av1", chain=["av1", "world"], net=(0.002, 0.004))
+    assert "Chain is: av1 -> world\nNet delay     avg = 2.000 ms: max = 4.000 ms" in chain_text
+    assert "av2" not in chain_text.split("All Broadcasters:")[0]  # only chain frames listed

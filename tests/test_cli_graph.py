@@ -43,7 +43,7 @@ def test_node_list_shows_exactly_the_live_nodes_and_drops_a_killed_one(spawn, ze
 
 def test_node_info_lists_publications_and_subscriptions(spawn, zenoh_env, test_namespace):
     _static(spawn, "--name", "laser_tf", "0.4", "0", "0.2", "0", "0", "0", "base_link", "laser")
-    listener = spawn.python("-m", "nodes.frame_listener", "--name", "listener", "-p", "period:=0.2")
+    spawn.python("-m", "nodes.frame_listener", "--name", "listener", "-p", "period:=0.2")
     ns = f"/{test_namespace}"
     proc = zentf(["node", "info", "laser_tf"], zenoh_env)
     assert proc.returncode == 0, proc.stderr

@@ -5,7 +5,6 @@ import functools
 import os
 import re
 import sys
-import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path

@@ -235,7 +235,7 @@ def frames_dot(stats: Sequence[FrameStat], recorded_at: float | None = None) -> 
             out.append(f'  {_q(e.parent)} -> {_q(e.child)} [label="{label}", color="{colour}"];')
     if recorded_at is not None:
         out.append("  subgraph cluster_legend {")
-        out.append(f'    style=bold; color=black; label="view_frames Result";')
+        out.append('    style=bold; color=black; label="view_frames Result";')
         out.append(f'    "Recorded at time: {recorded_at:.3f}" [shape=plaintext];')
         out.append("  }")
     out.append("}")

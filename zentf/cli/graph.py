@@ -15,7 +15,8 @@ __all__ = ["graph"]
 @click.option("--output", "-o", default=None, metavar="NAME",
               help="Write NAME.gv and NAME.pdf (a .svg/.png suffix picks that format).")
 @click.option("--dot", "print_dot", is_flag=True, help="Print the DOT source instead of the text listing.")
-@click.option("--all", "-a", "show_all", is_flag=True, help="Include hidden nodes (CLI tools, names starting with '_').")
+@click.option("--all", "-a", "show_all", is_flag=True,
+              help="Include hidden nodes (CLI tools, names starting with '_').")
 @click.option("--wait", type=click.FloatRange(min=0.0), default=2.0, show_default=True,
               help="Seconds to wait for liveliness replies.")
 @with_options
