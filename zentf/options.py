@@ -10,6 +10,7 @@ import argparse
 import json
 import os
 import re
+import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -125,11 +126,25 @@ class ZenohOptions:
         import zenoh
 
         cfg = self.config()
-        try:
-            return zenoh.open(cfg)
-        except Exception as e:
+        # zenoh.open blocks in Rust (a client config may wait for its router forever) where Python
+        # cannot run signal handlers: open on a helper thread so Ctrl-C/SIGTERM still stop start-up.
+        result: dict[str, Any] = {}
+
+        def _open() -> None:
+            try:
+                result["session"] = zenoh.open(cfg)
+            except Exception as e:  # noqa: BLE001 - reported below
+                result["error"] = e
+
+        opener = threading.Thread(target=_open, name="zenoh-open", daemon=True)
+        opener.start()
+        while opener.is_alive():
+            opener.join(0.05)
+        if "error" in result:
+            e = result["error"]
             text = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
             raise OptionsError(f"cannot open Zenoh session: {text}") from None
+        return result["session"]
 
     def to_env(self) -> dict[str, str]:
         env: dict[str, str] = {}
