@@ -99,7 +99,7 @@ class _TimeCache:
         self.stamps = array("q")   # int64 ns, ascending
         self.parents = array("i")  # parent frame id per sample
         self.data = array("d")     # tx, ty, tz, qx, qy, qz, qw per sample
-        self.start = 0             # logical first index (lazy pruning, compacted now and then)
+        self.start = 0             # logical first index (lazy pruning, compacted at 1/8 dead)
         self.newest = -1           # newest stamp, -1 when empty
         self.oldest = -1           # oldest live stamp
         self.latest: Optional[tuple] = None  # newest sample as a tuple, built on first use
@@ -158,7 +158,7 @@ class _TimeCache:
         st = self.stamps
         start = bisect_left(st, self.newest - self.max_ns, self.start, len(st))
         self.oldest = st[start]
-        if start > 32 and 2 * start > len(st):
+        if start >= 8 and 8 * start > len(st):  # keep dead samples under 1/8 of the storage
             del st[:start]
             del self.parents[:start]
             del self.data[:7 * start]
