@@ -104,7 +104,8 @@ def echo(source: str, target: str, rate: float, precision: int, at_time: Optiona
                         sys.stderr.write(f"Waiting for transform {source} -> {target}: {reason}\n")
                         sys.stderr.flush()
                         last_reason, last_reason_at = reason, now
-                    st.update(f"Waiting for transform {source} -> {target}: {reason}")
+                    left = "" if deadline is None else f" ({max(0.0, deadline - now):.1f} s left)"
+                    st.update(f"Waiting for transform {source} -> {target}{left}: {reason}")
         if first is None:  # Ctrl-C / SIGTERM while waiting
             return
         show(first)
