@@ -18,7 +18,7 @@ def _static(spawn, *args: str):
 
 def test_tf_echo_waits_says_why_then_prints_camera_from_laser(spawn):
     """Started before any frame exists: it reports the tf2 reason, then recovers by itself."""
-    echo = spawn([*ZENTF, "tf", "echo", "camera", "laser", "--rate", "5", "--count", "2"])
+    echo = spawn([*ZENTF, "tf", "echo", "camera", "laser", "5", "--count", "2"])  # tf2_echo positional rate
     echo.wait_for_line(r'Waiting for transform camera -> laser: .*does not exist', 30)
     _static(spawn, "--x", "0.4", "--z", "0.2", "--yaw", "0.5", "--frame-id", "base_link", "--child-frame-id", "laser")
     _static(spawn, "-0.5", "0", "0.4", "0", "0", "0", "base_link", "camera")

@@ -48,8 +48,9 @@ def _close(node: Any, listener: Any = None) -> None:
 @tf.command("echo", context_settings=CONTEXT_SETTINGS)
 @click.argument("source")
 @click.argument("target")
+@click.argument("rate_arg", metavar="[RATE]", required=False, type=click.FloatRange(min=0.001))
 @click.option("--rate", "-r", type=click.FloatRange(min=0.001), default=1.0, show_default=True,
-              help="Prints per second.")
+              help="Prints per second (tf2_echo's optional third argument does the same).")
 @click.option("--precision", "-p", type=click.IntRange(0, 17), default=3, show_default=True,
               help="Digits after the decimal point.")
 @click.option("--time", "-t", "at_time", type=float, default=None,
@@ -59,8 +60,8 @@ def _close(node: Any, listener: Any = None) -> None:
 @click.option("--timeout", type=click.FloatRange(min=0.0), default=None,
               help="Exit 1 if no transform arrives within this many seconds (default: wait).")
 @with_options
-def echo(source: str, target: str, rate: float, precision: int, at_time: Optional[float], count: int,
-         timeout: Optional[float], *, opts: CliOptions) -> None:
+def echo(source: str, target: str, rate_arg: Optional[float], rate: float, precision: int,
+         at_time: Optional[float], count: int, timeout: Optional[float], *, opts: CliOptions) -> None:
     """Print the pose of TARGET in SOURCE at a fixed rate, like tf2_echo.
 
     As in tf2_echo the first argument is the frame the result is expressed in
@@ -75,7 +76,7 @@ def echo(source: str, target: str, rate: float, precision: int, at_time: Optiona
     node, buffer, listener = _listen(opts, "tf_echo")
     try:
         when = Time() if at_time is None else Time.from_sec(at_time)
-        period = 1.0 / rate
+        period = 1.0 / (rate_arg if rate_arg is not None else rate)
 
         def show(ts: Any) -> None:
             tr, rot = ts.transform.translation, ts.transform.rotation
