@@ -10,7 +10,8 @@ d = 1, 5, 20, 100 at time 0 (latest) and at an interpolated time, the same looku
 sample is inserted into the chain every 10 lookups (so a cache is measured honestly), a row with a
 fresh interpolated time on every call (no reuse possible at all), bytes per stored sample,
 transform_points on 1M points and lookup_transforms on 100k stamps against Python loops of single
-lookups. The tf2 side runs in a /usr/bin/python3 subprocess (this same file, --tf2-side).
+lookups; plus memory once a 10 s cache is full and pruning (10 frames at 1 kHz for 15 s).
+The tf2 side runs in a /usr/bin/python3 subprocess (this same file, --tf2-side).
 Numbers are best-of-N wall times, the two sides alternated twice: on a shared machine expect noise.
 """
 from __future__ import annotations
@@ -51,6 +52,14 @@ def all_samples() -> list[tuple]:
     """(parent, child, stamp_ns, tx, ty, tz, qx, qy, qz, qw) in arrival order (by time)."""
     es = edges()
     return [(p, c, T0 + k * STEP, *sample_values(e, k)) for k in range(SAMPLES) for e, (p, c) in enumerate(es)]
+
+
+def steady_samples() -> list[tuple]:
+    """10 frames at 1 kHz for 15 s into a 10 s cache: pruning runs all along (steady state)."""
+    return [("root", f"c{f}", T0 + k * S // 1000, *sample_values(f, k)) for k in range(15_000) for f in range(10)]
+
+
+STEADY_STORED = 10 * 10_001  # what a 10 s cache holds at the end (both ends inclusive)
 
 
 def best(fn, n: int, repeat: int) -> float:
@@ -208,7 +217,14 @@ def tf2_side(quick: bool) -> dict[str, float]:
             for m in msgs:
                 buf.set_transform(m, "bench")
             used = rss_bytes() - before
-            return {"bytes/sample (RSS)": used / len(samples)}
+            del buf, msgs
+            steady = [self.make_msg(s) for s in steady_samples()]
+            before = rss_bytes()
+            buf = self.new_buffer()
+            for m in steady:
+                buf.set_transform(m, "bench")
+            return {"bytes/sample (RSS)": used / len(samples),
+                    "bytes/sample 10s cache full (RSS)": (rss_bytes() - before) / STEADY_STORED}
 
         def vectorized(self, buf):
             return {}
@@ -263,9 +279,20 @@ def zentf_side(quick: bool) -> dict[str, float]:
             traced = tracemalloc.get_traced_memory()[0]
             tracemalloc.stop()
             used = rss_bytes() - before
-            return {"bytes/sample (tracemalloc)": traced / len(samples),
-                    "bytes/sample (RSS)": used / len(samples),
-                    "bytes/sample (arrays)": buf.memory_bytes() / len(samples)}
+            out = {"bytes/sample (tracemalloc)": traced / len(samples),
+                   "bytes/sample (RSS)": used / len(samples),
+                   "bytes/sample (arrays)": buf.memory_bytes() / len(samples)}
+            del buf
+            steady = steady_samples()
+            before = rss_bytes()
+            tracemalloc.start()
+            buf = self.new_buffer()
+            for s in steady:
+                buf.set_transform_raw(*s, "bench")
+            out["bytes/sample 10s cache full (tracemalloc)"] = tracemalloc.get_traced_memory()[0] / STEADY_STORED
+            tracemalloc.stop()
+            out["bytes/sample 10s cache full (RSS)"] = (rss_bytes() - before) / STEADY_STORED
+            return out
 
         def vectorized(self, buf):
             out = {}
