@@ -83,3 +83,56 @@ def test_lookup_at_a_sample_stamp_returns_that_sample(tree, data) -> None:
     gt, gq = tq(got)
     assert np.abs(np.subtract(gt, t)).max() < 1e-12 and close_q(gq, q, 1e-12)
     assert got.header.stamp.nanoseconds == stamp
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(st.tuples(st.sampled_from(["set", "set", "set", "look", "look", "clear"]),
+                          st.integers(0, 3), st.integers(1, 3), st.integers(0, 40), st.integers(0, 2**31)),
+                min_size=5, max_size=60))
+def test_caches_never_serve_stale_answers(ops) -> None:
+    """Interleave inserts (appends, out-of-order, re-parenting, pruning), clear() and lookups on
+    one long-lived core; every answer must equal a cold core rebuilt from the same inserts."""
+    import logging
+
+    logging.getLogger("zentf.buffer_core").setLevel(logging.CRITICAL)
+    try:
+        live = BufferCore(cache_time=2.0)
+        history: list[tuple] = []
+        for kind, a, b, k, seed in ops:
+            rng = np.random.default_rng(seed)
+            if kind == "set":
+                parent, child = f"f{min(a, b - 1)}", f"f{b}"
+                q = Rotation.random(random_state=seed % 1000).as_quat()
+                sample = (parent, child, 100 * S + k * S // 8, *rng.uniform(-1, 1, 3), *q)
+                if live.set_transform_raw(*sample, "p"):
+                    history.append(sample)
+            elif kind == "clear":
+                live.clear()
+                history.append(("clear",))
+            else:
+                cold = BufferCore(cache_time=2.0)
+                for h in history:
+                    if h[0] == "clear":
+                        cold.clear()
+                    else:
+                        cold.set_transform_raw(*h, "p")
+                for when in (0, 100 * S + k * S // 8 + int(rng.integers(0, S // 8))):
+                    t = Time(nanoseconds=when)
+                    for target, source in ((f"f{a}", f"f{b}"), ("f0", "f3")):
+                        for _ in range(2):  # the second call is served from the caches
+                            try:
+                                got = tq(live.lookup_transform(target, source, t))
+                            except Exception as e:  # noqa: BLE001
+                                got = type(e).__name__ + str(e)
+                            try:
+                                want = tq(cold.lookup_transform(target, source, t))
+                            except Exception as e:  # noqa: BLE001
+                                want = type(e).__name__ + str(e)
+                            assert type(got) is type(want)
+                            if isinstance(got, str):
+                                assert got == want
+                            else:
+                                assert np.abs(np.subtract(got[0], want[0])).max() < 1e-12
+                                assert close_q(got[1], want[1], 1e-12)
+    finally:
+        logging.getLogger("zentf.buffer_core").setLevel(logging.NOTSET)

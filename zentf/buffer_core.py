@@ -128,7 +128,6 @@ class _TimeCache:
             self.data.extend(values)
             self.newest = stamp
             self.latest = None
-            self.memo_t = -1
             if newest < 0:
                 self.oldest = stamp
                 return _OK
@@ -158,6 +157,7 @@ class _TimeCache:
         st = self.stamps
         start = bisect_left(st, self.newest - self.max_ns, self.start, len(st))
         self.oldest = st[start]
+        self.memo_t = -1  # the memoized time may have fallen out
         if start >= 8 and 8 * start > len(st):  # keep dead samples under 1/8 of the storage
             del st[:start]
             del self.parents[:start]
@@ -456,8 +456,7 @@ class BufferCore:
                         cache.parents.append(pid)
                         cache.data.extend((tx, ty, tz, qx, qy, qz, qw))
                         cache.newest = stamp
-                        cache.latest = None
-                        cache.memo_t = -1
+                        cache.latest = None  # (memo and spans stay valid: no interval changed)
                         if cache.oldest < stamp - cache.max_ns:
                             cache.prune()
                         self._version += 1
