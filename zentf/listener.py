@@ -43,6 +43,8 @@ class TransformListener:
         self.bad_messages = 0      # payloads that were not a TFMessage at all
         self._subs: list[Any] = []
         self._tokens: list[Any] = []
+        self._tf_encoding = wire.encoding_for(TFMessage.TYPE_NAME)
+        self._authorities: dict[bytes, str] = {}
         session = self.node.session
         static_key = wire_key(self.node, tf_static_topic)
         self._subs.append(zx.declare_advanced_subscriber(
@@ -62,32 +64,37 @@ class TransformListener:
 
     def _on_sample(self, sample: Any, is_static: bool) -> None:
         """Zenoh thread: decode and insert; every failure is contained here."""
-        key = None
         try:
-            payload = sample.payload.to_bytes()
-            enc = str(sample.encoding)
-            type_name = wire.type_name_from_encoding(enc)
-            if type_name is not None and type_name != TFMessage.TYPE_NAME:
-                raise ValueError(f"wrong type {type_name}, expected {TFMessage.TYPE_NAME}")
-            key = str(sample.key_expr)
-            authority = wire.authority_of(sample.attachment, key)
-            accepted, rejected, malformed, problem = wire.ingest_tf(payload, self.buffer, authority, is_static)
+            enc = sample.encoding
+            if enc != self._tf_encoding:  # cheap Rust-side compare for the common case
+                type_name = wire.type_name_from_encoding(enc)
+                if type_name is not None and type_name != TFMessage.TYPE_NAME:
+                    raise ValueError(f"wrong type {type_name}, expected {TFMessage.TYPE_NAME}")
+            att = sample.attachment
+            authority = self._authorities.get(att.to_bytes()) if att is not None else None
+            if authority is None:
+                authority = wire.authority_of(att, str(sample.key_expr))
+                if att is not None and len(self._authorities) < 1024:
+                    self._authorities[att.to_bytes()] = authority
+            accepted, rejected, malformed, problem = wire.ingest_tf(sample.payload.to_bytes(), self.buffer,
+                                                                    authority, is_static)
         except Exception as e:
-            with self._lock:
-                self.bad_messages += 1
+            self.bad_messages += 1
             try:
-                key = key or str(sample.key_expr)
+                key = str(sample.key_expr)
                 sender = wire.authority_of(sample.attachment, "unknown sender")
             except Exception:
-                sender = "unknown sender"
+                key, sender = "?", "unknown sender"
             self._log(f"bad:{key}:{sender}", f"dropped bad message on '{key}' from {sender}: {e}")
             return
-        with self._lock:
-            self.messages += 1
-            self.transforms += accepted
+        # plain counters (statistics only; no lock on the hot path)
+        self.messages += 1
+        self.transforms += accepted
+        if rejected:
             self.rejected += rejected
-            self.malformed += malformed
         if malformed:
+            self.malformed += malformed
+            key = str(sample.key_expr)
             self._log(f"malformed:{key}:{authority}",
                       f"skipped {malformed} malformed transform(s) on '{key}' from {authority}: {problem}")
 

@@ -165,6 +165,7 @@ def ingest_tf(payload: bytes, core: Any, authority: str, is_static: bool) -> tup
     samples = []
     append = samples.append
     frame = _frame
+    names = _FRAME_CACHE.get
     for t in transforms:
         try:
             h = t[b"header"]
@@ -176,7 +177,9 @@ def ingest_tf(payload: bytes, core: Any, authority: str, is_static: bool) -> tup
             tr = t[b"transform"]
             p = tr[b"translation"]
             q = tr[b"rotation"]
-            append((frame(h[b"frame_id"]), frame(t[b"child_frame_id"]), sec * _NS + nsec,
+            pb = h[b"frame_id"]
+            cb = t[b"child_frame_id"]
+            append((names(pb) or frame(pb), names(cb) or frame(cb), sec * _NS + nsec,
                     p[b"x"] + 0.0, p[b"y"] + 0.0, p[b"z"] + 0.0,
                     q[b"x"] + 0.0, q[b"y"] + 0.0, q[b"z"] + 0.0, q[b"w"] + 0.0))
         except (KeyError, TypeError, ValueError, IndexError, OverflowError) as e:
