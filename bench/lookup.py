@@ -16,6 +16,7 @@ Numbers are best-of-N wall times, the two sides alternated twice: on a shared ma
 """
 from __future__ import annotations
 
+import gc
 import json
 import math
 import os
@@ -63,12 +64,17 @@ STEADY_STORED = 10 * 10_001  # what a 10 s cache holds at the end (both ends inc
 
 
 def best(fn, n: int, repeat: int) -> float:
-    """Best time per call (µs) of fn(n) over repeat runs."""
+    """Best time per call (µs) of fn(n) over repeat runs, garbage collector paused (like timeit)."""
     out = []
     for _ in range(repeat):
-        t = time.perf_counter()
-        fn(n)
-        out.append((time.perf_counter() - t) / n * 1e6)
+        gc.collect()
+        gc.disable()
+        try:
+            t = time.perf_counter()
+            fn(n)
+            out.append((time.perf_counter() - t) / n * 1e6)
+        finally:
+            gc.enable()
     return min(out)
 
 
@@ -101,19 +107,15 @@ def measure(side: Side, quick: bool) -> dict[str, float]:
     # insert: messages built beforehand, only set_transform is timed
     msgs = [side.make_msg(s) for s in samples]
     ins = []
-    for _ in range(1 if quick else 2):
+    for _ in range(1 if quick else 3):
         buf = side.new_buffer()
-        t = time.perf_counter()
-        for m in msgs:
-            side.insert(buf, m)
-        ins.append((time.perf_counter() - t) / len(msgs) * 1e6)
+        res_it = iter(msgs)
+        ins.append(best(lambda n: [side.insert(buf, next(res_it)) for _ in range(n)], len(msgs), 1))
     res["insert"] = min(ins)
     if side.insert_raw is not None:
         raw = side.new_buffer()
-        t = time.perf_counter()
-        for s in samples:
-            side.insert_raw(raw, s)
-        res["insert_raw"] = (time.perf_counter() - t) / len(samples) * 1e6
+        it = iter(samples)
+        res["insert_raw"] = best(lambda n: [side.insert_raw(raw, next(it)) for _ in range(n)], len(samples), 1)
         del raw
     del msgs
 
@@ -156,14 +158,12 @@ def measure(side: Side, quick: bool) -> dict[str, float]:
     # Python loops of single lookups (the baseline for the vectorized calls), depth 20
     n_loop = 5000 if quick else 20000
     stamps = [T0 + 2_000_000 + i * (980 * S // 1000 // n_loop) for i in range(n_loop)]
-    t = time.perf_counter()
-    for s in stamps:
-        side.lookup(buf, "f0", "f20", s)
-    res["loop lookup x100k (extrap.)"] = (time.perf_counter() - t) / n_loop * 100_000 * 1e3  # ms
+    it_stamps = iter(stamps)
+    per = best(lambda n: [side.lookup(buf, "f0", "f20", next(it_stamps)) for _ in range(n)], n_loop, 1)
+    res["loop lookup x100k (extrap.)"] = per * 100_000 / 1e3  # ms
     pts = [(0.001 * i, 0.5, -0.2) for i in range(n_loop)]
-    t = time.perf_counter()
-    side.point_loop(buf, pts, "f0", "f20", T_INTERP)
-    res["loop points x1M (extrap.)"] = (time.perf_counter() - t) / n_loop * 1_000_000 * 1e3  # ms
+    per = best(lambda n: side.point_loop(buf, pts, "f0", "f20", T_INTERP), n_loop, 1)
+    res["loop points x1M (extrap.)"] = per * 1_000_000 / 1e3  # ms
     res.update(side.vectorized(buf))
     return res
 

@@ -104,8 +104,8 @@ def test_caches_never_serve_stale_answers(ops) -> None:
                 parent, child = f"f{min(a, b - 1)}", f"f{b}"
                 q = Rotation.random(random_state=seed % 1000).as_quat()
                 sample = (parent, child, 100 * S + k * S // 8, *rng.uniform(-1, 1, 3), *q)
-                if live.set_transform_raw(*sample, "p"):
-                    history.append(sample)
+                live.set_transform_raw(*sample, "p")
+                history.append(sample)  # refused ones too: tf2 registers their frame names anyway
             elif kind == "clear":
                 live.clear()
                 history.append(("clear",))
