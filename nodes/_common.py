@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import os
 import signal
 import sys
 from typing import Any, Callable, Sequence
@@ -15,11 +16,25 @@ __all__ = ["OptionsError", "main", "run", "split_node_options", "make_node", "sa
 
 log = logging.getLogger("nodes")
 _started = False  # a Node exists: it owns SIGINT/SIGTERM until it shuts down
+_stdout_gone = False
+_node: Any = None  # the program's node, stopped when stdout's reader goes away
 
 
 def say(line: str) -> None:
     """One human-facing result line on stdout, flushed at once (tests and pipes read it live)."""
-    print(line, flush=True)
+    global _stdout_gone
+    if _stdout_gone:
+        return
+    try:
+        print(line, flush=True)
+    except (BrokenPipeError, ValueError):  # the reader went away (| head): stop quietly, like SIGPIPE
+        _stdout_gone = True
+        try:
+            sys.stdout = open(os.devnull, "w")  # noqa: SIM115  (lives as long as the process)
+        except OSError:
+            pass
+        if _node is not None:
+            _node.request_shutdown()
 
 
 class _Parser(argparse.ArgumentParser):
@@ -99,11 +114,12 @@ def run(body: Callable[[], None], prog: str, debug: bool = False) -> int:
 
 def make_node(opts: NodeOptions, default_name: str) -> Any:
     """A Node with the identity and Zenoh options from the command line / environment."""
-    global _started
+    global _started, _node
     from zentf.node import Node
 
     node = Node(default_name, options=opts)
     _started = True
+    _node = node
     return node
 
 

@@ -118,3 +118,21 @@ def test_a_second_signal_during_shutdown_still_exits_cleanly(spawn):
     p.signal(signal.SIGTERM)
     assert p.wait(10) == 0, p.output()[-2000:]
     assert "Traceback" not in p.output()
+
+
+def test_a_node_whose_reader_goes_away_stops_quietly(zenoh_env):
+    """`python -m nodes.point_publisher | head -1`: the node ends (status 0, nothing on stderr)."""
+    import subprocess
+    import sys
+
+    p = subprocess.Popen([sys.executable, "-m", "nodes.point_publisher", "-p", "print_every:=1"],
+                         env=zenoh_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert p.stdout.readline().startswith("obstacle in laser: ")
+        p.stdout.close()
+        assert p.wait(15) == 0
+        assert p.stderr.read() == ""
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.wait(5)
