@@ -136,3 +136,33 @@ def test_a_node_whose_reader_goes_away_stops_quietly(zenoh_env):
         if p.poll() is None:
             p.kill()
             p.wait(5)
+
+
+def test_plots_publisher_markers_are_three_growing_line_strips(spawn, node_options):
+    """The MarkerArray contract the visualization draws: ns trails, ids 0..2, LINE_STRIP, frames."""
+    import threading
+
+    from zentf.messages import Marker, MarkerArray
+    from zentf.node import Node
+
+    got: list[MarkerArray] = []
+    cond = threading.Condition()
+
+    def on_markers(msg: MarkerArray) -> None:
+        with cond:
+            got.append(msg)
+            cond.notify_all()
+
+    with Node("marker_probe", options=node_options) as probe:
+        probe.create_subscription("visual_markers", MarkerArray, on_markers)
+        spawn.python("-m", "nodes.frames_publisher")
+        spawn.python("-m", "nodes.plots_publisher", "-p", "rate:=20", "-p", "trail_length:=5")
+        with cond:  # wait until all three trails are full
+            assert cond.wait_for(lambda: got and len(got[-1].markers) == 3
+                                 and all(len(m.points) == 5 for m in got[-1].markers), 20)
+            last = got[-1]
+    assert [(m.ns, m.id, m.type, m.header.frame_id) for m in last.markers] == [
+        ("trails", 0, Marker.LINE_STRIP, "world"), ("trails", 1, Marker.LINE_STRIP, "world"),
+        ("trails", 2, Marker.LINE_STRIP, "av1")]
+    for p in last.markers[0].points:  # av1 in world: on the unit circle, z = 0
+        assert (math.hypot(p.x, p.y), p.z) == pytest.approx((1.0, 0.0), abs=1e-6)
