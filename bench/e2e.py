@@ -5,8 +5,9 @@ with raw zenoh-python put -> callback, measured in the same run on loopback.
 
 Two processes talk peer to peer (receiver listens on a free loopback port, sender connects; no
 multicast, no router). Latency: one message every ~1 ms, one-way time from just before
-``send_transform`` / ``put`` to the receiver's moment of "lookup-able" (TransformListener inserted
-it and ``lookup_transform`` answers) / callback entry; both stamps are CLOCK_REALTIME on one host.
+``send_transform`` / ``put`` to the receiver's moment of "lookup-able" (the TransformListener's insert
+into the Buffer completed, taken in the Buffer's insert callback, then proven by a lookup that is not
+timed) / raw callback entry; both stamps are CLOCK_REALTIME on one host.
 Ingest: the sender floods pre-encoded TFMessages (100 transforms each, then 1 each); the rate is
 transforms accepted by the listener's Buffer per second, against raw messages per second received
 by a bare callback. Also the in-process ingest ceiling (wire.ingest_tf into a Buffer, no network).
@@ -115,8 +116,8 @@ def receiver(args: argparse.Namespace) -> None:
     state = [0, 0, 0]  # first ns, last ns, messages inserted (one insert callback per message)
 
     def on_insert_lat() -> None:
-        t = buf.lookup_transform("world", "lat", Time())   # lookup-able now
-        now = time.time_ns()
+        now = time.time_ns()                                # the insert is done: lookup-able from now on
+        t = buf.lookup_transform("world", "lat", Time())   # prove it (not timed)
         lat.append(now - t.header.stamp.nanoseconds)
         if len(lat) >= args.count:
             done.set()

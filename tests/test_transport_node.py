@@ -243,3 +243,26 @@ def test_untyped_subscription_gets_plain_data(node_options) -> None:
         pub.publish(PointStamped(Header(frame_id="f"), Point(1, 2, 3)))
         assert ev.wait(5)
         assert isinstance(got[0], PointStamped) and got[0].header.frame_id == "f"
+
+
+def test_parse_tokens_and_build_graph() -> None:
+    es = [graph.parse_token(k) for k in (
+        "@zentf/node/%/talker",
+        "@zentf/pub/%/talker/%geometry_msgs%msg%PointStamped/points",
+        "@zentf/sub/%a%b/lis/%tf2_msgs%msg%TFMessage/a/b/tf",
+        "@zentf/sub/%a%b/lis/%/a/b/any",
+        "@adv/whatever/x", "@zentf/node/%")]
+    assert es[4] is None and es[5] is None
+    assert es[1] == graph.GraphEntry("pub", "", "talker", "geometry_msgs/msg/PointStamped", "/points")
+    assert es[2].node == "/a/b/lis" and es[2].topic == "/a/b/tf"
+    nodes, topics = graph.build_graph([e for e in es if e])
+    assert sorted(nodes) == ["/a/b/lis", "/talker"]
+    assert nodes["/a/b/lis"].subscriptions == [("/a/b/any", ""), ("/a/b/tf", "tf2_msgs/msg/TFMessage")]
+    assert topics["/points"].publishers == ["/talker"] and topics["/a/b/any"].types == []
+
+
+def test_zenoh_options_round_trip_to_args() -> None:
+    z = ZenohOptions.from_values(connect=["tcp/127.0.0.1:7447"], mode="client", no_multicast=True, env={})
+    parser = add_node_arguments(argparse.ArgumentParser())
+    again = NodeOptions.from_args(parser.parse_args(z.to_args()), env={}).zenoh
+    assert (again.connect, again.mode, again.no_multicast) == (["tcp/127.0.0.1:7447"], "client", True)

@@ -7,6 +7,7 @@ into ``BufferCore.set_transform_raw`` with no dataclasses, each bad element skip
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
+import threading
 from functools import lru_cache
 from typing import Any
 
@@ -43,8 +44,19 @@ def type_name_from_encoding(encoding: object) -> str | None:
     return schema or None
 
 
+_local = threading.local()
+
+
 def pack(plain: Any) -> bytes:
-    return msgpack.packb(plain, use_bin_type=True)
+    """msgpack with a reused per-thread Packer (packb builds a new one per call)."""
+    packer = getattr(_local, "packer", None)
+    if packer is None:
+        packer = _local.packer = msgpack.Packer(use_bin_type=True)
+    try:
+        return packer.pack(plain)
+    except BaseException:
+        _local.packer = None  # a failed pack may leave data in the buffer
+        raise
 
 
 def unpack(payload: bytes | bytearray | memoryview) -> Any:
