@@ -271,27 +271,23 @@ def zentf_side(quick: bool) -> dict[str, float]:
                                    buf.lookup_transform(target, source, stamp))
 
         def memory(self, samples):
-            before = rss_bytes()
-            tracemalloc.start()
-            buf = self.new_buffer()
-            for s in samples:
-                buf.set_transform_raw(*s, "bench")
-            traced = tracemalloc.get_traced_memory()[0]
-            tracemalloc.stop()
-            used = rss_bytes() - before
-            out = {"bytes/sample (tracemalloc)": traced / len(samples),
-                   "bytes/sample (RSS)": used / len(samples),
-                   "bytes/sample (arrays)": buf.memory_bytes() / len(samples)}
-            del buf
-            steady = steady_samples()
-            before = rss_bytes()
-            tracemalloc.start()
-            buf = self.new_buffer()
-            for s in steady:
-                buf.set_transform_raw(*s, "bench")
-            out["bytes/sample 10s cache full (tracemalloc)"] = tracemalloc.get_traced_memory()[0] / STEADY_STORED
-            tracemalloc.stop()
-            out["bytes/sample 10s cache full (RSS)"] = (rss_bytes() - before) / STEADY_STORED
+            out = {}
+            for label, rows, stored in (("", samples, len(samples)),
+                                        (" 10s cache full", steady_samples(), STEADY_STORED)):
+                before = rss_bytes()      # RSS first, without tracemalloc's own bookkeeping
+                buf = self.new_buffer()
+                for s in rows:
+                    buf.set_transform_raw(*s, "bench")
+                out[f"bytes/sample{label} (RSS)"] = (rss_bytes() - before) / stored
+                out[f"bytes/sample{label} (arrays)"] = buf.memory_bytes() / stored
+                del buf
+                tracemalloc.start()
+                buf = self.new_buffer()
+                for s in rows:
+                    buf.set_transform_raw(*s, "bench")
+                out[f"bytes/sample{label} (tracemalloc)"] = tracemalloc.get_traced_memory()[0] / stored
+                tracemalloc.stop()
+                del buf
             return out
 
         def vectorized(self, buf):
