@@ -11,24 +11,23 @@ import logging
 import sys
 from typing import Sequence
 
+from nodes import _common
+from zentf.buffer import Buffer
+from zentf.exceptions import TransformException
+from zentf.listener import TransformListener
+from zentf.options import NodeOptions
+from zentf.time import Time
+
 log = logging.getLogger("frame_listener")
 
 PROG = "frame_listener"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from nodes import _common
-
     return _common.main(PROG, argv, _run, __doc__)
 
 
-def _run(opts: object) -> None:
-    from nodes import _common
-    from zentf.buffer import Buffer
-    from zentf.exceptions import TransformException
-    from zentf.listener import TransformListener
-    from zentf.time import Time
-
+def _run(opts: NodeOptions) -> None:
     with _common.make_node(opts, PROG) as node:
         target = str(_common.param(node, "target_frame", "camera"))
         source = str(_common.param(node, "source_frame", "laser"))

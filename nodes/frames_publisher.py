@@ -5,9 +5,9 @@ At time t (seconds of the node's clock): av1 at (cos t, sin t, 0) with yaw t; av
 and sqrt(5)/2 in the plane 2y - z + 1 = 0.
 
 Parameters: `rate` (Hz, default 50), `static` (default false), `frame_prefix` (default "", e.g.
-`robot1/` names the drones robot1/av1 and robot1/av2 so robots share `world` without clashes). With `static:=true` the two poses
-at t = 0 (av1 at (1, 0, 0), av2 at (0, 0, 1)) are published once on tf_static (latched) and the
-node then just keeps them alive.
+`robot1/` names the drones robot1/av1 and robot1/av2 so robots share `world` without clashes).
+With `static:=true` the two poses at t = 0 (av1 at (1, 0, 0), av2 at (0, 0, 1)) are published once
+on tf_static (latched) and the node then just keeps them alive.
 """
 from __future__ import annotations
 
@@ -15,6 +15,11 @@ import logging
 import math
 import sys
 from typing import Sequence
+
+from nodes import _common
+from zentf.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
+from zentf.messages import Header, Quaternion, Transform, TransformStamped, Vector3
+from zentf.options import NodeOptions
 
 log = logging.getLogger("frames_publisher")
 
@@ -38,23 +43,16 @@ def av2_in_av1(t: float) -> tuple[float, float, float]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from nodes import _common
-
     return _common.main(PROG, argv, _run, __doc__)
 
 
 def _stamped(stamp: object, poses: list[Pose7], prefix: str = "") -> list:
-    from zentf.messages import Header, Quaternion, Transform, TransformStamped, Vector3
-
     return [TransformStamped(header=Header(stamp=stamp, frame_id=p), child_frame_id=prefix + c,
                              transform=Transform(Vector3(*tr), Quaternion(*q)))
             for p, c, tr, q in poses]
 
 
-def _run(opts: object) -> None:
-    from nodes import _common
-    from zentf.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
-
+def _run(opts: NodeOptions) -> None:
     with _common.make_node(opts, PROG) as node:
         clock = node.get_clock()
         prefix = str(_common.param(node, "frame_prefix", "") or "")

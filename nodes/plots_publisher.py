@@ -5,7 +5,8 @@ keeps the last `trail_length` points of each and publishes a MarkerArray on `vis
 (namespace `trails`, ids 0 = av1 in world, 1 = av2 in world, 2 = av2 in av1; LINE_STRIP).
 
 Parameters: `rate` (Hz, default 10), `trail_length` (points, default 200), `topic` (default
-`visual_markers`). Prints `av2 in av1: (x, y, z)` for every new sample of that trail.
+`visual_markers`), `frame_prefix` (default "", as frames_publisher's: `robot1/` follows robot1/av1
+and robot1/av2). Prints `av2 in av1: (x, y, z)` for every new sample of that trail.
 """
 from __future__ import annotations
 
@@ -13,6 +14,15 @@ import collections
 import logging
 import sys
 from typing import Sequence
+
+from nodes import _common
+from zentf.buffer import Buffer
+from zentf.exceptions import TransformException
+from zentf.listener import TransformListener
+from zentf.messages import ColorRGBA, Header, Marker, MarkerArray, Point, Vector3
+from zentf.node import RateLimitedLog
+from zentf.options import NodeOptions
+from zentf.time import Time
 
 log = logging.getLogger("plots_publisher")
 
@@ -27,24 +37,15 @@ TRAILS = (
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from nodes import _common
-
     return _common.main(PROG, argv, _run, __doc__)
 
 
-def _run(opts: object) -> None:
-    from nodes import _common
-    from zentf.buffer import Buffer
-    from zentf.exceptions import TransformException
-    from zentf.listener import TransformListener
-    from zentf.messages import ColorRGBA, Header, Marker, MarkerArray, Point, Vector3
-    from zentf.node import RateLimitedLog
-    from zentf.time import Time
-
+def _run(opts: NodeOptions) -> None:
     with _common.make_node(opts, PROG) as node:
         rate = _common.param_positive(node, "rate", 10.0)
         length = int(_common.param_positive(node, "trail_length", 200))
         topic = str(_common.param(node, "topic", "visual_markers"))
+        prefix = str(_common.param(node, "frame_prefix", "") or "")
         buffer = Buffer()
         listener = TransformListener(buffer, node)  # noqa: F841  (kept alive by this frame)
         pub = node.create_publisher(topic, MarkerArray)
@@ -55,6 +56,8 @@ def _run(opts: object) -> None:
         def tick() -> None:
             markers = []
             for tid, target, source, rgba in TRAILS:
+                target = target if target == "world" else prefix + target
+                source = prefix + source
                 try:
                     ts = buffer.lookup_transform(target, source, Time())
                 except TransformException as e:

@@ -11,25 +11,24 @@ import logging
 import sys
 from typing import Sequence
 
+from nodes import _common
+from zentf.buffer import Buffer
+from zentf.exceptions import TransformException
+from zentf.listener import TransformListener
+from zentf.message_filter import MessageFilter
+from zentf.messages import PointStamped
+from zentf.options import NodeOptions
+
 log = logging.getLogger("point_listener")
 
 PROG = "point_listener"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from nodes import _common
-
     return _common.main(PROG, argv, _run, __doc__)
 
 
-def _run(opts: object) -> None:
-    from nodes import _common
-    from zentf.buffer import Buffer
-    from zentf.exceptions import TransformException
-    from zentf.listener import TransformListener
-    from zentf.message_filter import MessageFilter
-    from zentf.messages import PointStamped
-
+def _run(opts: NodeOptions) -> None:
     with _common.make_node(opts, PROG) as node:
         topic = str(_common.param(node, "topic", "laser_point"))
         target = str(_common.param(node, "target_frame", "base_link"))

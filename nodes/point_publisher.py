@@ -10,6 +10,10 @@ import logging
 import sys
 from typing import Sequence
 
+from nodes import _common
+from zentf.messages import Header, Point, PointStamped
+from zentf.options import NodeOptions
+
 log = logging.getLogger("point_publisher")
 
 PROG = "point_publisher"
@@ -21,15 +25,10 @@ def obstacle_position(k: int, start_x: float = 0.3, step: float = 0.004) -> tupl
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from nodes import _common
-
     return _common.main(PROG, argv, _run, __doc__)
 
 
-def _run(opts: object) -> None:
-    from nodes import _common
-    from zentf.messages import Header, Point, PointStamped
-
+def _run(opts: NodeOptions) -> None:
     with _common.make_node(opts, PROG) as node:
         period = _common.param_positive(node, "period", 0.1)
         start_x = _common.param_float(node, "start_x", 0.3)

@@ -20,6 +20,12 @@ import sys
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
+from nodes import _common
+from zentf.broadcaster import StaticTransformBroadcaster
+from zentf.math3d import quaternion_from_rpy
+from zentf.messages import Header, Quaternion, Transform, TransformStamped, Vector3
+from zentf.options import NodeOptions
+
 log = logging.getLogger("static_transform_publisher")
 
 PROG = "static_transform_publisher"
@@ -95,13 +101,6 @@ def parse_float(optname: str, text: str) -> float:
     if not math.isfinite(value):
         raise UsageError(f"{optname} argument must be a finite number, got {text!r}")
     return value
-
-
-def quaternion_from_rpy(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
-    """tf2 setRPY (fixed axes x, then y, then z) through the core math module."""
-    from zentf.math3d import quaternion_from_rpy as from_rpy
-
-    return from_rpy(roll, pitch, yaw)
 
 
 def parse_args(args: Sequence[str]) -> StaticTransformArgs | None:
@@ -201,8 +200,6 @@ def describe(a: StaticTransformArgs) -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Parse, publish once on tf_static, spin until stopped; returns the exit status."""
-    from nodes import _common
-
     if argv is None:
         argv = sys.argv[1:]
     try:
@@ -221,12 +218,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     return _common.run(lambda: _publish(opts, parsed), PROG, debug)
 
 
-def _publish(opts: object, a: StaticTransformArgs) -> None:
+def _publish(opts: NodeOptions, a: StaticTransformArgs) -> None:
     """Send the one transform on tf_static and spin; the broadcaster keeps it latched."""
-    from nodes import _common
-    from zentf.broadcaster import StaticTransformBroadcaster
-    from zentf.messages import Header, Quaternion, Transform, TransformStamped, Vector3
-
     with _common.make_node(opts, default_node_name()) as node:
         ts = TransformStamped(
             header=Header(stamp=node.get_clock().now(), frame_id=a.frame_id),

@@ -14,6 +14,15 @@ import sys
 import time
 from typing import Sequence
 
+from nodes import _common
+from zentf.buffer import Buffer
+from zentf.exceptions import TransformException
+from zentf.listener import TransformListener
+from zentf.messages import SpawnRequest, TurtlePose, Twist, Vector3
+from zentf.node import RateLimitedLog
+from zentf.options import NodeOptions
+from zentf.time import Time
+
 log = logging.getLogger("turtle_follower")
 
 PROG = "turtle_follower"
@@ -25,20 +34,10 @@ def follow_command(x: float, y: float) -> tuple[float, float]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from nodes import _common
-
     return _common.main(PROG, argv, _run, __doc__)
 
 
-def _run(opts: object) -> None:
-    from nodes import _common
-    from zentf.buffer import Buffer
-    from zentf.exceptions import TransformException
-    from zentf.listener import TransformListener
-    from zentf.messages import SpawnRequest, TurtlePose, Twist, Vector3
-    from zentf.node import RateLimitedLog
-    from zentf.time import Time
-
+def _run(opts: NodeOptions) -> None:
     with _common.make_node(opts, PROG) as node:
         me = str(_common.param(node, "turtlename", "turtle2"))
         target = str(_common.param(node, "target_frame", "turtle1"))

@@ -12,6 +12,10 @@ import math
 import sys
 from typing import Sequence
 
+from nodes import _common
+from zentf.messages import Twist, Vector3
+from zentf.options import NodeOptions
+
 log = logging.getLogger("turtle_teleop")
 
 PROG = "turtle_teleop"
@@ -35,15 +39,10 @@ def command_at(pattern: str, t: float, linear: float, angular: float,
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from nodes import _common
-
     return _common.main(PROG, argv, _run, __doc__)
 
 
-def _run(opts: object) -> None:
-    from nodes import _common
-    from zentf.messages import Twist, Vector3
-
+def _run(opts: NodeOptions) -> None:
     with _common.make_node(opts, PROG) as node:
         name = str(_common.param(node, "turtlename", "turtle1"))
         pattern = str(_common.param(node, "pattern", "circle"))

@@ -10,6 +10,11 @@ import math
 import sys
 from typing import Sequence
 
+from nodes import _common
+from zentf.broadcaster import TransformBroadcaster
+from zentf.messages import Header, Quaternion, Transform, TransformStamped, TurtlePose, Vector3
+from zentf.options import NodeOptions
+
 log = logging.getLogger("turtle_tf_broadcaster")
 
 PROG = "turtle_tf_broadcaster"
@@ -22,16 +27,10 @@ def pose_to_transform(x: float, y: float, theta: float) -> tuple[tuple[float, fl
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from nodes import _common
-
     return _common.main(PROG, argv, _run, __doc__)
 
 
-def _run(opts: object) -> None:
-    from nodes import _common
-    from zentf.broadcaster import TransformBroadcaster
-    from zentf.messages import Header, Quaternion, Transform, TransformStamped, TurtlePose, Vector3
-
+def _run(opts: NodeOptions) -> None:
     with _common.make_node(opts, PROG) as node:
         name = str(_common.param(node, "turtlename", "turtle1"))
         parent = str(_common.param(node, "world_frame", "world"))

@@ -19,6 +19,10 @@ import threading
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
+from nodes import _common
+from zentf.messages import SpawnRequest, SpawnResponse, TurtlePose, Twist
+from zentf.options import NodeOptions
+
 log = logging.getLogger("turtlesim")
 
 PROG = "turtlesim"
@@ -122,15 +126,10 @@ class World:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from nodes import _common
-
     return _common.main(PROG, argv, _run, __doc__)
 
 
-def _run(opts: object) -> None:
-    from nodes import _common
-    from zentf.messages import SpawnRequest, SpawnResponse, TurtlePose, Twist
-
+def _run(opts: NodeOptions) -> None:
     world = World()
     with _common.make_node(opts, PROG) as node:
         clock = node.get_clock()
