@@ -1,7 +1,7 @@
 """End-to-end transport benchmark: zentf (send_transform -> lookup-able in another process) side by side
 with raw zenoh-python put -> callback, measured in the same run on loopback.
 
-    python bench/e2e.py [--n-lat 2000] [--n-batch 1500] [--n-single 60000]
+    python bench/e2e.py [--n-lat 3000] [--rounds 3] [--n-batch 1500] [--n-single 60000]
 
 Two processes talk peer to peer (receiver listens on a free loopback port, sender connects; no
 multicast, no router). Latency: one message every ~1 ms, one-way time from just before
@@ -240,7 +240,8 @@ def main() -> None:
     ap.add_argument("--endpoint")
     ap.add_argument("--count", type=int, default=0)
     ap.add_argument("--per-msg", type=int, default=1)
-    ap.add_argument("--n-lat", type=int, default=2000)
+    ap.add_argument("--n-lat", type=int, default=3000, help="latency samples per implementation")
+    ap.add_argument("--rounds", type=int, default=3, help="alternating raw/zentf latency rounds")
     ap.add_argument("--n-batch", type=int, default=1500, help="TFMessages of 100 transforms in the flood")
     ap.add_argument("--n-single", type=int, default=60000, help="TFMessages of 1 transform in the flood")
     args = ap.parse_args()
@@ -249,8 +250,11 @@ def main() -> None:
         return
 
     print(f"# zentf e2e bench  (python {sys.version.split()[0]}, {os.cpu_count()} cpus; loopback, peer to peer)")
-    rl = run_case("raw", "lat", args.n_lat, 1)["lat_ns"]
-    zl = run_case("zentf", "lat", args.n_lat, 1)["lat_ns"]
+    rl: list[int] = []
+    zl: list[int] = []
+    for _ in range(args.rounds):  # alternate, so load drifts on the shared machine hit both alike
+        rl += run_case("raw", "lat", args.n_lat // args.rounds, 1)["lat_ns"]
+        zl += run_case("zentf", "lat", args.n_lat // args.rounds, 1)["lat_ns"]
     r50, r99, z50, z99 = pct(rl, .5), pct(rl, .99), pct(zl, .5), pct(zl, .99)
     print()
     print("| one-way latency (µs) | raw zenoh put->callback | zentf send_transform->lookup-able | ratio |")

@@ -352,7 +352,10 @@ class Node:
                 self._check_unique()
             self._tokens.append(self.session.liveliness().declare_token(
                 node_token_key(self._namespace, self._name)))
-            use_sim = bool(self.declare_parameter("use_sim_time", False).value)
+            use_sim = self.declare_parameter("use_sim_time", False).value
+            if isinstance(use_sim, str):
+                use_sim = use_sim.strip().lower() in ("1", "true", "yes", "on")
+            use_sim = bool(use_sim)
             self._clock = Clock(ClockType.ROS_TIME if use_sim else ClockType.SYSTEM_TIME, sim=use_sim)
             self._clock_sub = None
             if use_sim:
@@ -420,7 +423,8 @@ class Node:
     def create_subscription(self, topic: str | type[Message], msg_type: type[Message] | str | None,
                             callback: Callable[[Any], None], qos: int = 100, *,
                             latched: bool = False) -> Subscription:
-        """Callback gets decoded messages (plain data if msg_type is None); bad ones are counted and logged."""
+        """Callback gets decoded messages; with msg_type None, any type, decoded by the type name the
+        sample carries (plain data for unknown types). Bad ones are counted, logged and dropped."""
         if isinstance(topic, type):
             topic, msg_type = msg_type, topic  # type: ignore[assignment]
         self._check_open()
