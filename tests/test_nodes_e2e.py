@@ -166,3 +166,38 @@ def test_plots_publisher_markers_are_three_growing_line_strips(spawn, node_optio
         ("trails", 2, Marker.LINE_STRIP, "av1")]
     for p in last.markers[0].points:  # av1 in world: on the unit circle, z = 0
         assert (math.hypot(p.x, p.y), p.z) == pytest.approx((1.0, 0.0), abs=1e-6)
+
+
+def test_drones_follow_a_published_sim_clock(isolated_router, test_namespace, zenoh_env, spawn):
+    """With use_sim_time the drones are stamped with /clock and sit exactly where the clock says."""
+    from zentf.buffer import Buffer
+    from zentf.listener import TransformListener
+    from zentf.messages import Clock
+    from zentf.node import Node
+    from zentf.options import NodeOptions, ZenohOptions
+    from zentf.time import Time
+
+    from nodes.frames_publisher import av2_in_av1
+
+    env = {**zenoh_env, "ZENTF_CONNECT": isolated_router}  # /clock is absolute: keep it to this test
+    spawn.python("-m", "nodes.frames_publisher", "-p", "use_sim_time:=true", env=env)
+    opts = NodeOptions(namespace=test_namespace,
+                       zenoh=ZenohOptions(connect=[isolated_router], no_multicast=True, mode="peer"))
+    with Node("sim_clock_probe", options=opts) as probe:
+        buffer = Buffer()
+        listener = TransformListener(buffer, probe)
+        clock = probe.create_publisher("/clock", Clock)
+        sent: list[int] = []
+        ns = 100 * 10**9
+        for _ in range(400):  # each round waits (event-driven, <= 50 ms) for the drones to show up
+            ns += 20_000_000
+            sent.append(ns)
+            clock.publish(Clock(clock=Time(nanoseconds=ns)))
+            if buffer.can_transform("av1", "av2", Time(), timeout=0.05):
+                break
+        ts = buffer.lookup_transform("av1", "av2", Time())
+        listener.unregister()
+    stamp = ts.header.stamp.nanoseconds
+    assert stamp in sent  # stamped with the published sim time, not the wall clock
+    tr = ts.transform.translation
+    assert (tr.x, tr.y, tr.z) == pytest.approx(av2_in_av1(stamp / 1e9), abs=1e-9)
