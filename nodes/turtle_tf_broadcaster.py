@@ -1,7 +1,9 @@
 """Broadcast world -> <turtlename> from the turtle's pose, like the tf2 turtle tutorial.
 
-Parameter `turtlename` (default `turtle1`), `world_frame` (default `world`). Subscribes
-`<turtlename>/pose` (relative: the node's namespace applies) and sends one transform per pose with translation (x, y, 0) and yaw theta, stamped with the node's clock.
+Parameters `turtlename` (default `turtle1`) and `world_frame` (default `world`). Subscribes
+`<turtlename>/pose` (relative: the node's namespace applies) and sends one transform per pose with
+translation (x, y, 0) and yaw theta, stamped with the node's clock. Prints
+`broadcasting world -> <turtlename>` once at start.
 """
 from __future__ import annotations
 
