@@ -173,3 +173,34 @@ def test_lookup_transforms_matches_single_lookups_on_dense_random_buffers() -> N
         assert 0 < errors < checked
     finally:
         logging.getLogger("zentf.buffer_core").setLevel(logging.NOTSET)
+
+
+def test_lookup_transforms_lets_inserts_through_between_chunks() -> None:
+    """The lock is taken per chunk, so a listener may append newer samples during a batch; the
+    tables are rebuilt when data changed, and answers about the past stay exactly the same."""
+    import threading
+
+    core = moving_tree()
+    times = np.linspace(100.2, 104.8, 50_000)
+    want = lookup_transforms(core, "w", "cam", times)
+    stop = threading.Event()
+    inserted = []
+
+    def listener() -> None:
+        k = 0
+        while not stop.is_set() and k < 20000:
+            stamp = 105 * S + 1 + k * 1000
+            for parent, child in [("w", "a"), ("a", "b"), ("w", "c")]:
+                core.set_transform_raw(parent, child, stamp, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, "l")
+            k += 1
+            inserted.append(k)
+
+    th = threading.Thread(target=listener)
+    th.start()
+    try:
+        got = lookup_transforms(core, "w", "cam", times)
+    finally:
+        stop.set()
+        th.join()
+    assert inserted, "the listener never ran"
+    assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])

@@ -386,6 +386,7 @@ def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: An
     common time, as in a single lookup. Parent switches over the series are honoured (each time
     walks the tree as it was then). If the lookup fails at any time, the exception a single
     ``lookup_transform`` raises at the earliest failing position is raised and nothing is returned.
+    The buffer lock is held per chunk of 16k times, not for the whole call.
     """
     from .buffer_core import MAX_GRAPH_DEPTH
 
@@ -398,28 +399,38 @@ def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: An
             return out[:, :3], out[:, 3:]
         target_id = core._validate("lookupTransform argument target_frame", target_frame)
         source_id = core._validate("lookupTransform argument source_frame", source_frame)
-        lct: Optional[int] = None
-        lct_error = False
-        if (t_all == 0).any():
-            try:
-                lct = core._latest_common_time(target_id, source_id)
-            except TransformException:
-                lct_error = True
-        cache_tables: dict[int, Optional[_Tables]] = {}
+    any_zero = bool((t_all == 0).any())
+    cache_tables: dict[int, Optional[_Tables]] = {}
 
-        def tables(fid: int) -> Optional[_Tables]:
-            if fid not in cache_tables:
-                c = core._caches[fid]
-                cache_tables[fid] = None if c is None else _Tables(c)
-            return cache_tables[fid]
+    def tables(fid: int) -> Optional[_Tables]:
+        if fid not in cache_tables:
+            c = core._caches[fid]
+            cache_tables[fid] = None if c is None else _Tables(c)
+        return cache_tables[fid]
 
-        def replay(bad: np.ndarray, lo: int, t_asked: np.ndarray) -> None:
-            # the single lookup at the first failing time raises tf2's exact exception
-            for k in np.flatnonzero(bad).tolist():
-                core._lookup(target_frame, source_frame, int(t_asked[k]))
-            raise TransformException("vectorized lookup disagreed with the single lookup")  # pragma: no cover
+    def replay(bad: np.ndarray, t_asked: np.ndarray) -> None:
+        # the single lookup at the first failing time raises tf2's exact exception
+        for k in np.flatnonzero(bad).tolist():
+            core._lookup(target_frame, source_frame, int(t_asked[k]))
+        raise TransformException("vectorized lookup disagreed with the single lookup")  # pragma: no cover
 
-        for lo in range(0, n_all, _CHUNK):
+    version = None
+    lct: Optional[int] = None
+    lct_error = False
+    for lo in range(0, n_all, _CHUNK):
+        # the lock is taken per chunk so a listener is never held up for a whole batch; a chunk
+        # sees one consistent state, and data that changed in between is picked up (like a loop
+        # of single lookups would)
+        with core._lock:
+            if core._version != version:
+                version = core._version
+                cache_tables.clear()
+                lct, lct_error = None, False
+                if any_zero:
+                    try:
+                        lct = core._latest_common_time(target_id, source_id)
+                    except TransformException:
+                        lct_error = True
             t_asked = t_all[lo:lo + _CHUNK]
             n = t_asked.shape[0]
             zero = t_asked == 0
@@ -437,20 +448,20 @@ def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: An
             full = ~ends_at_target & ~ends_at_source
             broken = tgt["failed"] | (full & (tgt["frame"] != top)) | lct_bad
             if src["looped"] or tgt["looped"] or broken.any():
-                replay(broken | np.full(n, src["looped"] or tgt["looped"]), lo, t_asked)
-            s_acc, t_acc = src["acc"], tgt["acc"]
-            res = out[lo:lo + n]
-            if ends_at_target.any():
-                res[ends_at_target] = s_acc[:, ends_at_target].T
-            if ends_at_source.any():
-                inv = _inverse_cols(list(t_acc[:, ends_at_source]))
-                res[ends_at_source] = np.stack(inv, axis=1)
-            if full.all():
-                inv = _inverse_cols(list(t_acc))
-                res[:] = np.stack(_accumulate(list(s_acc), tuple(inv)), axis=1)  # inv(target) ∘ source
-            elif full.any():
-                inv = _inverse_cols(list(t_acc[:, full]))
-                res[full] = np.stack(_accumulate(list(s_acc[:, full]), tuple(inv)), axis=1)
+                replay(broken | np.full(n, src["looped"] or tgt["looped"]), t_asked)
+        s_acc, t_acc = src["acc"], tgt["acc"]
+        res = out[lo:lo + n]
+        if ends_at_target.any():
+            res[ends_at_target] = s_acc[:, ends_at_target].T
+        if ends_at_source.any():
+            inv = _inverse_cols(list(t_acc[:, ends_at_source]))
+            res[ends_at_source] = np.stack(inv, axis=1)
+        if full.all():
+            inv = _inverse_cols(list(t_acc))
+            res[:] = np.stack(_accumulate(list(s_acc), tuple(inv)), axis=1)  # inv(target) ∘ source
+        elif full.any():
+            inv = _inverse_cols(list(t_acc[:, full]))
+            res[full] = np.stack(_accumulate(list(s_acc[:, full]), tuple(inv)), axis=1)
     return out[:, :3], out[:, 3:]
 
 
