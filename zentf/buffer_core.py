@@ -55,7 +55,12 @@ class TransformableResult(IntEnum):
 
 
 def _ns(t: Any) -> int:
-    """Time or seconds -> integer ns (0 = latest)."""
+    """Time or seconds -> integer ns (0 = latest).
+
+    Times stay exact integer nanoseconds, as in ROS 2. (ROS 1's tf2_py squeezes every time
+    through float seconds, which can move a stamp by a nanosecond; the differential tests replay
+    that conversion on their inputs instead of copying it here.)
+    """
     if type(t) is Time:
         return t._ns
     if isinstance(t, Time):
