@@ -104,8 +104,7 @@ class ZenohOptions:
         try:
             cfg = zenoh.Config.from_file(self.config_file) if self.config_file else zenoh.Config()
         except Exception as e:  # zenoh raises ZError with a multi-line text
-            first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-            raise OptionsError(f"bad Zenoh config file {self.config_file}: {first}") from None
+            raise OptionsError(f"bad Zenoh config file {self.config_file}: {_config_error(str(e))}") from None
         try:
             if self.mode:
                 cfg.insert_json5("mode", json.dumps(self.mode))
@@ -119,6 +118,7 @@ class ZenohOptions:
                 cfg.insert_json5("timestamping/enabled", "true")
         except Exception as e:
             raise OptionsError(f"bad Zenoh option: {str(e).strip().splitlines()[0]}") from None
+        _check_tls_files(cfg, self.config_file)
         return cfg
 
     def open_session(self) -> Any:
@@ -142,7 +142,8 @@ class ZenohOptions:
             opener.join(0.05)
         if "error" in result:
             e = result["error"]
-            text = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+            text = re.sub(r"\s+at \S+\.rs:\d+\.?", "", str(e)).strip()
+            text = text.splitlines()[0] if text else type(e).__name__
             raise OptionsError(f"cannot open Zenoh session: {text}") from None
         return result["session"]
 
@@ -173,6 +174,32 @@ class ZenohOptions:
         if self.no_multicast:
             args.append("--no-multicast")
         return args
+
+
+def _check_tls_files(cfg: Any, source: str | None) -> None:
+    """A TLS certificate/key path that does not exist is named now (zenoh would retry silently)."""
+    try:
+        tls = json.loads(cfg.get_json("transport/link/tls")) or {}
+    except Exception:
+        return
+    for key, value in tls.items():
+        if (key.endswith("_certificate") or key.endswith("_private_key")) and isinstance(value, str) and value:
+            if not os.path.isfile(value):
+                where = f" (relative to {os.getcwd()})" if not os.path.isabs(value) else ""
+                raise OptionsError(f"{source or 'Zenoh config'}: transport/link/tls/{key}: "
+                                   f"file not found: {value}{where}")
+
+
+def _config_error(text: str) -> str:
+    """Zenoh's multi-line config error as 'line L, column C: what' (json5 syntax or unknown field)."""
+    text = re.sub(r"\s+at \S+\.rs:\d+\.?\s*$", "", text.strip())
+    m = re.search(r"-->\s*(\d+):(\d+).*?=\s*(.+)$", text, re.S)
+    if m:
+        return f"line {m.group(1)}, column {m.group(2)}: {m.group(3).strip()}"
+    m = re.search(r'msg: "(.*?)", location: Some\(Location \{ line: (\d+), column: (\d+)', text, re.S)
+    if m:
+        return f"line {m.group(2)}, column {m.group(3)}: {m.group(1)}"
+    return text.splitlines()[0] if text else "unreadable"
 
 
 def parse_scalar(text: str) -> Any:
