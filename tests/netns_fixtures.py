@@ -61,9 +61,9 @@ def run_in(net: Topology) -> Iterator:
                 p.kill()
 
 
-def start_router(run_in: Any, config: str = ROUTER_CONFIG) -> Proc:
+def start_router(run_in: Any, config: str = ROUTER_CONFIG, **kw: Any) -> Proc:
     """``zentf router --config configs/zenoh/router.json5`` in the router namespace (tcp/0.0.0.0:7447)."""
-    router = run_in("r", sys.executable, "-m", "zentf.cli", "router", "--config", config)
+    router = run_in("r", sys.executable, "-m", "zentf.cli", "router", "--config", config, **kw)
     router.wait_for_line(r"listening on ", 30)
     return router
 

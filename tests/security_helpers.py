@@ -10,6 +10,7 @@ import json
 import shutil
 import subprocess
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -23,11 +24,13 @@ ROUTER_ACL = REPO / "configs/zenoh/router-acl.json5"
 CLIENT_TLS = REPO / "configs/zenoh/client-tls.json5"
 
 
-def make_certs(out: Path) -> Path:
+def make_certs(out: Path, sans: Sequence[str] = ()) -> Path:
+    """scripts/make_certs.sh OUT --client robot-a --client base-b --client intruder [--san ...]."""
     if shutil.which("openssl") is None:
         pytest.skip("openssl not installed (scripts/make_certs.sh needs it)")
     proc = subprocess.run(["bash", str(REPO / "scripts/make_certs.sh"), str(out),
-                           *[a for c in CLIENTS for a in ("--client", c)]], capture_output=True, text=True, timeout=60)
+                           *[a for c in CLIENTS for a in ("--client", c)], *[a for s in sans for a in ("--san", s)]],
+                          capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
     return out
 

@@ -48,3 +48,21 @@ def test_split_drones_demo_across_three_hosts(net: Topology, run_in) -> None:
     # plots_publisher on b drew the same trail (4 decimals)
     m = b.wait_for_line(r"\[plots_publisher\] av2 in av1: \((\S+), (\S+), (\S+)\)", 20, from_start=True)
     assert on_ellipse(*(float(v) for v in m.groups()), tol=2e-3)
+
+
+def test_split_demo_over_mutual_tls_with_access_control(net: Topology, run_in, tmp_path) -> None:
+    """The same demo through configs/zenoh/router-acl.json5: machine A holds robot-a's certificate
+    (the one allowed to publish tf), machine B base-b's; each runs from a directory with its certs/."""
+    from security_helpers import machine_dir, make_certs
+
+    certs = make_certs(tmp_path / "ca", sans=[net.router_ip("a"), net.router_ip("b")])
+    start_router(run_in, str(REPO / "configs/zenoh/router-acl.json5"), cwd=machine_dir(tmp_path, certs, "router"))
+    launch = [sys.executable, "-m", "zentf.cli", "launch"]
+    tls = f"zenoh_config:={REPO / 'configs/zenoh/client-tls.json5'}"
+    b = run_in("b", *launch, str(REPO / "configs/split/machine_b.yaml"), f"router:=tls/{net.router_ip('b')}:7447",
+               tls, "period:=0.2", cwd=machine_dir(tmp_path, certs, "base-b"))
+    run_in("a", *launch, str(REPO / "configs/split/machine_a.yaml"), f"router:=tls/{net.router_ip('a')}:7447", tls,
+           cwd=machine_dir(tmp_path, certs, "robot-a"))
+    for _ in range(3):
+        m = b.wait_for_line(r"\[av2_in_av1\] av2 in av1: translation \((\S+), (\S+), (\S+)\)", 30)
+        assert on_ellipse(*(float(v) for v in m.groups()), tol=0.02)
