@@ -27,18 +27,23 @@ def net_env() -> dict[str, str]:
     return env
 
 
-def topology(hosts: list[str]) -> Iterator[Topology]:
+def topology(hosts: list[str], lan: bool = False) -> Iterator[Topology]:
     reason = unavailable_reason()
     if reason:
         pytest.skip(reason)
-    with Topology(hosts) as topo:
+    with Topology(hosts, lan=lan) as topo:
         yield topo
 
 
 @pytest.fixture
 def net(request: pytest.FixtureRequest) -> Iterator[Topology]:
-    """Hosts a and b (or ``@pytest.mark.parametrize('net', [[...]], indirect=True)``) around a router ns."""
-    yield from topology(getattr(request, "param", ["a", "b"]))
+    """Hosts a and b around a router namespace; ``@pytest.mark.parametrize('net', [[hosts...]] or
+    [{"hosts": [...], "lan": True}], indirect=True)`` for others."""
+    param = getattr(request, "param", ["a", "b"])
+    if isinstance(param, dict):
+        yield from topology(param["hosts"], lan=param.get("lan", False))
+    else:
+        yield from topology(param)
 
 
 @pytest.fixture

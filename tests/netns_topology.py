@@ -4,6 +4,8 @@
         net.router_ip("a")                   # 10.77.1.1: the router as seen from host a
         net.cmd("a", sys.executable, "-m", "nodes.frames_publisher", ...)   # argv to run inside a
 
+With ``lan=True`` the first two hosts also share one Ethernet segment (10.78.0.0/24) with a
+multicast route, for peers that find each other by scouting.
 Host number i (1-based) gets 10.77.i.2/24 on its veth and the router namespace 10.77.i.1/24 on the
 peer end; hosts reach each other only through a process in the router namespace (no IP forwarding).
 The addresses exist only inside these namespaces. Names carry the creating pid, so a namespace left
@@ -82,12 +84,14 @@ def remove_stale() -> list[str]:
 class Topology:
     """A router namespace plus one namespace per host, each host on its own veth link to the router."""
 
-    def __init__(self, hosts: Sequence[str] = ("a", "b"), *, router: str = "r") -> None:
+    def __init__(self, hosts: Sequence[str] = ("a", "b"), *, router: str = "r", lan: bool = False) -> None:
+        """``lan=True``: also one Ethernet segment between the first two hosts (10.78.0.1/.2, multicast on)."""
         if len(hosts) > 9 or not all(re.fullmatch(r"[a-z]\w{0,3}", h) for h in hosts):
             raise ValueError("hosts: up to 9 short names like 'a', 'b', 'c1'")
         self.tag = f"{PREFIX}{os.getpid()}x{next(_counter)}"
         self.hosts = list(hosts)
         self.router = router
+        self.lan = lan
         self.namespaces: dict[str, str] = {h: f"{self.tag}-{h}" for h in [router, *hosts]}
         self._created: list[str] = []
 
@@ -115,6 +119,13 @@ class Topology:
                 _ip("-n", r, "addr", "add", f"{SUBNET}.{i}.1/24", "dev", f"to_{host}")
                 _ip("-n", h, "link", "set", "eth0", "up")
                 _ip("-n", r, "link", "set", f"to_{host}", "up")
+            if self.lan:
+                h1, h2 = (self.namespaces[h] for h in self.hosts[:2])
+                _ip("-n", h1, "link", "add", "lan0", "type", "veth", "peer", "name", "lan0", "netns", h2)
+                for i, ns in enumerate((h1, h2), start=1):
+                    _ip("-n", ns, "addr", "add", f"10.78.0.{i}/24", "dev", "lan0")
+                    _ip("-n", ns, "link", "set", "lan0", "multicast", "on", "up")
+                    _ip("-n", ns, "route", "add", "224.0.0.0/4", "dev", "lan0")
         except Exception:
             self.destroy()
             raise

@@ -66,3 +66,15 @@ def test_split_demo_over_mutual_tls_with_access_control(net: Topology, run_in, t
     for _ in range(3):
         m = b.wait_for_line(r"\[av2_in_av1\] av2 in av1: translation \((\S+), (\S+), (\S+)\)", 30)
         assert on_ellipse(*(float(v) for v in m.groups()), tol=0.02)
+
+
+@pytest.mark.parametrize("net", [{"hosts": ["a", "b"], "lan": True}], indirect=True)
+def test_split_demo_between_peers_on_a_lan_by_multicast_scouting(net: Topology, run_in) -> None:
+    """No router: configs/zenoh/peer-lan.json5 on both hosts, which share one Ethernet segment."""
+    launch = [sys.executable, "-m", "zentf.cli", "launch"]
+    peer = f"zenoh_config:={REPO / 'configs/zenoh/peer-lan.json5'}"
+    b = run_in("b", *launch, str(REPO / "configs/split/machine_b.yaml"), peer, "period:=0.2")
+    run_in("a", *launch, str(REPO / "configs/split/machine_a.yaml"), peer)
+    for _ in range(3):
+        m = b.wait_for_line(r"\[av2_in_av1\] av2 in av1: translation \((\S+), (\S+), (\S+)\)", 30)
+        assert on_ellipse(*(float(v) for v in m.groups()), tol=0.02)
