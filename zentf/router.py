@@ -24,8 +24,8 @@ def open_router(listen: Sequence[str] = (DEFAULT_ENDPOINT,), *, no_multicast: bo
     return opts.open_session()
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m zentf.router",
+def main(argv: Sequence[str] | None = None, prog: str = "python -m zentf.router") -> int:
+    parser = argparse.ArgumentParser(prog=prog,
                                      description="Run a Zenoh router for zentf nodes.")
     add_zenoh_arguments(parser)
     parser.add_argument("--config", dest="zenoh_config", metavar="FILE", help="same as --zenoh-config")
