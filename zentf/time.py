@@ -20,24 +20,11 @@ def _ns_from_sec(seconds: float, what: str) -> int:
     return round(seconds * NSEC_PER_SEC)
 
 
-class Duration:
-    """A signed span of time in integer nanoseconds (builtin_interfaces/Duration)."""
+class _Nanoseconds:
+    """Shared accessors and ordering of Time and Duration (same-type comparisons only)."""
 
     __slots__ = ("_ns",)
-
-    def __init__(self, sec: int = 0, nanosec: int = 0, *, nanoseconds: int | None = None) -> None:
-        if nanoseconds is not None:
-            self._ns = int(nanoseconds)
-        else:
-            self._ns = int(sec) * NSEC_PER_SEC + int(nanosec)
-
-    @classmethod
-    def from_sec(cls, seconds: float) -> "Duration":
-        return cls(nanoseconds=_ns_from_sec(seconds, "Duration"))
-
-    @classmethod
-    def from_nsec(cls, nanoseconds: int) -> "Duration":
-        return cls(nanoseconds=nanoseconds)
+    _ns: int
 
     @property
     def nanoseconds(self) -> int:
@@ -59,6 +46,55 @@ class Duration:
 
     def is_zero(self) -> bool:
         return self._ns == 0
+
+    def to_dict(self) -> dict:
+        return {"sec": self.sec, "nanosec": self.nanosec}
+
+    def __eq__(self, other: object) -> bool:
+        return type(other) is type(self) and self._ns == other._ns  # type: ignore[attr-defined]
+
+    def __lt__(self, other: object) -> bool:
+        if type(other) is not type(self):
+            return NotImplemented
+        return self._ns < other._ns  # type: ignore[attr-defined]
+
+    def __le__(self, other: object) -> bool:
+        if type(other) is not type(self):
+            return NotImplemented
+        return self._ns <= other._ns  # type: ignore[attr-defined]
+
+    def __gt__(self, other: object) -> bool:
+        if type(other) is not type(self):
+            return NotImplemented
+        return self._ns > other._ns  # type: ignore[attr-defined]
+
+    def __ge__(self, other: object) -> bool:
+        if type(other) is not type(self):
+            return NotImplemented
+        return self._ns >= other._ns  # type: ignore[attr-defined]
+
+    def __hash__(self) -> int:
+        return hash((type(self).__name__, self._ns))
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(sec={self.sec}, nanosec={self.nanosec})"
+
+
+class Duration(_Nanoseconds):
+    """A signed span of time in integer nanoseconds (builtin_interfaces/Duration)."""
+
+    __slots__ = ()
+
+    def __init__(self, sec: int = 0, nanosec: int = 0, *, nanoseconds: int | None = None) -> None:
+        self._ns = int(nanoseconds) if nanoseconds is not None else int(sec) * NSEC_PER_SEC + int(nanosec)
+
+    @classmethod
+    def from_sec(cls, seconds: float) -> "Duration":
+        return cls(nanoseconds=_ns_from_sec(seconds, "Duration"))
+
+    @classmethod
+    def from_nsec(cls, nanoseconds: int) -> "Duration":
+        return cls(nanoseconds=nanoseconds)
 
     def __add__(self, other: object) -> "Duration | Time":
         if isinstance(other, Duration):
@@ -90,40 +126,8 @@ class Duration:
             return Duration(nanoseconds=round(self._ns / k))
         return NotImplemented
 
-    def __eq__(self, other: object) -> bool:
-        return isinstance(other, Duration) and self._ns == other._ns
-
-    def __lt__(self, other: "Duration") -> bool:
-        if not isinstance(other, Duration):
-            return NotImplemented
-        return self._ns < other._ns
-
-    def __le__(self, other: "Duration") -> bool:
-        if not isinstance(other, Duration):
-            return NotImplemented
-        return self._ns <= other._ns
-
-    def __gt__(self, other: "Duration") -> bool:
-        if not isinstance(other, Duration):
-            return NotImplemented
-        return self._ns > other._ns
-
-    def __ge__(self, other: "Duration") -> bool:
-        if not isinstance(other, Duration):
-            return NotImplemented
-        return self._ns >= other._ns
-
-    def __hash__(self) -> int:
-        return hash(("Duration", self._ns))
-
     def __bool__(self) -> bool:
         return self._ns != 0
-
-    def __repr__(self) -> str:
-        return f"Duration(sec={self.sec}, nanosec={self.nanosec})"
-
-    def to_dict(self) -> dict:
-        return {"sec": self.sec, "nanosec": self.nanosec}
 
     @classmethod
     def from_dict(cls, d: object) -> "Duration":
@@ -131,10 +135,10 @@ class Duration:
         return cls(sec, nsec)
 
 
-class Time:
+class Time(_Nanoseconds):
     """A point in time in integer nanoseconds (builtin_interfaces/Time); Time() means 'latest'."""
 
-    __slots__ = ("_ns",)
+    __slots__ = ()
 
     def __init__(self, sec: int = 0, nanosec: int = 0, *, nanoseconds: int | None = None) -> None:
         ns = int(nanoseconds) if nanoseconds is not None else int(sec) * NSEC_PER_SEC + int(nanosec)
@@ -149,27 +153,6 @@ class Time:
     @classmethod
     def from_nsec(cls, nanoseconds: int) -> "Time":
         return cls(nanoseconds=nanoseconds)
-
-    @property
-    def nanoseconds(self) -> int:
-        return self._ns
-
-    @property
-    def sec(self) -> int:
-        return self._ns // NSEC_PER_SEC
-
-    @property
-    def nanosec(self) -> int:
-        return self._ns % NSEC_PER_SEC
-
-    def to_sec(self) -> float:
-        return self._ns / NSEC_PER_SEC
-
-    def to_nsec(self) -> int:
-        return self._ns
-
-    def is_zero(self) -> bool:
-        return self._ns == 0
 
     def __add__(self, other: object) -> "Time":
         if isinstance(other, Duration):
@@ -189,38 +172,6 @@ class Time:
         if isinstance(other, Duration):
             return Time(nanoseconds=self._ns - other._ns)
         return NotImplemented
-
-    def __eq__(self, other: object) -> bool:
-        return isinstance(other, Time) and self._ns == other._ns
-
-    def __lt__(self, other: "Time") -> bool:
-        if not isinstance(other, Time):
-            return NotImplemented
-        return self._ns < other._ns
-
-    def __le__(self, other: "Time") -> bool:
-        if not isinstance(other, Time):
-            return NotImplemented
-        return self._ns <= other._ns
-
-    def __gt__(self, other: "Time") -> bool:
-        if not isinstance(other, Time):
-            return NotImplemented
-        return self._ns > other._ns
-
-    def __ge__(self, other: "Time") -> bool:
-        if not isinstance(other, Time):
-            return NotImplemented
-        return self._ns >= other._ns
-
-    def __hash__(self) -> int:
-        return hash(("Time", self._ns))
-
-    def __repr__(self) -> str:
-        return f"Time(sec={self.sec}, nanosec={self.nanosec})"
-
-    def to_dict(self) -> dict:
-        return {"sec": self.sec, "nanosec": self.nanosec}
 
     @classmethod
     def from_dict(cls, d: object) -> "Time":
