@@ -77,3 +77,24 @@ def test_config_file_endpoints_are_used_and_listen_overrides_them(tmp_path: Path
         ZenohOptions(connect=[f"tcp/127.0.0.1:{p}"], mode="client", no_multicast=True).open_session().close()
     r1.stop()
     assert r1.returncode == 0
+
+
+@pytest.mark.parametrize("name", ["router", "machine_a", "machine_b"])
+def test_split_launch_files_resolve(name: str) -> None:
+    proc = _zentf("launch", str(REPO / "configs/split" / f"{name}.yaml"), "--print")
+    assert proc.returncode == 0, proc.stderr
+    assert "zenoh" in proc.stdout
+
+
+def test_split_router_launch_file_runs_a_router(tmp_path: Path, spawn) -> None:
+    port = free_port()
+    cfg = tmp_path / "r.json5"
+    cfg.write_text((REPO / "configs/zenoh/router.json5").read_text().replace("tcp/0.0.0.0:7447",
+                                                                            f"tcp/127.0.0.1:{port}"))
+    env = {k: v for k, v in os.environ.items() if not k.startswith("ZENTF_")}
+    launcher = spawn([sys.executable, "-m", "zentf.cli", "launch", str(REPO / "configs/split/router.yaml"),
+                      f"zenoh_config:={cfg}"], env=env)
+    launcher.wait_for_line(rf"\[router\] zentf router \S+ listening on tcp/127\.0\.0\.1:{port}", 30)
+    from zentf.options import ZenohOptions
+
+    ZenohOptions(connect=[f"tcp/127.0.0.1:{port}"], mode="client", no_multicast=True).open_session().close()
