@@ -93,3 +93,15 @@ def next_state(p: Proc, cond: Any = lambda s: True, timeout: float = 15.0) -> di
         state = json.loads(m.group(0))
         if cond(state):
             return state
+
+
+def wait_stalled(p: Proc, timeout: float = 10.0) -> int:
+    """Skip probe lines until av1's latest stamp stops moving (two ticks alike); returns that stamp.
+
+    Lines printed before a fault was injected are still queued, so "the next line" is not enough."""
+    prev = None
+    while True:
+        stamp = next_state(p, timeout=timeout)["av1_ns"]
+        if prev is not None and stamp == prev:
+            return stamp
+        prev = stamp

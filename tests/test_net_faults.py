@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from netns_fixtures import net, next_state, node, probe, run_in, start_router  # noqa: F401
+from netns_fixtures import net, next_state, node, probe, run_in, start_router, wait_stalled  # noqa: F401
 from netns_topology import Topology
 
 pytestmark = pytest.mark.timeout(120)
@@ -29,7 +29,7 @@ def test_kill9_broadcaster_then_restart(net: Topology, run_in) -> None:
     static.signal(signal.SIGKILL)
     frames.wait(5)
     static.wait(5)
-    stale = next_state(watcher)["av1_ns"]
+    stale = wait_stalled(watcher)
     # nothing new arrives while the broadcaster is dead (two more ticks, same latest stamp)
     assert next_state(watcher)["av1_ns"] == stale and next_state(watcher)["av1_ns"] == stale
     assert stale >= first["av1_ns"]
@@ -52,7 +52,7 @@ def test_router_restart_clients_reconnect_within_3s(net: Topology, run_in) -> No
     next_state(watcher, lambda s: s["av1_ns"], 30)
     router.signal(signal.SIGKILL)
     router.wait(5)
-    stale = next_state(watcher)["av1_ns"]
+    stale = wait_stalled(watcher)
     assert next_state(watcher)["av1_ns"] == stale and next_state(watcher)["av1_ns"] == stale, \
         "data flowed without the router"
     up = time.monotonic()  # counted from the restart itself, the router's own start-up included
@@ -72,7 +72,7 @@ def test_link_down_2s_then_up(net: Topology, run_in) -> None:
     before = next_state(watcher, lambda s: s["av1_ns"] and s["checked"] > 20, 30)
     net.link("a", up=False)
     try:
-        stale = next_state(watcher)["av1_ns"]
+        stale = wait_stalled(watcher)
         assert next_state(watcher)["av1_ns"] == stale, "data flowed over a link that is down"
         time.sleep(2.0)  # the fault itself: the cable stays out for 2 s
     finally:
