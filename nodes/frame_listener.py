@@ -1,7 +1,8 @@
 """Every second, look up where the laser is as seen from the camera, and print it.
 
 Parameters: `target_frame` (default `camera`), `source_frame` (default `laser`), `period`
-(seconds, default 1.0). Prints
+(seconds, default 1.0), `tf_topic` / `tf_static_topic` (default `tf` / `tf_static`; `/*/tf` and
+`/*/tf_static` watch every robot namespace). Prints
 `laser in camera: translation (x, y, z) rotation (qx, qy, qz, qw)` per successful lookup, and
 logs why a lookup failed otherwise.
 """
@@ -33,7 +34,9 @@ def _run(opts: NodeOptions) -> None:
         source = str(_common.param(node, "source_frame", "laser"))
         period = _common.param_positive(node, "period", 1.0)
         buffer = Buffer()
-        listener = TransformListener(buffer, node)  # noqa: F841  (kept alive by this frame)
+        listener = TransformListener(  # noqa: F841  (kept alive by this frame)
+            buffer, node, tf_topic=str(_common.param(node, "tf_topic", "tf")),
+            tf_static_topic=str(_common.param(node, "tf_static_topic", "tf_static")))
 
         def tick() -> None:
             try:

@@ -56,3 +56,16 @@ def test_wildcard_must_be_a_whole_part(node_options) -> None:
             TransformListener(Buffer(), node, tf_topic="robot*/tf")
     finally:
         node.shutdown()
+
+
+def test_frame_listener_node_watches_all_robots(spawn, zenoh_args, test_namespace: str) -> None:
+    """nodes.frame_listener with tf_topic:=*/tf looks across robots; both fly the same av1 path,
+    so robot2's camera (0.2 m ahead on its av1) is 0.1 m ahead of robot1's (0.1 m ahead on its av1)."""
+    _robot(spawn, zenoh_args, test_namespace, "robot1", 0.1)
+    _robot(spawn, zenoh_args, test_namespace, "robot2", 0.2)
+    watcher = spawn.python("-m", "nodes.frame_listener", *zenoh_args, "-p", "tf_topic:=*/tf",
+                           "-p", "tf_static_topic:=*/tf_static", "-p", "target_frame:=robot1/camera",
+                           "-p", "source_frame:=robot2/camera", "-p", "period:=0.2")
+    for _ in range(3):
+        m = watcher.wait_for_line(r"robot2/camera in robot1/camera: translation \((\S+), (\S+), (\S+)\)", 30)
+        assert [float(v) for v in m.groups()] == pytest.approx([0.1, 0.0, 0.0], abs=0.02)
