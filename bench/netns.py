@@ -125,9 +125,25 @@ def sender(args: argparse.Namespace) -> None:
     node.shutdown()
 
 
-def _spawn(prefix: list[str], *argv: str) -> subprocess.Popen:
-    from conftest import _die_with_parent
+def _die_with_parent() -> None:  # runs in the child before exec: SIGTERM when this bench dies
+    import ctypes
+    import signal
 
+    try:
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except Exception:
+        pass
+
+
+def free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _spawn(prefix: list[str], *argv: str) -> subprocess.Popen:
     env = {k: v for k, v in os.environ.items() if not k.startswith("ZENTF_")}
     env.update(PYTHONUNBUFFERED="1", PYTHONPATH=str(REPO))
     return subprocess.Popen([*prefix, sys.executable, *argv], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
@@ -148,8 +164,6 @@ def _expect(p: subprocess.Popen, word: str, timeout: float = 30) -> str:
 
 def run_case(setup: str, kind: str, args: argparse.Namespace, net=None) -> dict:
     """One router + receiver + sender run; ``net`` = a Topology for the namespace setup."""
-    from conftest import free_port
-
     if net is None:
         ep_a = ep_b = f"tcp/127.0.0.1:{free_port()}"
         where = {"r": [], "a": [], "b": []}
