@@ -6,6 +6,7 @@ the semantics of ``BufferCore.lookup_transform`` at every time (see ``lookup_tra
 """
 from __future__ import annotations
 
+import math
 from typing import Any, Callable, Optional
 
 import numpy as np
@@ -160,20 +161,49 @@ def _one_ns(t: Any) -> int:
     return Time.from_sec(t).nanoseconds
 
 
-_CHUNK = 16384   # times per vectorized pass: keeps the working set in cache
+_CHUNK = 8192    # times per vectorized pass: the working set (~45 rows of 8k floats) stays near L2
+
+# Taylor coefficients of sin(x)/x and cos(x) in x²: slerp phases are at most π/2, and the number
+# of terms is picked per link from the largest phase so the truncation error stays below 1e-17
+# (a polynomial costs ~1 ns per time where np.sin/np.cos cost ~15 ns each).
+_SIN = [(-1.0) ** k / math.factorial(2 * k + 1) for k in range(14)]
+_COS = [(-1.0) ** k / math.factorial(2 * k) for k in range(14)]
+
+
+def _terms(theta: float) -> int:
+    """Taylor terms so that θ^(2K)/(2K)! (which bounds both remainders for θ ≤ π/2) is < 1e-17."""
+    k = 1
+    while k < 13 and theta ** (2 * k) / math.factorial(2 * k) >= 1e-17:
+        k += 1
+    return k
+
+
+# Row layout of a link value (9 rows): px, py, pz, qw, qx, qy, qz, qx, qy — the x, y rows are
+# repeated after z so that a cross product is two multiplies of shifted row views.
+# An accumulator has 11 rows: sx, sy, sz, sx, sy, then the same 6 quaternion rows.
 
 
 class _Tables:
-    """One frame's samples as per-interval tables for vectorized queries (built once per call)."""
+    """One frame's samples as per-interval slerp/lerp constants for vectorized queries.
 
-    __slots__ = ("m", "st", "par", "uniform", "rows", "last", "last_parent", "first_stamp", "last_stamp")
+    Row j of ``k`` (j < m - 1) interpolates from sample j to sample j + 1; the last row is the
+    newest sample itself (tf2 returns it as is at its stamp). With x = (t - st[j])·ω the value is
+    p0 + (t - st[j])·vel and q0·cos x + a·sin x (tf2's slerp rewritten: one sin, one cos).
+    Intervals across a parent switch, and zero angles, have ω = vel = a = 0 (the older sample).
+    """
+
+    __slots__ = ("m", "st", "par", "uniform", "k", "theta", "static", "first_stamp", "last_stamp",
+                 "last_parent")
 
     def __init__(self, cache: Any) -> None:
         if cache.is_static:
             s = cache.sample
             self.m = -1                       # static: one sample valid at every time
             self.uniform = s[0]
-            self.last = np.asarray(s[1:], float)
+            v = np.empty((9, 1))
+            v[0:7, 0] = (s[1], s[2], s[3], s[7], s[4], s[5], s[6])
+            v[7:9] = v[4:6]
+            self.static = v
             return
         start = cache.start
         # slicing copies the array.array, so no buffer export pins the cache's storage
@@ -186,131 +216,197 @@ class _Tables:
         d = np.frombuffer(cache.data[7 * start:], dtype=float).reshape(m, 7)
         self.par = par
         self.uniform = int(par[0]) if (par == par[0]).all() else None
-        self.last = d[m - 1].copy()
         self.last_parent = int(par[m - 1])
         self.first_stamp, self.last_stamp = int(st[0]), int(st[m - 1])
-        if m == 1:
-            return
-        p0, p1 = d[:-1], d[1:]
-        q0, q1 = p0[:, 3:], p1[:, 3:]
-        dot = np.einsum("ij,ij->i", q0, q1)
-        c = np.abs(dot) / np.sqrt(np.einsum("ij,ij->i", q0, q0) * np.einsum("ij,ij->i", q1, q1))
-        theta = np.arccos(np.minimum(c, 1.0))
-        zero = theta == 0.0
-        isn = np.where(zero, 0.0, 1.0 / np.sin(np.where(zero, 1.0, theta)))
-        older = par[:-1] != par[1:]          # parents differ: the older sample applies as is
-        inv_dt = np.where(older, 0.0, 1.0 / (st[1:] - st[:-1]))
-        rows = np.empty((19, m - 1))
-        rows[0], rows[1], rows[2] = inv_dt, theta, isn
-        rows[3] = np.where(dot < 0, -isn, isn)
-        rows[4] = zero
-        rows[5:8] = p0[:, :3].T
-        rows[8:11] = (p1[:, :3] - p0[:, :3]).T
-        rows[11:15] = q0.T
-        rows[15:19] = q1.T
-        self.rows = rows
+        k = np.zeros((15, m))             # ω, p0 (3), vel (3), q0 (w, x, y, z), a (w, x, y, z)
+        k[1:4] = d[:, :3].T
+        k[7] = d[:, 6]
+        k[8:11] = d[:, 3:6].T
+        theta = np.zeros(m)
+        if m > 1:
+            p0, p1 = d[:-1], d[1:]
+            q0, q1 = p0[:, 3:], p1[:, 3:]
+            dot = np.einsum("ij,ij->i", q0, q1)
+            c = np.abs(dot) / np.sqrt(np.einsum("ij,ij->i", q0, q0) * np.einsum("ij,ij->i", q1, q1))
+            th = np.arccos(np.minimum(c, 1.0))
+            same = par[:-1] == par[1:]        # parents differ: the older sample applies as is
+            th[~same] = 0.0
+            live = th != 0.0
+            dt = (st[1:] - st[:-1]).astype(float)
+            k[4:7, :-1] = np.where(same, (p1[:, :3] - p0[:, :3]).T / dt, 0.0)
+            k[0, :-1] = th / dt
+            sin_th = np.where(live, np.sin(th), 1.0)
+            sgn = np.where(dot < 0, -1.0, 1.0)
+            a = (q1 * sgn[:, None] - q0 * np.cos(th)[:, None]) / sin_th[:, None]   # x, y, z, w
+            a[~live] = 0.0
+            k[11, :-1] = a[:, 3]
+            k[12:15, :-1] = a[:, :3].T
+            theta[:-1] = th
+        self.k = k
+        self.theta = theta
 
-    def query(self, t: np.ndarray) -> tuple[Optional[np.ndarray], Any, tuple]:
-        """(ok mask or None if all ok, parent (int or array), 7 value columns) at times t."""
+    def query(self, t: np.ndarray, t_sorted: bool, has_zero: bool) -> tuple[Optional[np.ndarray], Any, np.ndarray]:
+        """(ok mask or None if all ok, parent (int or array), link value rows (9, n) or (9, 1))."""
         m = self.m
         if m == -1:
-            return None, self.uniform, tuple(self.last)
+            return None, self.uniform, self.static
         n = t.shape[0]
         if m == 0:
-            return np.zeros(n, bool), 0, (0.0,) * 7
-        t_eff = np.where(t == 0, self.last_stamp, t) if (t == 0).any() else t
-        if m == 1:
-            ok = t_eff == self.first_stamp
-            return (None if ok.all() else ok), self.uniform, tuple(self.last)
-        ok = (t_eff >= self.first_stamp) & (t_eff <= self.last_stamp)
-        all_ok = ok.all()
-        st = self.st
-        i = np.searchsorted(st, t_eff, side="right") - 1
-        np.clip(i, 0, m - 2, out=i)
-        if n > 64 and (i[1:] >= i[:-1]).all():  # sorted times (a trajectory): repeat beats take 5x
-            R = np.repeat(self.rows, np.bincount(i, minlength=m - 1), axis=1)
+            return np.zeros(n, bool), 0, _IDENTITY9
+        if has_zero:                      # time 0 (all-static chain: latest common time 0) = newest
+            t = np.where(t == 0, self.last_stamp, t)
+            t_sorted = False
+        if t_sorted and self.first_stamp <= t[0] and t[n - 1] <= self.last_stamp:
+            # sorted times map to runs of one interval: count each run and repeat the constants
+            pos = np.searchsorted(t, self.st, side="left")
+            counts = np.empty(m, np.int64)
+            np.subtract(pos[1:], pos[:-1], out=counts[:-1])
+            counts[m - 1] = n - pos[m - 1]
+            g = np.repeat(self.k, counts, axis=1)
+            st0 = np.repeat(self.st, counts)
+            parent: Any = self.uniform if self.uniform is not None else np.repeat(self.par, counts)
+            theta = float(self.theta[counts > 0].max())
+            ok = None
         else:
-            R = np.take(self.rows, i, axis=1)
-        r = (t_eff - st[i]) * R[0]
-        th = R[1]
-        s0 = np.sin((1.0 - r) * th)
-        s0 *= R[2]
-        s0 += R[4]
-        s1 = np.sin(r * th)
-        s1 *= R[3]
-        vals = [R[5] + r * R[8], R[6] + r * R[9], R[7] + r * R[10],
-                R[11] * s0 + R[15] * s1, R[12] * s0 + R[16] * s1,
-                R[13] * s0 + R[17] * s1, R[14] * s0 + R[18] * s1]
-        parent: Any = self.uniform
-        exact_new = t_eff == self.last_stamp
-        if exact_new.any():           # tf2 returns the newest sample itself (even across parents)
-            for k in range(7):
-                vals[k][exact_new] = self.last[k]
-        if parent is None:
-            parent = self.par[i]
-            parent[exact_new] = self.last_parent
-        return (None if all_ok else ok), parent, tuple(vals)
+            i = np.searchsorted(self.st, t, side="right") - 1
+            good = (i >= 0) & (t <= self.last_stamp)
+            ok = None if good.all() else good
+            np.clip(i, 0, m - 1, out=i)
+            g = np.take(self.k, i, axis=1)
+            st0 = self.st[i]
+            parent = self.uniform if self.uniform is not None else self.par[i]
+            theta = float(self.theta[i].max())
+        v = np.empty((9, n))
+        rr = np.subtract(t, st0, out=np.empty(n))           # exact: integer ns difference
+        x = np.multiply(rr, g[0], out=st0.view(float))      # phase, reusing st0's memory
+        np.multiply(rr, g[4:7], out=v[0:3])
+        v[0:3] += g[1:4]
+        kt = _terms(theta)
+        if kt == 1:                                         # every phase is 0: no rotation change
+            v[3:7] = g[7:11]
+        else:
+            x2 = np.multiply(x, x, out=rr)
+            sp = np.multiply(x2, _SIN[kt - 1])
+            cp = np.multiply(x2, _COS[kt - 1])
+            for j in range(kt - 2, 0, -1):
+                sp += _SIN[j]
+                sp *= x2
+                cp += _COS[j]
+                cp *= x2
+            sp += 1.0
+            sp *= x
+            cp += 1.0
+            q = v[3:7]
+            np.multiply(g[7:11], cp, out=q)
+            tmp = np.multiply(g[11:15], sp, out=g[11:15])
+            q += tmp
+        v[7:9] = v[4:6]
+        return ok, parent, v
 
 
-def _accumulate(acc: Optional[list], v: tuple) -> list:
-    """acc = v ∘ acc for (tx, ty, tz, qx, qy, qz, qw) columns: quatRotate(q, t_acc) + p, q·q_acc."""
-    px, py, pz, x, y, z, w = v
-    if acc is None:
-        return [np.array(c, dtype=float) if np.ndim(c) else c for c in v]
-    sx, sy, sz, qx, qy, qz, qw = acc
-    ax = w * sx + y * sz - z * sy
-    ay = w * sy + z * sx - x * sz
-    az = w * sz + x * sy - y * sx
-    aw = -x * sx - y * sy - z * sz
-    return [-aw * x + ax * w - ay * z + az * y + px,
-            -aw * y + ay * w - az * x + ax * z + py,
-            -aw * z + az * w - ax * y + ay * x + pz,
-            w * qx + x * qw + y * qz - z * qy,
-            w * qy + y * qw + z * qx - x * qz,
-            w * qz + z * qw + x * qy - y * qx,
-            w * qw - x * qx - y * qy - z * qz]
+_IDENTITY9 = np.array([[0.0], [0.0], [0.0], [1.0], [0.0], [0.0], [0.0], [0.0], [0.0]])
 
 
-def _inverse_cols(acc: list) -> list:
-    tx, ty, tz, x, y, z, w = acc
-    x, y, z = -x, -y, -z
-    vx, vy, vz = -tx, -ty, -tz
-    ax = w * vx + y * vz - z * vy
-    ay = w * vy + z * vx - x * vz
-    az = w * vz + x * vy - y * vx
-    aw = -x * vx - y * vy - z * vz
-    return [-aw * x + ax * w - ay * z + az * y, -aw * y + ay * w - az * x + ax * z,
-            -aw * z + az * w - ax * y + ay * x, x, y, z, w]
+def _set_acc(acc: np.ndarray, v: np.ndarray) -> None:
+    """acc = v (link rows to accumulator rows)."""
+    acc[0:3] = v[0:3]
+    acc[3:5] = v[0:2]
+    acc[5:11] = v[3:9]
 
 
-def _full(n: int, acc: Optional[list]) -> np.ndarray:
-    """acc columns (or identity) as an [n, 7] array."""
-    out = np.zeros((n, 7))
-    if acc is None:
-        out[:, 6] = 1.0
-    else:
-        for k in range(7):
-            out[:, k] = acc[k]
-    return out
+def _compose(acc: np.ndarray, v: np.ndarray) -> None:
+    """acc = v ∘ acc in place, exactly tf2's accum: s' = quatRotate(q, s) + p (q·s·q*, no unit
+    norm assumed), q' = q·q_acc. v may be (9, 1) (a static link): rows broadcast."""
+    n = acc.shape[1]
+    u5 = v[4:9]
+    u = v[4:7]
+    w = v[3:4]
+    s5 = acc[0:5]
+    s = acc[0:3]
+    a5 = np.empty((5, n))
+    av = a5[0:3]
+    t3 = np.empty((3, n))
+    # a = q·(0, s): vector w·s + u × s, scalar -(u·s)
+    np.multiply(u5[1:4], s5[2:5], out=av)
+    np.multiply(u5[2:5], s5[1:4], out=t3)
+    av -= t3
+    np.multiply(w, s, out=t3)
+    av += t3
+    a5[3:5] = a5[0:2]
+    np.multiply(u, s, out=t3)
+    dot = t3[0] + t3[1]
+    dot += t3[2]
+    # s' = (a·q*).vector + p = w·a + u × a + (u·s)·u + p
+    np.multiply(w, av, out=s)
+    np.multiply(u5[1:4], a5[2:5], out=t3)
+    s += t3
+    np.multiply(u5[2:5], a5[1:4], out=t3)
+    s -= t3
+    np.multiply(dot, u, out=t3)
+    s += t3
+    s += v[0:3]
+    s5[3:5] = s5[0:2]
+    # q' = q·Q: vector w·V + W·u + u × V, scalar w·W - u·V
+    qv5 = acc[6:11]
+    qv = acc[6:9]
+    ww = acc[5]
+    cr = av                            # a is no longer needed
+    np.multiply(u5[1:4], qv5[2:5], out=cr)
+    np.multiply(u5[2:5], qv5[1:4], out=t3)
+    cr -= t3
+    np.multiply(ww, u, out=t3)
+    cr += t3
+    np.multiply(u, qv, out=t3)
+    dot = t3[0] + t3[1]
+    dot += t3[2]
+    ww *= w[0]
+    ww -= dot
+    qv *= w
+    qv += cr
+    acc[9:11] = acc[6:8]
+
+
+def _identity_acc(n: int) -> np.ndarray:
+    acc = np.zeros((11, n))
+    acc[5] = 1.0
+    return acc
+
+
+def _inverse_acc(acc: np.ndarray) -> np.ndarray:
+    """tf2's inverse (q* and quatRotate(q*, -t)) of accumulator rows, as a link value (9 rows)."""
+    n = acc.shape[1]
+    conj = np.empty((9, n))
+    conj[0:3] = 0.0
+    conj[3] = acc[5]
+    np.negative(acc[6:11], out=conj[4:9])
+    out = _identity_acc(n)
+    np.negative(acc[0:5], out=out[0:5])
+    _compose(out, conj)
+    v = np.empty((9, n))
+    v[0:3] = out[0:3]
+    v[3:9] = out[5:11]
+    return v
 
 
 class _Walk:
     """One side of tf2's walk for a set of times, vectorized; frames may differ per time."""
 
-    def __init__(self, tables: Callable[[int], Optional[_Tables]], t: np.ndarray) -> None:
+    def __init__(self, tables: Callable[[int], Optional[_Tables]], t: np.ndarray, t_sorted: bool) -> None:
         self.tables = tables
         self.t = t
+        self.t_sorted = t_sorted
+        self.has_zero = bool(t[0] == 0) if t_sorted else bool((t == 0).any())
 
     def run(self, start: int, stop_at: Any, early_out: int, source_side: bool, max_depth: int) -> dict:
         """Walk up from `start`; stop where the frame equals stop_at (array per time) when the
         target side walks, at roots, at failed queries, or at early_out (after its query).
-        Returns per-time arrays: acc (n,7), frame, top, failed, early, looped."""
+        Returns per-time arrays: acc (11, n), frame, top, failed, early, looped, and any (whether
+        any link was composed at all: if not, acc is the identity)."""
         t = self.t
         n = t.shape[0]
         frame = np.full(n, start, np.int64)
         top = frame.copy()
-        acc = np.zeros((7, n))          # rows: tx, ty, tz, qx, qy, qz, qw (contiguous)
-        acc[6] = 1.0
+        acc = _identity_acc(n)
         started = np.zeros(n, bool)
         none_started = True
         failed = np.zeros(n, bool)
@@ -323,7 +419,8 @@ class _Walk:
                 break
             depth += 1
             if depth > max_depth + 1:
-                return dict(acc=acc, frame=frame, top=top, failed=failed, early=early, looped=True)
+                return dict(acc=acc, frame=frame, top=top, failed=failed, early=early, looped=True,
+                            any=not none_started)
             fr = frame[act]
             f0 = int(fr[0])
             groups = [(f0, act)] if (fr == f0).all() else [(int(f), act[fr == f]) for f in np.unique(fr)]
@@ -335,7 +432,7 @@ class _Walk:
                         top[idx] = fid
                     active[idx] = False
                     continue
-                ok, parent, vals = tab.query(t if whole else t[idx])
+                ok, parent, vals = tab.query(t if whole else t[idx], self.t_sorted, self.has_zero)
                 if ok is not None:
                     bad = idx[~ok]
                     failed[bad] = True
@@ -345,7 +442,8 @@ class _Walk:
                     keep = np.flatnonzero(ok)
                     idx = idx[keep]
                     whole = False
-                    vals = tuple(v[keep] if np.ndim(v) else v for v in vals)
+                    if vals.shape[1] > 1:
+                        vals = vals[:, keep]
                     if np.ndim(parent):
                         parent = parent[keep]
                     if idx.size == 0:
@@ -355,18 +453,17 @@ class _Walk:
                     active[idx] = False
                     continue
                 if whole and none_started:
-                    for k in range(7):
-                        acc[k] = vals[k]
+                    _set_acc(acc, vals)
                 elif whole and started.all():
-                    new = _accumulate(list(acc), vals)
-                    for k in range(7):
-                        acc[k] = new[k]
+                    _compose(acc, vals)
                 else:
                     sub = acc[:, idx]
                     first = ~started[idx]
-                    new = _accumulate(list(sub), vals)
-                    for k in range(7):
-                        sub[k] = np.where(first, vals[k], new[k])
+                    _compose(sub, vals)
+                    if first.any():
+                        init = _identity_acc(idx.size)
+                        _set_acc(init, vals)
+                        sub[:, first] = init[:, first]
                     acc[:, idx] = sub
                 started[idx] = True
                 none_started = False
@@ -375,7 +472,8 @@ class _Walk:
                 frame[idx] = parent
                 if stop_at is not None:
                     active[idx] = frame[idx] != stop_at[idx]
-        return dict(acc=acc, frame=frame, top=top, failed=failed, early=early, looped=False)
+        return dict(acc=acc, frame=frame, top=top, failed=failed, early=early, looped=False,
+                    any=not none_started)
 
 
 def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -386,7 +484,7 @@ def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: An
     common time, as in a single lookup. Parent switches over the series are honoured (each time
     walks the tree as it was then). If the lookup fails at any time, the exception a single
     ``lookup_transform`` raises at the earliest failing position is raised and nothing is returned.
-    The buffer lock is held per chunk of 16k times, not for the whole call.
+    The buffer lock is held per chunk of 8k times, not for the whole call.
     """
     from .buffer_core import MAX_GRAPH_DEPTH
 
@@ -436,7 +534,8 @@ def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: An
             zero = t_asked == 0
             lct_bad = zero if lct_error else np.zeros(n, bool)  # these raise like a single lookup
             t = np.where(zero, 1 if lct is None else lct, t_asked) if zero.any() else t_asked
-            walk = _Walk(tables, t)
+            t_sorted = bool((t[1:] >= t[:-1]).all())
+            walk = _Walk(tables, t, t_sorted)
             # a walk longer than the number of frames must be going round a loop: stop there and
             # let the single lookup produce tf2's loop error (it walks MAX_GRAPH_DEPTH steps)
             depth_limit = min(MAX_GRAPH_DEPTH, len(core._caches))
@@ -450,18 +549,25 @@ def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: An
             if src["looped"] or tgt["looped"] or broken.any():
                 replay(broken | np.full(n, src["looped"] or tgt["looped"]), t_asked)
         s_acc, t_acc = src["acc"], tgt["acc"]
+        if not tgt["any"]:
+            res_acc = s_acc                   # the target is the top: inv(identity) ∘ source
+        else:
+            res_acc = s_acc.copy()
+            if full.all():
+                _compose(res_acc, _inverse_acc(t_acc))      # inv(target) ∘ source
+            elif full.any():
+                sub = res_acc[:, full]
+                _compose(sub, _inverse_acc(t_acc[:, full]))
+                res_acc[:, full] = sub
+            if ends_at_source.any():
+                inv = _inverse_acc(t_acc[:, ends_at_source])
+                ident = _identity_acc(inv.shape[1])
+                _set_acc(ident, inv)
+                res_acc[:, ends_at_source] = ident
         res = out[lo:lo + n]
-        if ends_at_target.any():
-            res[ends_at_target] = s_acc[:, ends_at_target].T
-        if ends_at_source.any():
-            inv = _inverse_cols(list(t_acc[:, ends_at_source]))
-            res[ends_at_source] = np.stack(inv, axis=1)
-        if full.all():
-            inv = _inverse_cols(list(t_acc))
-            res[:] = np.stack(_accumulate(list(s_acc), tuple(inv)), axis=1)  # inv(target) ∘ source
-        elif full.any():
-            inv = _inverse_cols(list(t_acc[:, full]))
-            res[full] = np.stack(_accumulate(list(s_acc[:, full]), tuple(inv)), axis=1)
+        res[:, 0:3] = res_acc[0:3].T
+        res[:, 3:6] = res_acc[6:9].T
+        res[:, 6] = res_acc[5]
     return out[:, :3], out[:, 3:]
 
 
