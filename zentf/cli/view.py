@@ -1,9 +1,16 @@
 """`zentf view`: the live 3D view (frames, markers, points) in Rerun: native window, browser or .rrd file."""
 from __future__ import annotations
 
+import contextlib
 import os
+import shutil
+import socket
+import subprocess
 import sys
-from typing import Optional
+import threading
+import time
+from collections.abc import Iterator
+from typing import Any, Optional
 from urllib.parse import quote
 
 import click
@@ -53,6 +60,8 @@ def view(fixed_frame: str, web: bool, web_port: int, grpc_port: int, bind: str, 
     except Exception as exc:  # noqa: BLE001
         raise CliError(f"cannot open a Zenoh session: {exc}".splitlines()[0]) from exc
     rec = rr.RecordingStream("zentf_view")
+    stack = contextlib.ExitStack()
+    native: Optional[subprocess.Popen] = None
     try:
         sinks = []
         if save:
@@ -63,7 +72,9 @@ def view(fixed_frame: str, web: bool, web_port: int, grpc_port: int, bind: str, 
             if sinks:
                 rec.set_sinks(*sinks)
             else:
-                rec.spawn()
+                native = stack.enter_context(_native_viewer(rec, grpc_port))
+        except CliError:
+            raise
         except Exception as exc:  # noqa: BLE001 - port in use, no viewer binary, unwritable file
             raise CliError(f"cannot start the Rerun viewer: {exc}".splitlines()[0]) from exc
         if web:
@@ -79,10 +90,14 @@ def view(fixed_frame: str, web: bool, web_port: int, grpc_port: int, bind: str, 
         viewer = Viewer(node, rec, fixed_frame=fixed_frame, axis_length=axis_length)
         print(f"viewing {node.get_namespace()} in fixed frame '{fixed_frame}' (Ctrl-C to stop)", flush=True)
         with _stop_on_signals() as stop:
+            if native is not None:  # closing the viewer window ends the view too
+                threading.Thread(target=lambda: (native.wait(), stop.set()), daemon=True).start()
             try:
                 viewer.run(stop, rate=rate, duration=duration)
             finally:
                 viewer.close()
+        if native is not None and native.poll():
+            raise CliError(f"the Rerun viewer exited with code {native.returncode} (see its messages above)")
         sys.stderr.write(f"view: {viewer.ticks} refreshes, {len(viewer._shown_frames)} frames shown, "
                          f"{viewer.problems} bad messages dropped\n")
     finally:
@@ -91,4 +106,37 @@ def view(fixed_frame: str, web: bool, web_port: int, grpc_port: int, bind: str, 
             rec.disconnect()
         except Exception:  # noqa: BLE001
             pass
+        stack.close()
         node.shutdown()
+
+
+@contextlib.contextmanager
+def _native_viewer(rec: Any, port: int) -> Iterator[subprocess.Popen]:
+    """Rerun's desktop viewer as our own child: it dies with us (parent-death signal) and on exit."""
+    try:
+        import rerun_cli
+    except ImportError as exc:
+        raise CliError("the Rerun viewer binary is missing: pip install 'zentf[view]'") from exc
+    exe = os.path.join(os.path.dirname(rerun_cli.__file__), "rerun")
+    setpriv = shutil.which("setpriv")  # no Python between fork and exec: Zenoh threads are running
+    argv = [setpriv, "--pdeathsig", "TERM", "--"] if setpriv else []
+    proc = subprocess.Popen([*argv, exe, "--port", str(port)], stdin=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 10.0
+        while True:  # the viewer is ready once its gRPC port accepts
+            if proc.poll() is not None:
+                raise CliError(f"the Rerun viewer exited at start (code {proc.returncode})")
+            with contextlib.suppress(OSError), socket.create_connection(("127.0.0.1", port), timeout=0.2):
+                break
+            if time.monotonic() > deadline:
+                raise CliError(f"the Rerun viewer did not open port {port} within 10 s")
+            time.sleep(0.05)
+        rec.connect_grpc(f"rerun+http://127.0.0.1:{port}/proxy")
+        yield proc
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(3.0)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
