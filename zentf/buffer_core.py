@@ -462,12 +462,51 @@ class BufferCore:
 
     def set_transforms_raw(self, samples: Iterable[Sequence[Any]], authority: str, is_static: bool = False) -> int:
         """Insert many (parent, child, stamp_ns, tx, ty, tz, qx, qy, qz, qw) tuples; returns how many
-        were accepted. Callbacks and transformable requests run once at the end."""
+        were accepted. Callbacks and transformable requests run once at the end.
+
+        Same semantics as set_transform per sample, in order; the lock is taken once for the run of
+        common-case samples (_store's fast path, inlined) and released only around _store_checked.
+        """
         accepted = 0
-        store = self._store
-        for s in samples:
-            if store(s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8], s[9], authority, is_static):
-                accepted += 1
+        n_fast = 0  # fast inserts not yet counted in _version
+        lock = self._lock
+        clean = self._clean
+        caches = self._caches
+        lock.acquire()
+        try:
+            for parent, child, stamp, tx, ty, tz, qx, qy, qz, qw in samples:
+                if (-0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
+                        and tx == tx and ty == ty and tz == tz and type(stamp) is int and stamp >= 0):
+                    cid = clean.get(child)
+                    pid = clean.get(parent)
+                    if cid is not None and pid is not None and cid != pid:
+                        cache = caches[cid]
+                        if type(cache) is _TimeCache and stamp > cache.newest >= 0:
+                            cache.stamps.append(stamp)
+                            cache.parents.append(pid)
+                            cache.data.extend((tx, ty, tz, qx, qy, qz, qw))
+                            cache.newest = stamp
+                            cache.latest = None  # (memo and spans stay valid: no interval changed)
+                            if cache.oldest < stamp - cache.max_ns:
+                                cache.prune()
+                            cache.authority = authority
+                            n_fast += 1
+                            continue
+                # tf2's full path (new frames, statics, out of order, bad input): it logs, so unlocked
+                self._version += n_fast
+                accepted += n_fast
+                n_fast = 0
+                lock.release()
+                try:
+                    ok = self._store_checked(parent, child, stamp, tx, ty, tz, qx, qy, qz, qw, authority, is_static)
+                finally:
+                    lock.acquire()
+                if ok:
+                    accepted += 1
+        finally:
+            self._version += n_fast
+            lock.release()
+        accepted += n_fast
         if accepted and (self._requests or self._insert_callbacks):
             self._after_insert()
         return accepted
