@@ -204,3 +204,40 @@ def test_lookup_transforms_lets_inserts_through_between_chunks() -> None:
         th.join()
     assert inserted, "the listener never ran"
     assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+
+
+def sorted_chain(non_unit: bool = False) -> BufferCore:
+    """w -> a -> b (dynamic, one parent each, large and small turns), b -> cam static; x -> y apart."""
+    core = BufferCore()
+    rng = np.random.default_rng(11)
+    for k in range(51):
+        stamp = 100 * S + k * S // 10
+        for parent, child, scale in [("w", "a", 3.0), ("a", "b", 0.01)]:
+            q = Rotation.from_rotvec(rng.normal(size=3) * scale).as_quat()
+            if non_unit:
+                q = q * np.sqrt(1.0 + rng.uniform(-0.009, 0.009))  # tf2 accepts |q|² within 0.01
+            core.set_transform_raw(parent, child, stamp, *rng.uniform(-2, 2, 3), *q, "x")
+        core.set_transform_raw("x", "y", stamp, 1.0, 0.0, 0.0, 0, 0, 0, 1, "x")
+    core.set_transform_raw("b", "cam", 0, 0.1, 0.0, 0.2, *Rotation.from_rotvec([0.3, 0.2, 0.1]).as_quat(), "x", True)
+    return core
+
+
+@pytest.mark.parametrize("non_unit", [False, True])
+def test_lookup_transforms_sorted_chain_matches_loop(non_unit: bool) -> None:
+    """Sorted times (run-length interval gather), statics, early outs on either side, samples hit
+    exactly (including the newest), 8k-time chunk borders, non-unit quaternions as tf2 stores them."""
+    core = sorted_chain(non_unit)
+    times = np.unique(np.concatenate([np.linspace(100 * S, 105 * S, 20_000).astype(np.int64),
+                                      np.arange(100 * S, 105 * S + 1, S // 10)]))
+    pick = np.concatenate([times[:50], times[8150:8250], times[-60:], times[::997]])
+    for target, source in [("w", "cam"), ("cam", "w"), ("a", "cam"), ("cam", "a"), ("b", "a"), ("a", "b"),
+                           ("b", "w"), ("w", "b")]:
+        v, q = lookup_transforms(core, target, source, times)
+        wv, wq = loop(core, target, source, pick)
+        k = np.searchsorted(times, pick)
+        assert np.abs(v[k] - wv).max() < 1e-9, (target, source)
+        assert np.minimum(np.abs(q[k] - wq).max(1), np.abs(q[k] + wq).max(1)).max() < 1e-9
+    with pytest.raises(ConnectivityException):
+        lookup_transforms(core, "w", "y", times[:10])
+    with pytest.raises(ExtrapolationException):
+        lookup_transforms(core, "w", "cam", np.append(times, 106 * S))

@@ -164,16 +164,17 @@ def _one_ns(t: Any) -> int:
 _CHUNK = 8192    # times per vectorized pass: the working set (~45 rows of 8k floats) stays near L2
 
 # Taylor coefficients of sin(x)/x and cos(x) in x²: slerp phases are at most π/2, and the number
-# of terms is picked per link from the largest phase so the truncation error stays below 1e-17
-# (a polynomial costs ~1 ns per time where np.sin/np.cos cost ~15 ns each).
+# of terms is picked per link from the largest phase so the truncation error stays below 1e-16
+# (a polynomial costs ~2 ns per time where np.sin/np.cos cost ~15 ns each).
 _SIN = [(-1.0) ** k / math.factorial(2 * k + 1) for k in range(14)]
 _COS = [(-1.0) ** k / math.factorial(2 * k) for k in range(14)]
 
 
 def _terms(theta: float) -> int:
-    """Taylor terms so that θ^(2K)/(2K)! (which bounds both remainders for θ ≤ π/2) is < 1e-17."""
+    """Taylor terms so that θ^(2K)/(2K)! (which bounds both remainders for θ ≤ π/2) is below
+    1e-16, under the rounding of a unit quaternion's components."""
     k = 1
-    while k < 13 and theta ** (2 * k) / math.factorial(2 * k) >= 1e-17:
+    while k < 13 and theta ** (2 * k) / math.factorial(2 * k) >= 1e-16:
         k += 1
     return k
 
@@ -187,7 +188,8 @@ class _Tables:
     """One frame's samples as per-interval slerp/lerp constants for vectorized queries.
 
     Row j of ``k`` (j < m - 1) interpolates from sample j to sample j + 1; the last row is the
-    newest sample itself (tf2 returns it as is at its stamp). With x = (t - st[j])·ω the value is
+    newest sample itself (tf2 returns it as is at its stamp). Stamps are kept as float ns relative
+    to ``base`` (exact below 2^53 ns). With x = (t - st[j])·ω the value is
     p0 + (t - st[j])·vel and q0·cos x + a·sin x (tf2's slerp rewritten: one sin, one cos).
     Intervals across a parent switch, and zero angles, have ω = vel = a = 0 (the older sample).
     """
@@ -195,7 +197,7 @@ class _Tables:
     __slots__ = ("m", "st", "par", "uniform", "k", "theta", "static", "first_stamp", "last_stamp",
                  "last_parent")
 
-    def __init__(self, cache: Any) -> None:
+    def __init__(self, cache: Any, base: int) -> None:
         if cache.is_static:
             s = cache.sample
             self.m = -1                       # static: one sample valid at every time
@@ -218,10 +220,11 @@ class _Tables:
         self.uniform = int(par[0]) if (par == par[0]).all() else None
         self.last_parent = int(par[m - 1])
         self.first_stamp, self.last_stamp = int(st[0]), int(st[m - 1])
-        k = np.zeros((15, m))             # ω, p0 (3), vel (3), q0 (w, x, y, z), a (w, x, y, z)
-        k[1:4] = d[:, :3].T
-        k[7] = d[:, 6]
-        k[8:11] = d[:, 3:6].T
+        k = np.zeros((16, m))     # stamp - base, ω, p0 (3), vel (3), q0 (w, x, y, z), a (w, x, y, z)
+        k[0] = st - base
+        k[2:5] = d[:, :3].T
+        k[8] = d[:, 6]
+        k[9:12] = d[:, 3:6].T
         theta = np.zeros(m)
         if m > 1:
             p0, p1 = d[:-1], d[1:]
@@ -233,20 +236,21 @@ class _Tables:
             th[~same] = 0.0
             live = th != 0.0
             dt = (st[1:] - st[:-1]).astype(float)
-            k[4:7, :-1] = np.where(same, (p1[:, :3] - p0[:, :3]).T / dt, 0.0)
-            k[0, :-1] = th / dt
+            k[5:8, :-1] = np.where(same, (p1[:, :3] - p0[:, :3]).T / dt, 0.0)
+            k[1, :-1] = th / dt
             sin_th = np.where(live, np.sin(th), 1.0)
             sgn = np.where(dot < 0, -1.0, 1.0)
             a = (q1 * sgn[:, None] - q0 * np.cos(th)[:, None]) / sin_th[:, None]   # x, y, z, w
             a[~live] = 0.0
-            k[11, :-1] = a[:, 3]
-            k[12:15, :-1] = a[:, :3].T
+            k[12, :-1] = a[:, 3]
+            k[13:16, :-1] = a[:, :3].T
             theta[:-1] = th
         self.k = k
         self.theta = theta
 
-    def query(self, t: np.ndarray, t_sorted: bool, has_zero: bool) -> tuple[Optional[np.ndarray], Any, np.ndarray]:
-        """(ok mask or None if all ok, parent (int or array), link value rows (9, n) or (9, 1))."""
+    def query(self, t: np.ndarray, tf: np.ndarray, t_sorted: bool,
+              has_zero: bool) -> tuple[Optional[np.ndarray], Any, np.ndarray]:
+        """t (int ns) and tf (float ns - base) -> (ok mask or None if all ok, parent (int or array), link value rows (9, n) or (9, 1))."""
         m = self.m
         if m == -1:
             return None, self.uniform, self.static
@@ -254,7 +258,9 @@ class _Tables:
         if m == 0:
             return np.zeros(n, bool), 0, _IDENTITY9
         if has_zero:                      # time 0 (all-static chain: latest common time 0) = newest
-            t = np.where(t == 0, self.last_stamp, t)
+            zero = t == 0
+            t = np.where(zero, self.last_stamp, t)
+            tf = np.where(zero, float(self.k[0, m - 1]), tf)
             t_sorted = False
         if t_sorted and self.first_stamp <= t[0] and t[n - 1] <= self.last_stamp:
             # sorted times map to runs of one interval: count each run and repeat the constants
@@ -263,7 +269,6 @@ class _Tables:
             np.subtract(pos[1:], pos[:-1], out=counts[:-1])
             counts[m - 1] = n - pos[m - 1]
             g = np.repeat(self.k, counts, axis=1)
-            st0 = np.repeat(self.st, counts)
             parent: Any = self.uniform if self.uniform is not None else np.repeat(self.par, counts)
             theta = float(self.theta[counts > 0].max())
             ok = None
@@ -273,19 +278,19 @@ class _Tables:
             ok = None if good.all() else good
             np.clip(i, 0, m - 1, out=i)
             g = np.take(self.k, i, axis=1)
-            st0 = self.st[i]
             parent = self.uniform if self.uniform is not None else self.par[i]
             theta = float(self.theta[i].max())
         v = np.empty((9, n))
-        rr = np.subtract(t, st0, out=np.empty(n))           # exact: integer ns difference
-        x = np.multiply(rr, g[0], out=st0.view(float))      # phase, reusing st0's memory
-        np.multiply(rr, g[4:7], out=v[0:3])
-        v[0:3] += g[1:4]
+        rr = np.subtract(tf, g[0], out=g[0])                # t - stamp, exact
+        x = np.multiply(rr, g[1], out=g[1])                 # phase
+        vel = g[5:8]
+        vel *= rr
+        np.add(g[2:5], vel, out=v[0:3])
         kt = _terms(theta)
         if kt == 1:                                         # every phase is 0: no rotation change
-            v[3:7] = g[7:11]
+            v[3:7] = g[8:12]
         else:
-            x2 = np.multiply(x, x, out=rr)
+            x2 = np.multiply(x, x, out=g[2])
             sp = np.multiply(x2, _SIN[kt - 1])
             cp = np.multiply(x2, _COS[kt - 1])
             for j in range(kt - 2, 0, -1):
@@ -297,13 +302,14 @@ class _Tables:
             sp *= x
             cp += 1.0
             q = v[3:7]
-            np.multiply(g[7:11], cp, out=q)
-            tmp = np.multiply(g[11:15], sp, out=g[11:15])
+            np.multiply(g[8:12], cp, out=q)
+            tmp = np.multiply(g[12:16], sp, out=g[12:16])
             q += tmp
         v[7:9] = v[4:6]
         return ok, parent, v
 
 
+_OUT_ROWS = [0, 1, 2, 6, 7, 8, 5]    # accumulator rows -> tx, ty, tz, qx, qy, qz, qw
 _IDENTITY9 = np.array([[0.0], [0.0], [0.0], [1.0], [0.0], [0.0], [0.0], [0.0], [0.0]])
 
 
@@ -391,9 +397,11 @@ def _inverse_acc(acc: np.ndarray) -> np.ndarray:
 class _Walk:
     """One side of tf2's walk for a set of times, vectorized; frames may differ per time."""
 
-    def __init__(self, tables: Callable[[int], Optional[_Tables]], t: np.ndarray, t_sorted: bool) -> None:
+    def __init__(self, tables: Callable[[int], Optional[_Tables]], t: np.ndarray, base: int,
+                 t_sorted: bool) -> None:
         self.tables = tables
         self.t = t
+        self.tf = (t - base).astype(float)
         self.t_sorted = t_sorted
         self.has_zero = bool(t[0] == 0) if t_sorted else bool((t == 0).any())
 
@@ -432,7 +440,8 @@ class _Walk:
                         top[idx] = fid
                     active[idx] = False
                     continue
-                ok, parent, vals = tab.query(t if whole else t[idx], self.t_sorted, self.has_zero)
+                ok, parent, vals = (tab.query(t, self.tf, self.t_sorted, self.has_zero) if whole else
+                                    tab.query(t[idx], self.tf[idx], self.t_sorted, self.has_zero))
                 if ok is not None:
                     bad = idx[~ok]
                     failed[bad] = True
@@ -476,6 +485,62 @@ class _Walk:
                     any=not none_started)
 
 
+def _fast_chain(tables: Callable[[int], Optional["_Tables"]], t: np.ndarray, tf: np.ndarray, t_sorted: bool,
+                source_id: int, target_id: int, depth_limit: int) -> Optional[np.ndarray]:
+    """The common case, without per-time masks: every frame on both walks has one parent over its
+    whole buffer and every query succeeds at every time. Returns the result's accumulator rows,
+    or None for the general walk (which also produces the errors)."""
+    n = t.shape[0]
+
+    def walk(start: int, stop: int, early_out: int) -> Optional[tuple]:
+        acc: Optional[np.ndarray] = None
+        f = start
+        steps = 0
+        while f != stop:
+            tab = tables(f)
+            if tab is None:                       # a root
+                return acc, f, False
+            if tab.m == 0 or (tab.m > 0 and tab.uniform is None):
+                return None                       # no data, or a parent switch: general walk
+            ok, parent, v = tab.query(t, tf, t_sorted, False)
+            if ok is not None:
+                return None
+            if f == early_out:                    # tf2 queries it (it must be available) first
+                return acc, f, True
+            if acc is None:
+                acc = np.empty((11, n))
+                _set_acc(acc, v)
+            else:
+                _compose(acc, v)
+            f = parent
+            steps += 1
+            if steps > depth_limit:
+                return None
+        return acc, f, False
+
+    src = walk(source_id, -1, target_id)
+    if src is None:
+        return None
+    s_acc, top, early = src
+    if early:
+        return s_acc
+    tgt = walk(target_id, top, source_id)
+    if tgt is None:
+        return None
+    t_acc, end, early = tgt
+    if early:
+        res = _identity_acc(n)
+        _set_acc(res, _inverse_acc(t_acc))
+        return res
+    if end != top:
+        return None                               # not connected: the general walk raises
+    if s_acc is None:
+        s_acc = _identity_acc(n)
+    if t_acc is not None:
+        _compose(s_acc, _inverse_acc(t_acc))      # inv(target) ∘ source
+    return s_acc
+
+
 def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: Any) -> tuple[np.ndarray, np.ndarray]:
     """lookup_transform at every time of times[N] in one vectorized pass.
 
@@ -490,11 +555,11 @@ def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: An
 
     t_all = _times_ns(times)
     n_all = t_all.shape[0]
-    out = np.empty((n_all, 7))
+    out = np.empty((7, n_all))    # rows: the results are returned as transposed views
     with core._lock:
         if target_frame == source_frame:
-            out[:] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
-            return out[:, :3], out[:, 3:]
+            out[:] = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0])[:, None]
+            return out[0:3].T, out[3:7].T
         target_id = core._validate("lookupTransform argument target_frame", target_frame)
         source_id = core._validate("lookupTransform argument source_frame", source_frame)
     any_zero = bool((t_all == 0).any())
@@ -503,7 +568,7 @@ def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: An
     def tables(fid: int) -> Optional[_Tables]:
         if fid not in cache_tables:
             c = core._caches[fid]
-            cache_tables[fid] = None if c is None else _Tables(c)
+            cache_tables[fid] = None if c is None else _Tables(c, base)
         return cache_tables[fid]
 
     def replay(bad: np.ndarray, t_asked: np.ndarray) -> None:
@@ -513,6 +578,7 @@ def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: An
         raise TransformException("vectorized lookup disagreed with the single lookup")  # pragma: no cover
 
     version = None
+    base = 0              # stamps become float ns relative to base: exact within ±2^50 ns
     lct: Optional[int] = None
     lct_error = False
     for lo in range(0, n_all, _CHUNK):
@@ -535,40 +601,46 @@ def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: An
             lct_bad = zero if lct_error else np.zeros(n, bool)  # these raise like a single lookup
             t = np.where(zero, 1 if lct is None else lct, t_asked) if zero.any() else t_asked
             t_sorted = bool((t[1:] >= t[:-1]).all())
-            walk = _Walk(tables, t, t_sorted)
+            nz = t[t != 0] if (t[0] == 0 if t_sorted else zero.any() or (t == 0).any()) else t
+            if nz.size and (abs(int(nz.min()) - base) >= 1 << 50 or abs(int(nz.max()) - base) >= 1 << 50):
+                base = int(nz.min())
+                cache_tables.clear()
             # a walk longer than the number of frames must be going round a loop: stop there and
             # let the single lookup produce tf2's loop error (it walks MAX_GRAPH_DEPTH steps)
             depth_limit = min(MAX_GRAPH_DEPTH, len(core._caches))
-            src = walk.run(source_id, None, target_id, True, depth_limit)
-            ends_at_target = src["early"]
-            top = src["top"]
-            tgt = walk.run(target_id, np.where(ends_at_target, target_id, top), source_id, False, depth_limit)
-            ends_at_source = tgt["early"]
-            full = ~ends_at_target & ~ends_at_source
-            broken = tgt["failed"] | (full & (tgt["frame"] != top)) | lct_bad
-            if src["looped"] or tgt["looped"] or broken.any():
-                replay(broken | np.full(n, src["looped"] or tgt["looped"]), t_asked)
-        s_acc, t_acc = src["acc"], tgt["acc"]
-        if not tgt["any"]:
-            res_acc = s_acc                   # the target is the top: inv(identity) ∘ source
-        else:
-            res_acc = s_acc.copy()
-            if full.all():
-                _compose(res_acc, _inverse_acc(t_acc))      # inv(target) ∘ source
-            elif full.any():
-                sub = res_acc[:, full]
-                _compose(sub, _inverse_acc(t_acc[:, full]))
-                res_acc[:, full] = sub
-            if ends_at_source.any():
-                inv = _inverse_acc(t_acc[:, ends_at_source])
-                ident = _identity_acc(inv.shape[1])
-                _set_acc(ident, inv)
-                res_acc[:, ends_at_source] = ident
-        res = out[lo:lo + n]
-        res[:, 0:3] = res_acc[0:3].T
-        res[:, 3:6] = res_acc[6:9].T
-        res[:, 6] = res_acc[5]
-    return out[:, :3], out[:, 3:]
+            walk = _Walk(tables, t, base, t_sorted)
+            res_acc = None
+            if not walk.has_zero and not (lct_error and zero.any()):
+                res_acc = _fast_chain(tables, t, walk.tf, t_sorted, source_id, target_id, depth_limit)
+            if res_acc is None:
+                src = walk.run(source_id, None, target_id, True, depth_limit)
+                ends_at_target = src["early"]
+                top = src["top"]
+                tgt = walk.run(target_id, np.where(ends_at_target, target_id, top), source_id, False, depth_limit)
+                ends_at_source = tgt["early"]
+                full = ~ends_at_target & ~ends_at_source
+                broken = tgt["failed"] | (full & (tgt["frame"] != top)) | lct_bad
+                if src["looped"] or tgt["looped"] or broken.any():
+                    replay(broken | np.full(n, src["looped"] or tgt["looped"]), t_asked)
+        if res_acc is None:
+            s_acc, t_acc = src["acc"], tgt["acc"]
+            if not tgt["any"]:
+                res_acc = s_acc                   # the target is the top: inv(identity) ∘ source
+            else:
+                res_acc = s_acc.copy()
+                if full.all():
+                    _compose(res_acc, _inverse_acc(t_acc))      # inv(target) ∘ source
+                elif full.any():
+                    sub = res_acc[:, full]
+                    _compose(sub, _inverse_acc(t_acc[:, full]))
+                    res_acc[:, full] = sub
+                if ends_at_source.any():
+                    inv = _inverse_acc(t_acc[:, ends_at_source])
+                    ident = _identity_acc(inv.shape[1])
+                    _set_acc(ident, inv)
+                    res_acc[:, ends_at_source] = ident
+        out[:, lo:lo + n] = res_acc[_OUT_ROWS]
+    return out[0:3].T, out[3:7].T
 
 
 def transform_points_series(core: Any, points: Any, target_frame: str, source_frame: str, times: Any) -> np.ndarray:
