@@ -4,6 +4,7 @@ from __future__ import annotations
 import logging
 import threading
 import uuid
+from functools import partial
 from typing import Any
 
 from . import wire
@@ -48,12 +49,13 @@ class TransformListener:
         session = self.node.session
         static_key = wire_key(self.node, tf_static_topic)
         self._subs.append(zx.declare_advanced_subscriber(
-            session, static_key, lambda s: self._on_sample(s, True),
+            session, static_key, partial(self._on_sample, is_static=True),
             history=zx.HistoryConfig(detect_late_publishers=True)))
         self._declare_token(static_key)
         if not static_only:
             key = wire_key(self.node, tf_topic)
-            self._subs.append(session.declare_subscriber(key, lambda s: self._on_sample(s, False)))
+            # the bound method itself (no lambda frame): tf ingest runs right in Zenoh's callback thread
+            self._subs.append(session.declare_subscriber(key, self._on_sample))
             self._declare_token(key)
         self._jump = self.node.get_clock().add_jump_callback(self._on_jump)
         self.node.add_on_shutdown(self.unregister)
@@ -62,7 +64,7 @@ class TransformListener:
         if "*" not in key:  # a liveliness token cannot hold a wildcard; '*/tf' listeners stay unlisted
             self._tokens.append(self.node._declare_entity("sub", TFMessage.TYPE_NAME, key))
 
-    def _on_sample(self, sample: Any, is_static: bool) -> None:
+    def _on_sample(self, sample: Any, is_static: bool = False) -> None:
         """Zenoh thread: decode and insert; every failure is contained here."""
         try:
             enc = sample.encoding

@@ -1,0 +1,108 @@
+"""The listener's batch paths, in-process: set_transforms_raw == set_transform one by one, and the
+broadcaster's byte-template encoder == packing the plain dict (Zenoh itself is covered elsewhere)."""
+from __future__ import annotations
+
+import itertools
+import logging
+import math
+import random
+
+import msgpack
+import pytest
+
+from zentf import wire
+from zentf.buffer_core import BufferCore
+from zentf.messages import Header, Quaternion, Transform, TransformStamped, Vector3
+from zentf.time import Time
+
+S = 1_000_000_000
+FRAMES = ["world", "base", "/base", "arm", "", "cam", "tool"]
+
+
+def random_sample(rng: random.Random) -> tuple:
+    """Mostly good samples on a small tree, plus every kind tf2 refuses or takes the slow path for."""
+    parent, child = rng.choice(FRAMES), rng.choice(FRAMES)
+    stamp = rng.choice([rng.randrange(0, 50) * S // 10, rng.randrange(0, 50) * S // 10, -1, 3 * S])
+    tx, ty, tz = (rng.uniform(-5, 5) for _ in range(3))
+    q = rng.choice([(0.0, 0.0, 0.0, 1.0), (0.0, 0.0, math.sin(0.3), math.cos(0.3)), (0.0, 0.0, 0.0, 2.0),
+                    (0.0, 0.0, 0.0, 1.0)])
+    if rng.random() < 0.05:
+        tx = float("nan")
+    return (parent, child, stamp, tx, ty, tz, *q)
+
+
+def as_msg(s: tuple) -> TransformStamped:
+    return TransformStamped(Header(Time(nanoseconds=max(s[2], 0)), s[0]), s[1],
+                            Transform(Vector3(*s[3:6]), Quaternion(*s[6:10])))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_batch_insert_matches_one_by_one(seed: int, caplog: pytest.LogCaptureFixture) -> None:
+    rng = random.Random(seed)
+    samples = [random_sample(rng) for _ in range(400)]
+    samples = [s for s in samples if s[2] >= 0]  # Time() cannot hold a negative stamp; raw path below
+    one, batch = BufferCore(cache_time=2.0), BufferCore(cache_time=2.0)
+    calls: list[int] = []
+    batch.add_insert_callback(lambda: calls.append(1))
+    with caplog.at_level(logging.WARNING, logger="zentf"):
+        accepted_one = [one.set_transform(as_msg(s), "/auth", s[1] == "tool") for s in samples]
+        logs_one = [r.getMessage() for r in caplog.records]
+        caplog.clear()
+        accepted_batch = batches = 0
+        for i in range(0, len(samples), 37):  # runs of one static flag, in order
+            for is_static, run in itertools.groupby(samples[i:i + 37], key=lambda s: s[1] == "tool"):
+                batches += 1
+                accepted_batch += batch.set_transforms_raw(list(run), "/auth", is_static)
+        logs_batch = [r.getMessage() for r in caplog.records]
+    assert accepted_batch == sum(accepted_one)
+    assert logs_batch == logs_one  # same refusals, same words, same order
+    assert 0 < len(calls) <= batches < len(samples) // 2  # once per batch, not per sample
+    assert batch.all_frames_as_yaml(0) == one.all_frames_as_yaml(0)
+    for target in ("world", "arm", "cam"):
+        for source in ("base", "tool", "cam"):
+            for t in (0, 1.25, 3.0):
+                a = one.can_transform(target, source, t, True)
+                assert batch.can_transform(target, source, t, True) == a
+                if a[0]:
+                    x = one.lookup_transform(target, source, t).transform.translation
+                    y = batch.lookup_transform(target, source, t).transform.translation
+                    assert (x.x, x.y, x.z) == (y.x, y.y, y.z)
+
+
+def test_batch_insert_negative_stamp_and_lock_released(caplog: pytest.LogCaptureFixture) -> None:
+    core = BufferCore()
+    q = (0.0, 0.0, 0.0, 1.0)
+    with caplog.at_level(logging.ERROR, logger="zentf"):
+        n = core.set_transforms_raw([("w", "a", S, 1.0, 0.0, 0.0, *q), ("w", "a", -5, 1.0, 0.0, 0.0, *q),
+                                     ("w", "a", 2 * S, 1.0, 0.0, 0.0, *q)], "/x")
+    assert n == 2
+    assert any("negative" in r.getMessage() for r in caplog.records)
+    assert core._lock.acquire(blocking=False)  # never left held
+    core._lock.release()
+    assert core.lookup_transform("w", "a", 2).transform.translation.x == 1.0
+
+
+def plain_payload(items: list) -> bytes:
+    return wire.pack({"transforms": [wire.tf_to_plain(t) for t in items]})
+
+
+def tsm(ns: int, x: object = 1.0, parent: str = "world", child: str = "lat", w: object = 1) -> TransformStamped:
+    return TransformStamped(Header(Time(nanoseconds=ns), parent), child,
+                            Transform(Vector3(x, 2.0, 3.0), Quaternion(0, 0, 0, w)))  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("items", [
+    [tsm(1_700_000_000_123_456_789)], [tsm(0)], [tsm(2**32 * S + 5)], [tsm(5, x="bad")], [tsm(5, w=True)],
+    [tsm(7, parent="é" * 40, child="c" * 300)], [tsm(i) for i in range(20)], [tsm(i) for i in range(70_000)],
+    [wire.tf_to_plain(tsm(3)), tsm(4)], [],
+], ids=["now", "zero", "sec>=2^32", "not-a-number", "bool", "long-names", "array16", "array32", "mixed", "empty"])
+def test_encode_tf_fast_path_decodes_like_plain(items: list) -> None:
+    assert msgpack.unpackb(wire.encode_tf(items)) == msgpack.unpackb(plain_payload(items))
+
+
+def test_encode_tf_nan_and_ingest_round_trip() -> None:
+    core = BufferCore()
+    items = [tsm(S, x=float("nan")), tsm(2 * S, x=0.5), tsm(3 * S, child="other")]
+    accepted, rejected, malformed, _ = wire.ingest_tf(wire.encode_tf(items), core, "/a", False)
+    assert (accepted, rejected, malformed) == (2, 1, 0)
+    assert core.lookup_transform("world", "lat", 2).transform.translation.x == 0.5
