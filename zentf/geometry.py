@@ -195,7 +195,7 @@ class _Tables:
     """
 
     __slots__ = ("m", "st", "par", "uniform", "k", "theta", "static", "first_stamp", "last_stamp",
-                 "last_parent")
+                 "last_parent", "unit")
 
     def __init__(self, cache: Any, base: int) -> None:
         if cache.is_static:
@@ -206,6 +206,7 @@ class _Tables:
             v[0:7, 0] = (s[1], s[2], s[3], s[7], s[4], s[5], s[6])
             v[7:9] = v[4:6]
             self.static = v
+            self.unit = abs(s[4] ** 2 + s[5] ** 2 + s[6] ** 2 + s[7] ** 2 - 1.0) <= _UNIT_TOL
             return
         start = cache.start
         # slicing copies the array.array, so no buffer export pins the cache's storage
@@ -247,6 +248,9 @@ class _Tables:
             theta[:-1] = th
         self.k = k
         self.theta = theta
+        # unit samples interpolate to unit quaternions (|q0 cos x + a sin x|² = 1, a ⊥ q0), so the
+        # cheaper rotation formula agrees with q·v·q* to ~1e-15 relative
+        self.unit = bool((np.abs(np.einsum("ij,ij->i", d[:, 3:], d[:, 3:]) - 1.0) <= _UNIT_TOL).all())
 
     def query(self, t: np.ndarray, tf: np.ndarray, t_sorted: bool,
               has_zero: bool) -> tuple[Optional[np.ndarray], Any, np.ndarray]:
@@ -320,9 +324,12 @@ def _set_acc(acc: np.ndarray, v: np.ndarray) -> None:
     acc[5:11] = v[3:9]
 
 
-def _compose(acc: np.ndarray, v: np.ndarray) -> None:
+_UNIT_TOL = 4e-15     # |q|² - 1 of a stored quaternion for the unit-norm rotation formula
+
+
+def _compose(acc: np.ndarray, v: np.ndarray, unit: bool = False) -> None:
     """acc = v ∘ acc in place, exactly tf2's accum: s' = quatRotate(q, s) + p (q·s·q*, no unit
-    norm assumed), q' = q·q_acc. v may be (9, 1) (a static link): rows broadcast."""
+    norm assumed unless ``unit``), q' = q·q_acc. v may be (9, 1) (a static link): rows broadcast."""
     n = acc.shape[1]
     u5 = v[4:9]
     u = v[4:7]
@@ -332,6 +339,23 @@ def _compose(acc: np.ndarray, v: np.ndarray) -> None:
     a5 = np.empty((5, n))
     av = a5[0:3]
     t3 = np.empty((3, n))
+    if unit:
+        # |q| = 1: q·s·q* = s + w·c + u × c with c = 2·(u × s) (13 fewer row passes)
+        np.multiply(u5[1:4], s5[2:5], out=av)
+        np.multiply(u5[2:5], s5[1:4], out=t3)
+        av -= t3
+        av *= 2.0
+        a5[3:5] = a5[0:2]
+        np.multiply(w, av, out=t3)
+        s += t3
+        np.multiply(u5[1:4], a5[2:5], out=t3)
+        s += t3
+        np.multiply(u5[2:5], a5[1:4], out=t3)
+        s -= t3
+        s += v[0:3]
+        s5[3:5] = s5[0:2]
+        _qmul(acc, v, av, t3)
+        return
     # a = q·(0, s): vector w·s + u × s, scalar -(u·s)
     np.multiply(u5[1:4], s5[2:5], out=av)
     np.multiply(u5[2:5], s5[1:4], out=t3)
@@ -352,11 +376,18 @@ def _compose(acc: np.ndarray, v: np.ndarray) -> None:
     s += t3
     s += v[0:3]
     s5[3:5] = s5[0:2]
+    _qmul(acc, v, av, t3)
+
+
+def _qmul(acc: np.ndarray, v: np.ndarray, cr: np.ndarray, t3: np.ndarray) -> None:
+    """acc's quaternion = v's · acc's (cr, t3: scratch rows)."""
+    u5 = v[4:9]
+    u = v[4:7]
+    w = v[3:4]
     # q' = q·Q: vector w·V + W·u + u × V, scalar w·W - u·V
     qv5 = acc[6:11]
     qv = acc[6:9]
     ww = acc[5]
-    cr = av                            # a is no longer needed
     np.multiply(u5[1:4], qv5[2:5], out=cr)
     np.multiply(u5[2:5], qv5[1:4], out=t3)
     cr -= t3
@@ -511,7 +542,7 @@ def _fast_chain(tables: Callable[[int], Optional["_Tables"]], t: np.ndarray, tf:
                 acc = np.empty((11, n))
                 _set_acc(acc, v)
             else:
-                _compose(acc, v)
+                _compose(acc, v, tab.unit)
             f = parent
             steps += 1
             if steps > depth_limit:
