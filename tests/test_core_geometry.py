@@ -237,6 +237,9 @@ def test_lookup_transforms_sorted_chain_matches_loop(non_unit: bool) -> None:
         k = np.searchsorted(times, pick)
         assert np.abs(v[k] - wv).max() < 1e-9, (target, source)
         assert np.minimum(np.abs(q[k] - wq).max(1), np.abs(q[k] + wq).max(1)).max() < 1e-9
+        perm = np.random.default_rng(3).permutation(times.shape[0])   # unsorted: sorted per chunk
+        pv, pq = lookup_transforms(core, target, source, times[perm])
+        assert np.abs(pv - v[perm]).max() < 1e-12 and np.abs(pq - q[perm]).max() < 1e-12
     with pytest.raises(ConnectivityException):
         lookup_transforms(core, "w", "y", times[:10])
     with pytest.raises(ExtrapolationException):
