@@ -5,7 +5,8 @@ with raw zenoh-python put -> callback, measured in the same run on loopback.
 
 Two processes talk peer to peer (receiver listens on a free loopback port, sender connects; no
 multicast, no router). Latency: one message every ~1 ms, one-way time from just before
-``send_transform`` / ``put`` to the receiver's moment of "lookup-able" (the TransformListener's insert
+``send_transform`` (message built, its stamp = the send time) / ``put`` to the receiver's moment of
+"lookup-able" (the TransformListener's insert
 into the Buffer completed, taken in the Buffer's insert callback, then proven by a lookup that is not
 timed) / raw callback entry; both stamps are CLOCK_REALTIME on one host.
 Ingest: the sender floods pre-encoded TFMessages (100 transforms each, then 1 each); the rate is
@@ -188,9 +189,12 @@ def run_case(impl: str, kind: str, count: int, per_msg: int) -> dict:
                 if impl == "raw":
                     send_raw(time.time_ns().to_bytes(8, "little") + pad)
                 else:
-                    t0 = time.time_ns()
-                    br.send_transform(TransformStamped(Header(Time(nanoseconds=t0), "world"), "lat",
-                                                       Transform(Vector3(1.0, 2.0, 3.0), Quaternion(0, 0, 0, 1))))
+                    # the message is built before the clock starts (like the raw pad); the stamp,
+                    # which carries the send time, is set inside, then send_transform
+                    msg = TransformStamped(Header(Time(), "world"), "lat",
+                                           Transform(Vector3(1.0, 2.0, 3.0), Quaternion(0.0, 0.0, 0.0, 1.0)))
+                    msg.header.stamp = Time(nanoseconds=time.time_ns())
+                    br.send_transform(msg)
                 time.sleep(0.001)
         else:
             data = payloads(count, per_msg, time.time_ns())

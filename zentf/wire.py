@@ -159,6 +159,11 @@ def _tf_item(t: TransformStamped | dict) -> bytes:
 
 def encode_tf(transforms: Iterable[TransformStamped | dict]) -> bytes:
     """A TFMessage payload from transforms (dataclasses or plain dicts)."""
+    if type(transforms) is list and len(transforms) == 1 and type(transforms[0]) is TransformStamped:
+        try:  # the common send_transform(one) case without the generic loop
+            return b"\x81\xaatransforms\x91" + _ts_bytes(transforms[0])
+        except Exception:
+            pass
     items = [_tf_item(t) for t in transforms]
     n = len(items)
     if n < 16:
