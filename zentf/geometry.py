@@ -575,12 +575,17 @@ def _fast_chain(tables: Callable[[int], Optional["_Tables"]], t: np.ndarray, tf:
 def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: Any) -> tuple[np.ndarray, np.ndarray]:
     """lookup_transform at every time of times[N] in one vectorized pass.
 
-    Returns (translations[N,3], quaternions[N,4] as x, y, z, w). ``times`` is a sequence of
+    Returns (translations[N,3], quaternions[N,4] as x, y, z, w), transposed views of one (7, N)
+    array (column-major; ``np.ascontiguousarray`` if C order matters). ``times`` is a sequence of
     ``Time`` or float seconds, or an integer numpy array of nanoseconds; 0 means the latest
     common time, as in a single lookup. Parent switches over the series are honoured (each time
     walks the tree as it was then). If the lookup fails at any time, the exception a single
     ``lookup_transform`` raises at the earliest failing position is raised and nothing is returned.
     The buffer lock is held per chunk of 8k times, not for the whole call.
+
+    Cost: per chain link and time about 115 passes over one float row (interval constants
+    gathered by run length, Taylor slerp, in-place quaternion compose): ~35-40 ns on a 2-core
+    EPYC, against ~2-3 µs per link for a single lookup. See bench/lookup.py.
     """
     from .buffer_core import MAX_GRAPH_DEPTH
 
