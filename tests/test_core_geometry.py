@@ -207,18 +207,22 @@ def test_lookup_transforms_lets_inserts_through_between_chunks() -> None:
 
 
 def sorted_chain(non_unit: bool = False) -> BufferCore:
-    """w -> a -> b (dynamic, one parent each, large and small turns), b -> cam static; x -> y apart."""
+    """map -> odom -> w static, w -> a -> b dynamic (large and small turns), b -> cam static,
+    cam -> arm dynamic, arm -> tool -> tip static; x -> y apart."""
     core = BufferCore()
     rng = np.random.default_rng(11)
     for k in range(51):
         stamp = 100 * S + k * S // 10
-        for parent, child, scale in [("w", "a", 3.0), ("a", "b", 0.01)]:
+        for parent, child, scale in [("w", "a", 3.0), ("a", "b", 0.01), ("cam", "arm", 0.3)]:
             q = Rotation.from_rotvec(rng.normal(size=3) * scale).as_quat()
             if non_unit:
                 q = q * np.sqrt(1.0 + rng.uniform(-0.009, 0.009))  # tf2 accepts |q|² within 0.01
             core.set_transform_raw(parent, child, stamp, *rng.uniform(-2, 2, 3), *q, "x")
         core.set_transform_raw("x", "y", stamp, 1.0, 0.0, 0.0, 0, 0, 0, 1, "x")
-    core.set_transform_raw("b", "cam", 0, 0.1, 0.0, 0.2, *Rotation.from_rotvec([0.3, 0.2, 0.1]).as_quat(), "x", True)
+    for parent, child, rv in [("b", "cam", [0.3, 0.2, 0.1]), ("map", "odom", [0.0, 0.0, 1.0]),
+                              ("odom", "w", [0.1, -0.2, 0.0]), ("arm", "tool", [0.0, 0.5, 0.0]),
+                              ("tool", "tip", [0.2, 0.0, 0.3])]:
+        core.set_transform_raw(parent, child, 0, *rng.uniform(-1, 1, 3), *Rotation.from_rotvec(rv).as_quat(), "x", True)
     return core
 
 
@@ -231,7 +235,8 @@ def test_lookup_transforms_sorted_chain_matches_loop(non_unit: bool) -> None:
                                       np.arange(100 * S, 105 * S + 1, S // 10)]))
     pick = np.concatenate([times[:50], times[8150:8250], times[-60:], times[::997]])
     for target, source in [("w", "cam"), ("cam", "w"), ("a", "cam"), ("cam", "a"), ("b", "a"), ("a", "b"),
-                           ("b", "w"), ("w", "b")]:
+                           ("b", "w"), ("w", "b"), ("map", "tip"), ("tip", "map"), ("odom", "arm"),
+                           ("tool", "odom"), ("tip", "tool"), ("arm", "tip"), ("tip", "cam"), ("map", "w")]:
         v, q = lookup_transforms(core, target, source, times)
         wv, wq = loop(core, target, source, pick)
         k = np.searchsorted(times, pick)

@@ -314,6 +314,7 @@ class _Tables:
 
 
 _OUT_ROWS = [0, 1, 2, 6, 7, 8, 5]    # accumulator rows -> tx, ty, tz, qx, qy, qz, qw
+_LINK_ROWS = [0, 1, 2, 5, 6, 7, 8, 9, 10]  # accumulator rows -> link value rows
 _IDENTITY9 = np.array([[0.0], [0.0], [0.0], [1.0], [0.0], [0.0], [0.0], [0.0], [0.0]])
 
 
@@ -524,30 +525,59 @@ def _fast_chain(tables: Callable[[int], Optional["_Tables"]], t: np.ndarray, tf:
     n = t.shape[0]
 
     def walk(start: int, stop: int, early_out: int) -> Optional[tuple]:
+        # static links are composed once, into `pending` (one column), and applied to the per-time
+        # accumulator when the next dynamic link (or the end) comes: composition is associative
         acc: Optional[np.ndarray] = None
+        pending: Optional[np.ndarray] = None
+        pending_unit = True
+
+        def flush() -> Optional[np.ndarray]:
+            if pending is None:
+                return acc
+            if acc is None:
+                return np.repeat(pending, n, axis=1)
+            _compose(acc, pending[_LINK_ROWS], pending_unit)
+            return acc
+
         f = start
         steps = 0
         while f != stop:
             tab = tables(f)
             if tab is None:                       # a root
-                return acc, f, False
+                return flush(), f, False
             if tab.m == 0 or (tab.m > 0 and tab.uniform is None):
                 return None                       # no data, or a parent switch: general walk
             ok, parent, v = tab.query(t, tf, t_sorted, False)
             if ok is not None:
                 return None
             if f == early_out:                    # tf2 queries it (it must be available) first
-                return acc, f, True
-            if acc is None:
+                return flush(), f, True
+            if v.shape[1] == 1:                   # static
+                if pending is None:
+                    pending = np.empty((11, 1))
+                    _set_acc(pending, v)
+                else:
+                    _compose(pending, v, tab.unit)
+                pending_unit = pending_unit and tab.unit
+            elif acc is None:
                 acc = np.empty((11, n))
-                _set_acc(acc, v)
+                if pending is None:
+                    _set_acc(acc, v)
+                else:
+                    acc[:] = pending
+                    _compose(acc, v, tab.unit)
+                pending = None
             else:
+                if pending is not None:
+                    _compose(acc, pending[_LINK_ROWS], pending_unit)
+                    pending = None
                 _compose(acc, v, tab.unit)
+            pending_unit = pending_unit if pending is not None else True
             f = parent
             steps += 1
             if steps > depth_limit:
                 return None
-        return acc, f, False
+        return flush(), f, False
 
     src = walk(source_id, -1, target_id)
     if src is None:
