@@ -6,9 +6,9 @@ with raw zenoh-python put -> callback, measured in the same run on loopback.
 Two processes talk peer to peer (receiver listens on a free loopback port, sender connects; no
 multicast, no router). Latency: one message every ~1 ms, one-way time from just before
 ``send_transform`` (message built, its stamp = the send time) / ``put`` to the receiver's moment of
-"lookup-able" (the TransformListener's insert
-into the Buffer completed, taken in the Buffer's insert callback, then proven by a lookup that is not
-timed) / raw callback entry; both stamps are CLOCK_REALTIME on one host.
+"lookup-able" (the TransformListener's insert into the Buffer completed, taken in the Buffer's insert
+callback, then proven by a lookup that is not timed) / raw callback entry; both stamps are
+CLOCK_REALTIME on one host.
 Ingest: the sender floods pre-encoded TFMessages (100 transforms each, then 1 each); the rate is
 transforms accepted by the listener's Buffer per second, against raw messages per second received
 by a bare callback. Also the in-process ingest ceiling (wire.ingest_tf into a Buffer, no network).

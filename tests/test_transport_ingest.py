@@ -2,6 +2,7 @@
 broadcaster's byte-template encoder == packing the plain dict (Zenoh itself is covered elsewhere)."""
 from __future__ import annotations
 
+import copy
 import itertools
 import logging
 import math
@@ -106,3 +107,70 @@ def test_encode_tf_nan_and_ingest_round_trip() -> None:
     accepted, rejected, malformed, _ = wire.ingest_tf(wire.encode_tf(items), core, "/a", False)
     assert (accepted, rejected, malformed) == (2, 1, 0)
     assert core.lookup_transform("world", "lat", 2).transform.translation.x == 0.5
+
+
+class Recorder:
+    """A BufferCore stand-in that keeps what ingest_tf hands over."""
+
+    def __init__(self) -> None:
+        self.samples: list = []
+
+    def set_transforms_raw(self, samples: list, authority: str, is_static: bool) -> int:
+        self.samples.append([(s[0], s[1], s[2], *map(repr, s[3:])) for s in samples])  # repr: nan == nan
+        return len(samples)
+
+
+ODD_VALUES = [True, False, b"bytes", "str", None, 0, 1, 2**40, 2**63 + 1, -1, -(2**40), 1.5, float("nan"),
+              float("inf"), {}, [], [1.0], {"x": 1.0}, msgpack.ExtType(1, b"x"), "é/π", ""]
+PATHS = [("header", "stamp", "sec"), ("header", "stamp", "nanosec"), ("header", "stamp"), ("header", "frame_id"),
+         ("child_frame_id",), ("transform", "translation", "x"), ("transform", "rotation", "w"),
+         ("transform", "rotation"), ("header",), ("extra",), ("header", "stamp", "extra")]
+
+
+def mutated_payload(rng: random.Random) -> bytes:
+    items = [wire.tf_to_plain(tsm(rng.randrange(0, 10**19), x=rng.uniform(-1, 1), child=f"c{rng.randrange(5)}"))
+             for _ in range(rng.randrange(0, 6))]
+    for _ in range(rng.randrange(0, 3)):
+        if not items:
+            break
+        d = rng.choice(items)
+        path = rng.choice(PATHS)
+        for k in path[:-1]:
+            d = d.get(k) if isinstance(d, dict) else None
+        if not isinstance(d, dict):
+            continue
+        if rng.random() < 0.2:
+            d.pop(path[-1], None)
+        else:
+            d[path[-1]] = copy.deepcopy(rng.choice(ODD_VALUES))
+    msg: object = {"transforms": items}
+    if rng.random() < 0.05:
+        msg = rng.choice([[], {"transforms": None}, {"transforms": items, 1: 2}, {b"transforms": items}])
+    data = msgpack.packb(msg, use_bin_type=rng.random() < 0.8)
+    if rng.random() < 0.1 and data:
+        data = data[:rng.randrange(len(data))]
+    return data
+
+
+def test_fast_decoder_agrees_with_per_element_path(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Whatever the msgspec path accepts, the per-element path reads the same; anything else falls back."""
+    assert wire._TF_DECODER is not None  # msgspec is installed (a dependency)
+    rng = random.Random(7)
+    payloads = [mutated_payload(rng) for _ in range(3000)]
+    fast, slow = Recorder(), Recorder()
+
+    def run(core: Recorder) -> list:
+        out = []
+        for p in payloads:
+            try:
+                out.append(wire.ingest_tf(p, core, "/a", False))
+            except ValueError as e:
+                out.append(str(e))
+        return out
+
+    results_fast = run(fast)
+    monkeypatch.setattr(wire, "_TF_DECODER", None)
+    results_slow = run(slow)
+    assert results_fast == results_slow
+    assert fast.samples == slow.samples
+    assert sum(r[2] for r in results_fast if isinstance(r, tuple)) > 100  # the mutations did hit

@@ -214,16 +214,67 @@ def _frame(b: Any) -> str:
     return name
 
 
+def _tf_decoder() -> Any:
+    """msgspec decoder of a TFMessage into slotted structs (None without msgspec: generic path only).
+
+    Types are strict (int stamps, str frame ids, numbers for floats), unknown fields are ignored,
+    as in the per-element path; anything it refuses is re-read by that path.
+    """
+    try:
+        import msgspec
+    except ImportError:  # pragma: no cover - msgspec is a dependency; stay correct without it
+        return None
+
+    def struct(name: str, fields: list) -> Any:
+        return msgspec.defstruct(name, fields, gc=False)  # real types: this module's annotations are strings
+
+    stamp = struct("Time", [("sec", int), ("nanosec", int)])
+    header = struct("Header", [("stamp", stamp), ("frame_id", str)])
+    vector = struct("Vector3", [("x", float), ("y", float), ("z", float)])
+    quaternion = struct("Quaternion", [("x", float), ("y", float), ("z", float), ("w", float)])
+    transform = struct("Transform", [("translation", vector), ("rotation", quaternion)])
+    stamped = struct("TransformStamped", [("header", header), ("child_frame_id", str), ("transform", transform)])
+    return msgspec.msgpack.Decoder(struct("TFMessage", [("transforms", tuple[stamped, ...])]))
+
+
+_TF_DECODER = _tf_decoder()
+
+
 def ingest_tf(payload: bytes, core: Any, authority: str, is_static: bool) -> tuple[int, int, int, str | None]:
     """Insert every transform of a TFMessage payload into ``core`` (a BufferCore).
 
     Returns (accepted, rejected_by_buffer, malformed, first_problem). Raises ValueError only if the
-    whole payload is unusable (not msgpack, not a TFMessage). Unpacks with raw=True (no str objects
-    for the 15 keys of each transform), validates shapes cheaply (``+ 0.0`` is the number check) and
-    uses ``set_transforms_raw`` so the buffer wakes its waiters once per message.
+    whole payload is unusable (not msgpack, not a TFMessage). A well-formed message is decoded by
+    msgspec (fast path); otherwise msgpack unpacks with raw=True and each element is validated on
+    its own (``+ 0.0`` is the number check), so one bad element costs only itself. Either way
+    ``set_transforms_raw`` inserts the message under one lock and wakes waiters once.
     """
     if len(payload) > MAX_PAYLOAD:
         raise ValueError(f"payload of {len(payload)} bytes exceeds the {MAX_PAYLOAD} byte limit")
+    if _TF_DECODER is not None:
+        # fast path: msgspec decodes and type-checks the whole message in C, straight into structs;
+        # any doubt (bad shape anywhere, stamp out of range) sends the message down the per-element
+        # path below, which finds, counts and names each bad element
+        try:
+            msg = _TF_DECODER.decode(payload)
+        except Exception:
+            msg = None
+        if msg is not None:
+            samples = []
+            append = samples.append
+            for t in msg.transforms:
+                h = t.header
+                st = h.stamp
+                sec = st.sec
+                nsec = st.nanosec
+                if not (0 <= sec < _MAX_SEC and 0 <= nsec < _NS):
+                    break
+                tr = t.transform
+                p = tr.translation
+                q = tr.rotation
+                append((h.frame_id, t.child_frame_id, sec * _NS + nsec, p.x, p.y, p.z, q.x, q.y, q.z, q.w))
+            else:
+                return _insert(samples, core, authority, is_static, 0, None)
     try:
         data = msgpack.unpackb(payload, raw=True, use_list=False, strict_map_key=False)
     except Exception as e:
@@ -264,6 +315,11 @@ def ingest_tf(payload: bytes, core: Any, authority: str, is_static: bool) -> tup
                     problem = f"transforms[{i}]: missing field {k.decode('utf-8', 'replace') if isinstance(k, bytes) else k!r}"
                 else:
                     problem = f"transforms[{i}]: {type(e).__name__}: {e}"[:160]
+    return _insert(samples, core, authority, is_static, malformed, problem)
+
+
+def _insert(samples: list, core: Any, authority: str, is_static: bool, malformed: int,
+            problem: str | None) -> tuple[int, int, int, str | None]:
     if not samples:
         return 0, 0, malformed, problem
     try:
