@@ -274,7 +274,13 @@ def ingest_tf(payload: bytes, core: Any, authority: str, is_static: bool) -> tup
                 q = tr.rotation
                 append((h.frame_id, t.child_frame_id, sec * _NS + nsec, p.x, p.y, p.z, q.x, q.y, q.z, q.w))
             else:
-                return _insert(samples, core, authority, is_static, 0, None)
+                if not samples:
+                    return 0, 0, 0, None
+                try:
+                    accepted = core.set_transforms_raw(samples, authority, is_static)
+                except Exception:  # the buffer failed: _insert retries one by one
+                    return _insert(samples, core, authority, is_static, 0, None)
+                return accepted, len(samples) - accepted, 0, None
     try:
         data = msgpack.unpackb(payload, raw=True, use_list=False, strict_map_key=False)
     except Exception as e:
