@@ -2,7 +2,8 @@
 
 The sending node's fully qualified name travels as the sample attachment (UTF-8), so receivers
 know the authority of every transform. ``ingest_tf`` is the listener's fast path: msgpack straight
-into ``BufferCore.set_transform_raw`` with no dataclasses, each bad element skipped on its own.
+into ``BufferCore.set_transforms_raw`` (one lock per message) with no dataclasses, each bad element
+skipped on its own; ``encode_tf`` is the broadcasters' (TransformStamped written from a byte template).
 """
 from __future__ import annotations
 
