@@ -1,11 +1,15 @@
 """do_transform_*, transform(), and the vectorized extras against loops of single lookups."""
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
 from zentf import ConnectivityException, ExtrapolationException, LookupException, TypeException
+from zentf import geometry
 from zentf.buffer_core import BufferCore
 from zentf.geometry import (do_transform_point, do_transform_pose, do_transform_vector3, lookup_transforms,
                             transform, transform_full, transform_points, transform_points_series)
@@ -14,6 +18,18 @@ from zentf.messages import (Header, Point, PointStamped, Pose, PoseStamped, Quat
 from zentf.time import Time
 
 S = 1_000_000_000
+
+
+@pytest.fixture(autouse=True, params=["numpy", "numba"])
+def fast_path(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
+    """Every test runs on both implementations of lookup_transforms' plain-chain path."""
+    if request.param == "numba":
+        pytest.importorskip("numba")
+    monkeypatch.setattr(geometry, "USE_NUMBA", request.param == "numba")
+    assert geometry.fast_path() == request.param
+    return request.param
+
+
 FLIP_X = (1.0, 0.0, 0.0, 0.0)  # 180 degrees about x
 
 
@@ -226,18 +242,27 @@ def sorted_chain(non_unit: bool = False) -> BufferCore:
     return core
 
 
+CHAIN_PAIRS = [("w", "cam"), ("cam", "w"), ("a", "cam"), ("cam", "a"), ("b", "a"), ("a", "b"), ("b", "w"),
+               ("w", "b"), ("map", "tip"), ("tip", "map"), ("odom", "arm"), ("tool", "odom"), ("tip", "tool"),
+               ("arm", "tip"), ("tip", "cam"), ("map", "w")]
+
+
 @pytest.mark.parametrize("non_unit", [False, True])
-def test_lookup_transforms_sorted_chain_matches_loop(non_unit: bool) -> None:
+def test_lookup_transforms_sorted_chain_matches_loop(non_unit: bool, fast_path: str,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
     """Sorted times (run-length interval gather), statics, early outs on either side, samples hit
     exactly (including the newest), 8k-time chunk borders, non-unit quaternions as tf2 stores them."""
     core = sorted_chain(non_unit)
+    kernel_runs = []
+    real = geometry._run_kernel
+    monkeypatch.setattr(geometry, "_run_kernel", lambda *a: kernel_runs.append(1) or real(*a))
     times = np.unique(np.concatenate([np.linspace(100 * S, 105 * S, 20_000).astype(np.int64),
                                       np.arange(100 * S, 105 * S + 1, S // 10)]))
     pick = np.concatenate([times[:50], times[8150:8250], times[-60:], times[::997]])
-    for target, source in [("w", "cam"), ("cam", "w"), ("a", "cam"), ("cam", "a"), ("b", "a"), ("a", "b"),
-                           ("b", "w"), ("w", "b"), ("map", "tip"), ("tip", "map"), ("odom", "arm"),
-                           ("tool", "odom"), ("tip", "tool"), ("arm", "tip"), ("tip", "cam"), ("map", "w")]:
+    for target, source in CHAIN_PAIRS:
+        kernel_runs.clear()
         v, q = lookup_transforms(core, target, source, times)
+        assert len(kernel_runs) == (3 if fast_path == "numba" else 0), (target, source)  # one per chunk
         wv, wq = loop(core, target, source, pick)
         k = np.searchsorted(times, pick)
         assert np.abs(v[k] - wv).max() < 1e-9, (target, source)
@@ -249,3 +274,34 @@ def test_lookup_transforms_sorted_chain_matches_loop(non_unit: bool) -> None:
         lookup_transforms(core, "w", "y", times[:10])
     with pytest.raises(ExtrapolationException):
         lookup_transforms(core, "w", "cam", np.append(times, 106 * S))
+
+
+def test_lookup_transforms_numba_and_numpy_paths_agree(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The compiled kernel repeats the numpy path's arithmetic: results agree to rounding."""
+    pytest.importorskip("numba")
+    core = sorted_chain(True)
+    times = np.linspace(100 * S, 105 * S, 9000).astype(np.int64)
+    shuffled = times[np.random.default_rng(5).permutation(times.shape[0])]
+    for target, source in CHAIN_PAIRS:
+        got = {}
+        for use in (False, True):
+            monkeypatch.setattr(geometry, "USE_NUMBA", use)
+            got[use] = [np.concatenate(lookup_transforms(core, target, source, ts), axis=1)
+                        for ts in (times, shuffled)]
+        for a, b in zip(got[False], got[True]):
+            assert np.abs(a - b).max() < 1e-12, (target, source)
+
+
+def test_numba_is_imported_lazily_and_optional(fast_path: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """import zentf (CLI start-up) never loads numba; without numba the numpy path runs silently."""
+    code = "import sys, zentf, zentf.geometry, zentf.buffer_core; assert 'numba' not in sys.modules"
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True).returncode == 0
+    monkeypatch.setattr(geometry, "_kernel", None)
+    monkeypatch.setitem(sys.modules, "numba", None)          # import numba raises ImportError
+    monkeypatch.delitem(sys.modules, "zentf._chain_kernel", raising=False)
+    assert geometry.fast_path() == "numpy"
+    core = sorted_chain()
+    times = np.linspace(100 * S, 105 * S, 500).astype(np.int64)
+    v, q = lookup_transforms(core, "map", "tip", times)
+    wv, wq = loop(core, "map", "tip", times)
+    assert np.abs(v - wv).max() < 1e-9

@@ -6,6 +6,7 @@ the semantics of ``BufferCore.lookup_transform`` at every time (see ``lookup_tra
 """
 from __future__ import annotations
 
+import importlib
 import math
 from typing import Any, Callable, Optional
 
@@ -602,6 +603,130 @@ def _fast_chain(tables: Callable[[int], Optional["_Tables"]], t: np.ndarray, tf:
     return s_acc
 
 
+# numba path: None = not tried yet, False = numba missing (or disabled), else the compiled kernel.
+# USE_NUMBA = False forces the numpy path (tests run both).
+USE_NUMBA = True
+_kernel: Any = None
+
+
+def _numba_kernel() -> Any:
+    """The compiled chain kernel, or None without numba (imported on first use, not at import zentf)."""
+    global _kernel
+    if not USE_NUMBA:
+        return None
+    if _kernel is None:
+        try:
+            _kernel = importlib.import_module(__package__ + "._chain_kernel")
+        except ImportError:
+            _kernel = False
+    return _kernel or None
+
+
+def fast_path() -> str:
+    """Which implementation lookup_transforms uses for plain chains: "numba" or "numpy"."""
+    return "numba" if _numba_kernel() is not None else "numpy"
+
+
+def _plan_chain(tables: Callable[[int], Optional["_Tables"]], t: np.ndarray, source_id: int, target_id: int,
+                depth_limit: int) -> Optional[tuple]:
+    """_fast_chain's walks without the arithmetic, for the compiled kernel: returns (links, n_src,
+    mode) with links as (tables, j0, j1) slices of interval constants or (None, value (7,), unit)
+    for folded static runs; None where _fast_chain would return None."""
+    t0, t1 = int(t[0]), int(t[-1])
+
+    def walk(start: int, stop: int, early_out: int) -> Optional[tuple]:
+        links: list = []
+        pending: Optional[np.ndarray] = None
+        pending_unit = True
+
+        def flush() -> None:
+            if pending is not None:
+                links.append((None, pending[[0, 1, 2, 5, 6, 7, 8]].ravel(), pending_unit))
+
+        f = start
+        steps = 0
+        while f != stop:
+            tab = tables(f)
+            if tab is None:
+                flush()
+                return links, f, False
+            if tab.m == 0 or (tab.m > 0 and tab.uniform is None):
+                return None
+            if tab.m > 0 and not (tab.first_stamp <= t0 and t1 <= tab.last_stamp):
+                return None
+            if f == early_out:
+                flush()
+                return links, f, True
+            if tab.m == -1:
+                if pending is None:
+                    pending = np.empty((11, 1))
+                    _set_acc(pending, tab.static)
+                else:
+                    _compose(pending, tab.static, tab.unit)
+                pending_unit = pending_unit and tab.unit
+                f = tab.uniform
+            else:
+                flush()
+                pending, pending_unit = None, True
+                j0 = int(np.searchsorted(tab.st, t0, side="right")) - 1
+                j1 = int(np.searchsorted(tab.st, t1, side="right"))
+                links.append((tab, j0, j1))
+                f = tab.uniform
+            steps += 1
+            if steps > depth_limit:
+                return None
+        flush()
+        return links, f, False
+
+    src = walk(source_id, -1, target_id)
+    if src is None:
+        return None
+    s_links, top, early = src
+    if early:
+        return s_links, len(s_links), 1
+    tgt = walk(target_id, top, source_id)
+    if tgt is None:
+        return None
+    t_links, end, early = tgt
+    if early:
+        return t_links, 0, 2
+    if end != top:
+        return None
+    return s_links + t_links, len(s_links), 0
+
+
+def _run_kernel(kern: Any, plan: tuple, tf: np.ndarray) -> np.ndarray:
+    """Gather the planned links' interval constants (only the intervals this chunk touches) and
+    run the compiled kernel: (7, n) rows tx, ty, tz, qx, qy, qz, qw."""
+    links, n_src, mode = plan
+    n_links = len(links)
+    off = np.zeros(n_links, np.int64)
+    cnt = np.zeros(n_links, np.int64)
+    kt = np.ones(n_links, np.int64)
+    unit = np.zeros(n_links, np.bool_)
+    cval = np.zeros((max(n_links, 1), 7))
+    parts = []
+    total = 0
+    for li, link in enumerate(links):
+        tab = link[0]
+        if tab is None:
+            cval[li] = link[1]
+            unit[li] = link[2]
+            continue
+        j0, j1 = link[1], link[2]
+        parts.append(tab.k[:, j0:j1])
+        off[li] = total
+        cnt[li] = j1 - j0
+        total += j1 - j0
+        kt[li] = _terms(float(tab.theta[j0:j1].max()))
+        unit[li] = tab.unit
+    # one row of 16 constants per interval (two cache lines), links one after another
+    k = np.concatenate([p.T for p in parts]) if parts else np.zeros((1, 16))
+    out = np.empty((7, tf.shape[0]))
+    kern.chain_kernel(tf, k, off, cnt, kt, unit, cval, n_src, mode, kern._SIN, kern._COS, out)
+    return out
+
+
 def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: Any) -> tuple[np.ndarray, np.ndarray]:
     """lookup_transform at every time of times[N] in one vectorized pass.
 
@@ -613,9 +738,13 @@ def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: An
     ``lookup_transform`` raises at the earliest failing position is raised and nothing is returned.
     The buffer lock is held per chunk of 8k times, not for the whole call.
 
-    Cost: per chain link and time about 115 passes over one float row (interval constants
-    gathered by run length, Taylor slerp, in-place quaternion compose): ~35-40 ns on a 2-core
-    EPYC, against ~2-3 µs per link for a single lookup. See bench/lookup.py.
+    Cost: with numba installed (the ``fast`` extra) a chain where every frame keeps one parent and
+    every time is inside every buffer runs in one compiled pass per time (``fast_path()`` tells
+    which path is in use; the first call compiles, or loads numba's on-disk cache). Otherwise, and
+    for parent switches, time 0 and errors, numpy passes: per chain link and time about 115 passes
+    over one float row (interval constants gathered by run length, Taylor slerp, in-place
+    quaternion compose): ~35-40 ns on a 2-core EPYC, against ~2-3 µs per link for a single
+    lookup. See bench/lookup.py.
     """
     from .buffer_core import MAX_GRAPH_DEPTH
 
@@ -629,6 +758,7 @@ def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: An
         target_id = core._validate("lookupTransform argument target_frame", target_frame)
         source_id = core._validate("lookupTransform argument source_frame", source_frame)
     any_zero = bool((t_all == 0).any())
+    kern = _numba_kernel()
     cache_tables: dict[int, Optional[_Tables]] = {}
 
     def tables(fid: int) -> Optional[_Tables]:
@@ -676,8 +806,19 @@ def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: An
             depth_limit = min(MAX_GRAPH_DEPTH, len(core._caches))
             walk = _Walk(tables, t, base, t_sorted)
             res_acc = None
+            rows = None
             order = None
-            if not walk.has_zero and not (lct_error and zero.any()):
+            if not walk.has_zero and not (lct_error and zero.any()) and kern is not None:
+                # the compiled kernel: one pass per time over the whole chain
+                order = None if t_sorted else np.argsort(t, kind="stable")
+                ts = t if order is None else t[order]
+                plan = _plan_chain(tables, ts, source_id, target_id, depth_limit)
+                if plan is not None:
+                    rows = _run_kernel(kern, plan, walk.tf if order is None else walk.tf[order])
+                    res_acc = rows
+                else:
+                    order = None
+            if rows is None and not walk.has_zero and not (lct_error and zero.any()):
                 if t_sorted:
                     res_acc = _fast_chain(tables, t, walk.tf, True, source_id, target_id, depth_limit)
                 else:   # sorted, every link's intervals are runs: sorting once beats gathering per link
@@ -712,10 +853,12 @@ def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: An
                     ident = _identity_acc(inv.shape[1])
                     _set_acc(ident, inv)
                     res_acc[:, ends_at_source] = ident
+        if rows is None:
+            rows = res_acc[_OUT_ROWS]
         if order is None:
-            out[:, lo:lo + n] = res_acc[_OUT_ROWS]
+            out[:, lo:lo + n] = rows
         else:
-            out[:, lo:lo + n][:, order] = res_acc[_OUT_ROWS]
+            out[:, lo:lo + n][:, order] = rows
     return out[0:3].T, out[3:7].T
 
 
