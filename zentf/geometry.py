@@ -7,6 +7,7 @@ the semantics of ``BufferCore.lookup_transform`` at every time (see ``lookup_tra
 from __future__ import annotations
 
 import importlib
+import logging
 import math
 from typing import Any, Callable, Optional
 
@@ -618,6 +619,9 @@ def _numba_kernel() -> Any:
         try:
             _kernel = importlib.import_module(__package__ + "._chain_kernel")
         except ImportError:
+            _kernel = False
+        except Exception as e:        # numba present but unusable (e.g. no writable cache dir)
+            logging.getLogger(__name__).debug("numba kernel unavailable, numpy path: %s", e)
             _kernel = False
     return _kernel or None
 
