@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-CORE = {"time", "messages", "exceptions", "math3d", "buffer_core", "geometry"}
+CORE = {"time", "messages", "exceptions", "math3d", "buffer_core", "geometry", "_chain_kernel"}
 TRANSPORT = {"options", "names", "wire", "node", "clock", "buffer", "listener", "broadcaster",
              "message_filter", "graph", "router", "bag", "view"}
 TOP = {"launch", "cli"}
