@@ -418,7 +418,8 @@ class BufferCore:
         # hot path, the same as _store's (inlined: a call with 12 arguments costs ~7% of an insert)
         if (-0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
                 and tx == tx and ty == ty and tz == tz and type(stamp) is int and stamp >= 0):
-            with self._lock:
+            self._lock.acquire()  # (not `with`: 0.12 µs less per call, measured)
+            try:
                 clean = self._clean
                 cid = clean.get(child)
                 pid = clean.get(parent)
@@ -439,6 +440,8 @@ class BufferCore:
                         ok = None
                 else:
                     ok = None
+            finally:
+                self._lock.release()
             if ok is None:
                 ok = self._store_checked(parent, child, stamp, tx, ty, tz, qx, qy, qz, qw, authority, is_static)
         else:
@@ -524,7 +527,8 @@ class BufferCore:
         # statics, out-of-order stamps, bad input - takes _store_checked, tf2's full path.
         if (-0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
                 and tx == tx and ty == ty and tz == tz and type(stamp) is int and stamp >= 0):
-            with self._lock:
+            self._lock.acquire()  # (not `with`: 0.12 µs less per call, measured)
+            try:
                 clean = self._clean
                 cid = clean.get(child)
                 pid = clean.get(parent)
@@ -541,6 +545,8 @@ class BufferCore:
                         self._version += 1
                         cache.authority = authority
                         return True
+            finally:
+                self._lock.release()
         return self._store_checked(parent, child, stamp, tx, ty, tz, qx, qy, qz, qw, authority, is_static)
 
     def _store_checked(self, parent: str, child: str, stamp: Any, tx: float, ty: float, tz: float,
@@ -661,7 +667,8 @@ class BufferCore:
         """Transform mapping data in source_frame into target_frame at time (0 = latest common)."""
         t = time._ns if type(time) is Time else _ns(time)
         key = (target_frame, source_frame, t)
-        with self._lock:
+        self._lock.acquire()  # (not `with`: 0.12 µs less per call, measured)
+        try:
             hit = self._memo.get(key)
             if hit is not None and hit[0] == self._version:
                 r = hit[1]
@@ -671,6 +678,8 @@ class BufferCore:
                 if len(memo) >= 4096:
                     memo.clear()
                 memo[key] = (self._version, r)
+        finally:
+            self._lock.release()
         return _make_ts(target_frame, source_frame, *r)
 
     def lookup_transform_core(self, target_frame: str, source_frame: str, time: TimeArg) -> TransformStamped:
