@@ -147,19 +147,10 @@ def test_sigint_exits_zero(spawn) -> None:
 
 def test_bad_payloads_counted_and_logged(node_options, caplog) -> None:
     with Node("talk", options=node_options) as a, Node("hear", options=node_options) as b:
-        good, ping = threading.Event(), threading.Event()
-        sub = b.create_subscription("p", PointStamped,
-                                    lambda m: (ping if m.header.frame_id == "ping" else good).set())
+        good = threading.Event()
+        sub = b.create_subscription("p", PointStamped, lambda m: good.set())
         pub = a.create_publisher("p", PointStamped)
         assert pub.wait_for_subscribers(5)
-        # Matching can report the subscriber a moment before the router carries data to it (seen
-        # about 1 run in 15 under load): ping until one arrives, so the counts below are exact.
-        for _ in range(50):
-            pub.publish(PointStamped(Header(frame_id="ping")))
-            if ping.wait(0.2):
-                break
-        else:
-            pytest.fail("no message reached the subscriber through the router")
         pub.publish_bytes(b"\xc1\xff")                       # not msgpack
         pub.publish({"header": 5})                          # wrong shape
         pub.publish({"point": {"x": float("nan")}})         # NaN is a value, passes decode
