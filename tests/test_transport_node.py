@@ -5,6 +5,7 @@ import argparse
 import json
 import signal
 import threading
+import time
 import textwrap
 
 import pytest
@@ -143,6 +144,19 @@ def test_sigint_exits_zero(spawn) -> None:
     p.signal(signal.SIGINT)
     assert p.wait(10) == 0
     assert "Traceback" not in p.output() and "KeyboardInterrupt" not in p.output()
+
+
+def test_wait_for_subscribers_waits_for_a_real_match(node_options) -> None:
+    # zenoh's MatchingStatus has no __bool__: testing the object itself was always true, so the
+    # wait returned at once and the first put of a fresh publisher was lost in ~3 % of runs.
+    with Node("lonely", options=node_options) as a:
+        pub = a.create_publisher("nobody_listens", PointStamped)
+        t0 = time.monotonic()
+        assert pub.wait_for_subscribers(0.3) is False
+        assert time.monotonic() - t0 >= 0.25
+        with Node("ear", options=node_options) as b:
+            b.create_subscription("nobody_listens", PointStamped, lambda m: None)
+            assert pub.wait_for_subscribers(5) is True
 
 
 def test_bad_payloads_counted_and_logged(node_options, caplog) -> None:

@@ -117,12 +117,12 @@ class Publisher:
         """Block until at least one subscriber matches (event-driven); True at once for latched topics."""
         if self.latched:
             return True
-        if self._pub.matching_status:
+        if self._pub.matching_status.matching:
             return True
         ev = threading.Event()
         listener = self._pub.declare_matching_listener(lambda st: st.matching and ev.set())
         try:
-            return bool(self._pub.matching_status) or ev.wait(timeout)
+            return self._pub.matching_status.matching or ev.wait(timeout)
         finally:
             try:
                 listener.undeclare()
