@@ -337,19 +337,20 @@ class Supervisor:
         except (BrokenPipeError, ValueError, OSError):
             pass
 
-    def _read_output(self, child: _Child) -> None:
+    def _read_output(self, child: _Child) -> bool:
+        """Forward what the child's pipe holds now, line by line; False once nothing more is waiting."""
         fd = child.out_fd
         if fd is None:
-            return
+            return False
         try:
             data = os.read(fd, 65536)
         except BlockingIOError:
-            return
+            return False
         except OSError:
             data = b""
         if not data:
             self._close_output(child)
-            return
+            return False
         buf = child.out_buf + data
         lines = buf.split(b"\n")
         child.out_buf = lines.pop()
@@ -358,6 +359,7 @@ class Supervisor:
             child.out_buf = b""
         if lines:
             self._emit(child, b"".join(child.prefix + line + b"\n" for line in lines))
+        return True
 
     def _close_output(self, child: _Child) -> None:
         if child.out_fd is not None:
@@ -380,22 +382,8 @@ class Supervisor:
     def _drain_output(self, child: _Child) -> None:
         """Read what a dead child left in its pipe (without waiting for grandchildren to close it)."""
         for _ in range(64):
-            if child.out_fd is None:
+            if not self._read_output(child):
                 return
-            try:
-                data = os.read(child.out_fd, 65536)
-            except BlockingIOError:
-                return
-            except OSError:
-                data = b""
-            if not data:
-                self._close_output(child)
-                return
-            buf = child.out_buf + data
-            lines = buf.split(b"\n")
-            child.out_buf = lines.pop()
-            if lines:
-                self._emit(child, b"".join(child.prefix + line + b"\n" for line in lines))
 
     # ------------------------------------------------------------------ exits
     def _reap(self, child: _Child) -> None:
