@@ -12,7 +12,7 @@ from typing import Any, Callable, Iterator, Optional
 
 import click
 
-__all__ = ["CliError", "CliOptions", "CONTEXT_SETTINGS", "with_options", "open_node", "open_session",
+__all__ = ["CliError", "CliOptions", "CONTEXT_SETTINGS", "liveliness_wait_option", "with_options", "open_node", "open_session",
            "node_options", "status", "cli_node_name", "clean_error"]
 
 
@@ -25,6 +25,10 @@ class CliError(Exception):
 
 
 CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
+
+#: `--wait` of the one-shot graph listings (node list/info, topic list/info, graph).
+liveliness_wait_option = click.option("--wait", type=click.FloatRange(min=0.0), default=2.0, show_default=True,
+                                      help="Seconds to wait for liveliness replies.")
 
 
 @dataclass

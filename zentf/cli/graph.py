@@ -6,7 +6,7 @@ from typing import Optional
 
 import click
 
-from .common import CONTEXT_SETTINGS, CliError, CliOptions, with_options
+from .common import CONTEXT_SETTINGS, liveliness_wait_option, CliError, CliOptions, with_options
 
 __all__ = ["graph"]
 
@@ -17,8 +17,7 @@ __all__ = ["graph"]
 @click.option("--dot", "print_dot", is_flag=True, help="Print the DOT source instead of the text listing.")
 @click.option("--all", "-a", "show_all", is_flag=True,
               help="Include hidden nodes (CLI tools, names starting with '_').")
-@click.option("--wait", type=click.FloatRange(min=0.0), default=2.0, show_default=True,
-              help="Seconds to wait for liveliness replies.")
+@liveliness_wait_option
 @with_options
 def graph(output: Optional[str], print_dot: bool, show_all: bool, wait: float, *, opts: CliOptions) -> None:
     """The node <-> topic graph: who publishes (node -> topic) and subscribes (topic -> node)."""

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from .common import CONTEXT_SETTINGS, CliError, CliOptions, with_options
+from .common import CONTEXT_SETTINGS, liveliness_wait_option, CliError, CliOptions, with_options
 
 __all__ = ["node"]
 
@@ -21,8 +21,7 @@ def is_hidden(fq_name: str) -> bool:
 @node.command("list", context_settings=CONTEXT_SETTINGS)
 @click.option("--all", "-a", "show_all", is_flag=True, help="Include hidden nodes (names starting with '_').")
 @click.option("--count", "count_only", is_flag=True, help="Print only the number of nodes.")
-@click.option("--wait", type=click.FloatRange(min=0.0), default=2.0, show_default=True,
-              help="Seconds to wait for liveliness replies.")
+@liveliness_wait_option
 @with_options
 def node_list(show_all: bool, count_only: bool, wait: float, *, opts: CliOptions) -> None:
     """List the live nodes (fully qualified names), one per line."""
@@ -39,8 +38,7 @@ def node_list(show_all: bool, count_only: bool, wait: float, *, opts: CliOptions
 
 @node.command("info", context_settings=CONTEXT_SETTINGS)
 @click.argument("name")
-@click.option("--wait", type=click.FloatRange(min=0.0), default=2.0, show_default=True,
-              help="Seconds to wait for liveliness replies.")
+@liveliness_wait_option
 @with_options
 def node_info(name: str, wait: float, *, opts: CliOptions) -> None:
     """Publications and subscriptions of one node (NAME, or /NS/NAME)."""

@@ -9,7 +9,7 @@ from typing import Any, Optional
 
 import click
 
-from .common import CONTEXT_SETTINGS, CliError, CliOptions, node_options, open_session, status, with_options
+from .common import CONTEXT_SETTINGS, liveliness_wait_option, CliError, CliOptions, node_options, open_session, status, with_options
 
 __all__ = ["topic", "resolve_type_name", "render_sample"]
 
@@ -34,8 +34,7 @@ def _resolve(opts: CliOptions, name: str) -> tuple[str, str]:
 @topic.command("list", context_settings=CONTEXT_SETTINGS)
 @click.option("--verbose", "-v", is_flag=True, help="Show types, publishers and subscribers.")
 @click.option("--show-types", "-t", is_flag=True, help="Show each topic's type.")
-@click.option("--wait", type=click.FloatRange(min=0.0), default=2.0, show_default=True,
-              help="Seconds to wait for liveliness replies.")
+@liveliness_wait_option
 @with_options
 def topic_list(verbose: bool, show_types: bool, wait: float, *, opts: CliOptions) -> None:
     """List the topics that live nodes publish or subscribe (from liveliness; no master)."""
@@ -56,8 +55,7 @@ def topic_list(verbose: bool, show_types: bool, wait: float, *, opts: CliOptions
 
 @topic.command("info", context_settings=CONTEXT_SETTINGS)
 @click.argument("name")
-@click.option("--wait", type=click.FloatRange(min=0.0), default=2.0, show_default=True,
-              help="Seconds to wait for liveliness replies.")
+@liveliness_wait_option
 @with_options
 def topic_info(name: str, wait: float, *, opts: CliOptions) -> None:
     """Type, publishers and subscribers of one topic."""
