@@ -204,15 +204,15 @@ def zenoh_args(zenoh_router: str, test_namespace: str) -> list[str]:
     return ["--connect", zenoh_router, "--no-multicast", "--mode", "client", "--namespace", test_namespace]
 
 
-@pytest.fixture
-def zenoh_env(zenoh_router: str, test_namespace: str) -> dict[str, str]:
-    """A full environment for child processes: os.environ + ZENTF_* (router, no multicast, namespace)."""
+def child_env(endpoint: str, namespace: str) -> dict[str, str]:
+    """os.environ for a child process, with ZENTF_* set to: this router, client mode, no multicast,
+    this namespace (identity and config variables from the outer environment removed)."""
     env = dict(os.environ)
     env.update({
-        "ZENTF_CONNECT": zenoh_router,
+        "ZENTF_CONNECT": endpoint,
         "ZENTF_NO_MULTICAST": "1",
         "ZENTF_MODE": "client",
-        "ZENTF_NAMESPACE": test_namespace,
+        "ZENTF_NAMESPACE": namespace,
         "PYTHONUNBUFFERED": "1",
         "PYTHONPATH": os.pathsep.join(p for p in (str(REPO), env.get("PYTHONPATH", "")) if p),
     })
@@ -220,6 +220,12 @@ def zenoh_env(zenoh_router: str, test_namespace: str) -> dict[str, str]:
                 "ZENTF_LISTEN"):
         env.pop(var, None)
     return env
+
+
+@pytest.fixture
+def zenoh_env(zenoh_router: str, test_namespace: str) -> dict[str, str]:
+    """A full environment for child processes: os.environ + ZENTF_* (router, no multicast, namespace)."""
+    return child_env(zenoh_router, test_namespace)
 
 
 @pytest.fixture

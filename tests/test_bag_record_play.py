@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import re
 import subprocess
 import sys
@@ -12,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import REPO, Proc
+from conftest import REPO, Proc, child_env
 
 NUM = r"(-?\d+\.\d+)"
 TRIPLE = rf"\({NUM}, {NUM}, {NUM}\)"
@@ -29,14 +28,7 @@ def on_ellipse(x: float, y: float, z: float) -> bool:
 @pytest.fixture
 def own_env(isolated_router: str, test_namespace: str) -> dict[str, str]:
     """Own router: /clock is absolute, so only a private router keeps it from other tests."""
-    env = dict(os.environ)
-    for var in ("ZENTF_PARAMS", "ZENTF_REMAP", "ZENTF_NODE_NAME", "ZENTF_PARAMS_FILE", "ZENTF_LISTEN",
-                "ZENTF_ZENOH_CONFIG"):
-        env.pop(var, None)
-    env.update({"ZENTF_CONNECT": isolated_router, "ZENTF_MODE": "client", "ZENTF_NO_MULTICAST": "1",
-                "ZENTF_NAMESPACE": test_namespace, "PYTHONUNBUFFERED": "1",
-                "PYTHONPATH": os.pathsep.join(p for p in (str(REPO), os.environ.get("PYTHONPATH", "")) if p)})
-    return env
+    return child_env(isolated_router, test_namespace)
 
 
 def info_json(path: Path, env: dict[str, str] | None = None) -> dict:

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import subprocess
 import sys
 import textwrap
@@ -14,7 +13,7 @@ from typing import Iterator
 
 import pytest
 
-from conftest import REPO, Proc
+from conftest import REPO, Proc, child_env
 from zentf import wire
 from zentf.options import ZenohOptions
 
@@ -22,13 +21,7 @@ from zentf.options import ZenohOptions
 @pytest.fixture
 def clock_env(isolated_router: str, test_namespace: str) -> dict[str, str]:
     """Own router per test: /clock is an absolute topic, so namespaces cannot keep tests apart."""
-    env = dict(os.environ)
-    for var in ("ZENTF_PARAMS", "ZENTF_REMAP", "ZENTF_NODE_NAME", "ZENTF_PARAMS_FILE", "ZENTF_LISTEN",
-                "ZENTF_ZENOH_CONFIG"):
-        env.pop(var, None)
-    env.update({"ZENTF_CONNECT": isolated_router, "ZENTF_MODE": "client", "ZENTF_NO_MULTICAST": "1",
-                "ZENTF_NAMESPACE": test_namespace, "PYTHONUNBUFFERED": "1"})
-    return env
+    return child_env(isolated_router, test_namespace)
 
 
 class Av1Samples:
