@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import REPO, Proc, child_env
+from conftest import REPO, child_env
 
 NUM = r"(-?\d+\.\d+)"
 TRIPLE = rf"\({NUM}, {NUM}, {NUM}\)"

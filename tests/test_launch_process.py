@@ -180,7 +180,9 @@ def test_a_required_node_exiting_takes_the_graph_down_with_its_code(tmp_path, la
     assert dead_within(pids, 5) == []
 
 
-def test_sigint_stops_every_child_and_grandchild_within_3_s(tmp_path, launch):
+def launch_tree(tmp_path, launch):
+    """A graph of a shell with a grandchild, a node ignoring SIGINT/SIGTERM and a plain sleeper;
+    returns the launcher and the pids of every process below it, once all are up."""
     f = write(tmp_path, f"""
         nodes:
           - {{name: shell, cmd: [sh, -c, '{SHELL_TREE}']}}
@@ -192,6 +194,11 @@ def test_sigint_stops_every_child_and_grandchild_within_3_s(tmp_path, launch):
     pids = [int(m.group(1)), int(m.group(2))]
     pids.append(int(p.wait_for_line(r"\[stubborn\] ready (\d+)", 20, from_start=True).group(1)))
     pids.append(int(p.wait_for_line(r"polite started \(pid (\d+)\)", 20, from_start=True).group(1)))
+    return p, pids
+
+
+def test_sigint_stops_every_child_and_grandchild_within_3_s(tmp_path, launch):
+    p, pids = launch_tree(tmp_path, launch)
     t0 = time.monotonic()
     p.signal(signal.SIGINT)
     assert p.wait(10) == 0
@@ -204,17 +211,7 @@ def test_sigint_stops_every_child_and_grandchild_within_3_s(tmp_path, launch):
 
 
 def test_sigkill_of_the_launcher_leaves_no_orphans(tmp_path, launch):
-    f = write(tmp_path, f"""
-        nodes:
-          - {{name: shell, cmd: [sh, -c, '{SHELL_TREE}']}}
-          - {{name: stubborn, cmd: [{PY}, -c, "{STUBBORN}"]}}
-          - {{name: polite, cmd: [sleep, '120']}}
-        """)
-    p = launch(f)
-    m = p.wait_for_line(r"\[shell\] ready (\d+) (\d+)", 20)
-    pids = [int(m.group(1)), int(m.group(2))]
-    pids.append(int(p.wait_for_line(r"\[stubborn\] ready (\d+)", 20, from_start=True).group(1)))
-    pids.append(int(p.wait_for_line(r"polite started \(pid (\d+)\)", 20, from_start=True).group(1)))
+    p, pids = launch_tree(tmp_path, launch)
     p.kill()
     assert dead_within(pids, 5) == []
 
