@@ -1,4 +1,4 @@
-"""Bag throughput (messages/s): zentf.bag against the bare libraries it sits on, measured in the same run.
+"""Bag throughput (messages/s): zentf.tools.bag against the bare libraries it sits on, measured in the same run.
 
 Rows: MCAP write (BagWriter vs mcap.Writer), MCAP read (BagReader vs mcap StreamReader), record over
 Zenoh (Recorder into a file vs a bare Zenoh subscriber that only counts), play over Zenoh (Player
@@ -22,8 +22,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from nodes.frames_publisher import drone_poses  # noqa: E402
 from zentf import wire  # noqa: E402
-from zentf.bag import BagReader, BagWriter, Player, Recorder  # noqa: E402
-from zentf.messages import TFMessage  # noqa: E402
+from zentf.tools.bag import BagReader, BagWriter, Player, Recorder  # noqa: E402
+from zentf.core.messages import TFMessage  # noqa: E402
 
 ENC = f"application/msgpack;{TFMessage.TYPE_NAME}"
 

@@ -109,7 +109,7 @@ def receiver(args: argparse.Namespace) -> None:
     from zentf.listener import TransformListener
     from zentf.node import Node
     from zentf.options import NodeOptions
-    from zentf.time import Time
+    from zentf.core.time import Time
 
     node = Node("bench_listener", options=NodeOptions(namespace="bench", zenoh=zopts(listen=args.endpoint)),
                 check_unique=False)
@@ -170,10 +170,10 @@ def run_case(impl: str, kind: str, count: int, per_msg: int) -> dict:
             node = None
         else:
             from zentf.broadcaster import TransformBroadcaster
-            from zentf.messages import Header, Quaternion, Transform, TransformStamped, Vector3
+            from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
             from zentf.node import Node
             from zentf.options import NodeOptions
-            from zentf.time import Time
+            from zentf.core.time import Time
 
             node = Node("bench_sender", options=NodeOptions(namespace="bench", zenoh=zopts(connect=ep)),
                         check_unique=False)

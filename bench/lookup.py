@@ -247,10 +247,10 @@ def zentf_side(quick: bool) -> dict[str, float]:
     import numpy as np
 
     sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-    from zentf.buffer_core import BufferCore
-    from zentf.geometry import do_transform_point
-    from zentf.messages import Header, Point, PointStamped, Quaternion, Transform, TransformStamped, Vector3
-    from zentf.time import Time
+    from zentf.core.buffer_core import BufferCore
+    from zentf.core.geometry import do_transform_point
+    from zentf.core.messages import Header, Point, PointStamped, Quaternion, Transform, TransformStamped, Vector3
+    from zentf.core.time import Time
 
     class Zentf(Side):
         name = "zentf"
@@ -380,7 +380,7 @@ def main() -> None:
         zs = f"{z:12.2f}" if z is not None else f"{'':12}"
         rs = f"{r:12.2f}" if r is not None else f"{'':12}"
         print(f"{key:44} {unit:>4} {zs} {rs} {ratio:>8}  {verdict}")
-    from zentf.geometry import fast_path
+    from zentf.core.geometry import fast_path
     print(f"lookup_transforms plain-chain path: {fast_path()}"
           + ("" if fast_path() == "numba" else " (pip install 'zentf[fast]' for the numba kernel)"))
     if note:

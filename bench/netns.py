@@ -50,7 +50,7 @@ def receiver(args: argparse.Namespace) -> None:
     """Print 'ready', then one JSON result line when the sender's 'done' marker (child 'end') arrives."""
     from zentf.buffer import Buffer
     from zentf.listener import TransformListener
-    from zentf.time import Time
+    from zentf.core.time import Time
 
     node = _node("bench_recv", args.endpoint)
     buffer = Buffer(cache_time=60.0)

@@ -14,10 +14,10 @@ from typing import Sequence
 
 from nodes import _common
 from zentf.buffer import Buffer
-from zentf.exceptions import TransformException
+from zentf.core.exceptions import TransformException
 from zentf.listener import TransformListener
 from zentf.options import NodeOptions
-from zentf.time import Time
+from zentf.core.time import Time
 
 log = logging.getLogger("frame_listener")
 

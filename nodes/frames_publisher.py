@@ -18,7 +18,7 @@ from typing import Sequence
 
 from nodes import _common
 from zentf.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
-from zentf.messages import Header, Quaternion, Transform, TransformStamped, Vector3
+from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
 from zentf.options import NodeOptions
 
 log = logging.getLogger("frames_publisher")

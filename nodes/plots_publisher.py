@@ -17,12 +17,12 @@ from typing import Sequence
 
 from nodes import _common
 from zentf.buffer import Buffer
-from zentf.exceptions import TransformException
+from zentf.core.exceptions import TransformException
 from zentf.listener import TransformListener
-from zentf.messages import ColorRGBA, Header, Marker, MarkerArray, Point, Vector3
+from zentf.core.messages import ColorRGBA, Header, Marker, MarkerArray, Point, Vector3
 from zentf.node import RateLimitedLog
 from zentf.options import NodeOptions
-from zentf.time import Time
+from zentf.core.time import Time
 
 log = logging.getLogger("plots_publisher")
 

@@ -13,10 +13,10 @@ from typing import Sequence
 
 from nodes import _common
 from zentf.buffer import Buffer
-from zentf.exceptions import TransformException
+from zentf.core.exceptions import TransformException
 from zentf.listener import TransformListener
 from zentf.message_filter import MessageFilter
-from zentf.messages import PointStamped
+from zentf.core.messages import PointStamped
 from zentf.options import NodeOptions
 
 log = logging.getLogger("point_listener")

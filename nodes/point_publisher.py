@@ -11,7 +11,7 @@ import sys
 from typing import Sequence
 
 from nodes import _common
-from zentf.messages import Header, Point, PointStamped
+from zentf.core.messages import Header, Point, PointStamped
 from zentf.options import NodeOptions
 
 log = logging.getLogger("point_publisher")

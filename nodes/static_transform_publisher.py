@@ -22,8 +22,8 @@ from typing import Callable, Sequence
 
 from nodes import _common
 from zentf.broadcaster import StaticTransformBroadcaster
-from zentf.math3d import quaternion_from_rpy
-from zentf.messages import Header, Quaternion, Transform, TransformStamped, Vector3
+from zentf.core.math3d import quaternion_from_rpy
+from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
 from zentf.options import NodeOptions
 
 log = logging.getLogger("static_transform_publisher")

@@ -16,12 +16,12 @@ from typing import Sequence
 
 from nodes import _common
 from zentf.buffer import Buffer
-from zentf.exceptions import TransformException
+from zentf.core.exceptions import TransformException
 from zentf.listener import TransformListener
-from zentf.messages import SpawnRequest, TurtlePose, Twist, Vector3
+from zentf.core.messages import SpawnRequest, TurtlePose, Twist, Vector3
 from zentf.node import RateLimitedLog
 from zentf.options import NodeOptions
-from zentf.time import Time
+from zentf.core.time import Time
 
 log = logging.getLogger("turtle_follower")
 

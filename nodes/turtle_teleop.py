@@ -13,7 +13,7 @@ import sys
 from typing import Sequence
 
 from nodes import _common
-from zentf.messages import Twist, Vector3
+from zentf.core.messages import Twist, Vector3
 from zentf.options import NodeOptions
 
 log = logging.getLogger("turtle_teleop")

@@ -14,7 +14,7 @@ from typing import Sequence
 
 from nodes import _common
 from zentf.broadcaster import TransformBroadcaster
-from zentf.messages import Header, Quaternion, Transform, TransformStamped, TurtlePose, Vector3
+from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, TurtlePose, Vector3
 from zentf.options import NodeOptions
 
 log = logging.getLogger("turtle_tf_broadcaster")

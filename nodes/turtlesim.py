@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from typing import Callable, Sequence
 
 from nodes import _common
-from zentf.messages import SpawnRequest, SpawnResponse, TurtlePose, Twist
+from zentf.core.messages import SpawnRequest, SpawnResponse, TurtlePose, Twist
 from zentf.options import NodeOptions
 
 log = logging.getLogger("turtlesim")

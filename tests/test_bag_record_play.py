@@ -123,7 +123,7 @@ class Counter:
 
 
 def test_truncated_and_corrupt_bags_are_reported_and_the_rest_plays(spawn, zenoh_session, test_namespace, tmp_path):
-    from zentf.bag import write_drones_demo
+    from zentf.tools.bag import write_drones_demo
 
     full = tmp_path / "full.mcap"
     write_drones_demo(full, 4.0)
@@ -185,7 +185,7 @@ def test_killed_recorder_leaves_a_readable_bag(spawn, tmp_path, test_namespace):
 
 
 def test_play_start_offset_and_loop(spawn, zenoh_session, test_namespace, tmp_path):
-    from zentf.bag import write_drones_demo
+    from zentf.tools.bag import write_drones_demo
 
     bag = tmp_path / "two.mcap"
     write_drones_demo(bag, 2.0)  # tf_static at t0, tf at t0 + 20 ms * i + 0.2 ms (i = 0..100)

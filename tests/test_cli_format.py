@@ -170,7 +170,7 @@ def test_format_hz() -> None:
 
 def test_stats_from_frame_info() -> None:
     from zentf.cli.format import stats_from_frame_info
-    from zentf.time import Time
+    from zentf.core.time import Time
 
     stats = stats_from_frame_info([
         {"frame": "av1", "parent": "world", "broadcaster": "/fp", "static": False, "samples": 3,

@@ -10,10 +10,10 @@ import pytest
 
 from zentf import (ConnectivityException, ExtrapolationException, InvalidArgumentException,
                    LookupException, TransformException)
-from zentf.buffer_core import NEVER_TRANSFORMABLE, BufferCore, TransformableResult
-from zentf.math3d import quaternion_from_rpy
-from zentf.messages import Header, Point, PointStamped, Quaternion, Transform, TransformStamped, Vector3
-from zentf.time import Duration, Time
+from zentf.core.buffer_core import NEVER_TRANSFORMABLE, BufferCore, TransformableResult
+from zentf.core.math3d import quaternion_from_rpy
+from zentf.core.messages import Header, Point, PointStamped, Quaternion, Transform, TransformStamped, Vector3
+from zentf.core.time import Duration, Time
 
 S = 1_000_000_000
 
@@ -112,7 +112,7 @@ def test_interpolates_between_samples_and_stamps_with_request() -> None:
 def test_repeated_stamp_is_refused_and_first_wins(caplog) -> None:
     core = BufferCore()
     assert core.set_transform(ts("a", "b", 1, (1, 0, 0)), "x")
-    with caplog.at_level(logging.WARNING, "zentf.buffer_core"):
+    with caplog.at_level(logging.WARNING, "zentf.core.buffer_core"):
         assert not core.set_transform(ts("a", "b", 1, (5, 0, 0)), "y")
     assert "TF_REPEATED_DATA" in caplog.text
     assert xyz(core.lookup_transform("a", "b", 1))[0] == 1.0
@@ -123,7 +123,7 @@ def test_old_data_is_refused_and_pruned(caplog) -> None:
     core = BufferCore(cache_time=Duration(10))
     core.set_transform(ts("a", "b", 100), "x")
     assert core.set_transform(ts("a", "b", 90), "x")          # exactly cache_time older: kept
-    with caplog.at_level(logging.WARNING, "zentf.buffer_core"):
+    with caplog.at_level(logging.WARNING, "zentf.core.buffer_core"):
         assert not core.set_transform(ts("a", "b", 89.999), "x")
     assert "TF_OLD_DATA" in caplog.text and "frame b" in caplog.text
     core.set_transform(ts("a", "b", 100.5), "x")               # 90 now falls out (pruned at once)
@@ -142,7 +142,7 @@ def test_malformed_input_is_refused_and_buffer_untouched(bad, caplog) -> None:
     core.set_transform(ts("a", "b", 1, (1, 0, 0)), "x")
     before = core.all_frames_as_yaml()
     parent, child = bad.get("parent", "a"), bad.get("child", "b")
-    with caplog.at_level(logging.ERROR, "zentf.buffer_core"):
+    with caplog.at_level(logging.ERROR, "zentf.core.buffer_core"):
         ok = core.set_transform(ts(parent, child, 2, bad.get("xyz", (9, 9, 9)), bad.get("q", (0, 0, 0, 1))), "evil")
     assert ok is False
     assert "TF_" in caplog.text

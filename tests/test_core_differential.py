@@ -28,9 +28,9 @@ from typing import Any
 
 import pytest
 
-from zentf import exceptions as zx
-from zentf.buffer_core import BufferCore
-from zentf.time import Time
+from zentf.core import exceptions as zx
+from zentf.core.buffer_core import BufferCore
+from zentf.core.time import Time
 
 REF_DIR = Path(os.environ.get("ZENTF_REF_DIR") or Path(__file__).resolve().parents[2] / "shared" / "ref")
 RUNNER = Path(__file__).resolve().parent / "ref_runner.py"
@@ -117,7 +117,7 @@ def _ts(m) -> dict[str, Any]:
 def answer_all(scenario: dict[str, Any]) -> list[dict[str, Any]]:
     core = BufferCore(scenario.get("cache_time", 10.0))
     out = []
-    log = logging.getLogger("zentf.buffer_core")
+    log = logging.getLogger("zentf.core.buffer_core")
     level = log.level
     log.setLevel(logging.CRITICAL)  # thousands of TF_OLD_DATA warnings are expected here
     try:

@@ -9,13 +9,13 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from zentf import ConnectivityException, ExtrapolationException, LookupException, TypeException
-from zentf import geometry
-from zentf.buffer_core import BufferCore
-from zentf.geometry import (do_transform_point, do_transform_pose, do_transform_vector3, lookup_transforms,
+from zentf.core import geometry
+from zentf.core.buffer_core import BufferCore
+from zentf.core.geometry import (do_transform_point, do_transform_pose, do_transform_vector3, lookup_transforms,
                             transform, transform_full, transform_points, transform_points_series)
-from zentf.messages import (Header, Point, PointStamped, Pose, PoseStamped, Quaternion, Transform,
+from zentf.core.messages import (Header, Point, PointStamped, Pose, PoseStamped, Quaternion, Transform,
                             TransformStamped, Vector3, Vector3Stamped)
-from zentf.time import Time
+from zentf.core.time import Time
 
 S = 1_000_000_000
 
@@ -151,7 +151,7 @@ def test_lookup_transforms_matches_single_lookups_on_dense_random_buffers() -> N
     lookup raises (same class and text), or returns what the loop returns."""
     import logging
 
-    logging.getLogger("zentf.buffer_core").setLevel(logging.CRITICAL)
+    logging.getLogger("zentf.core.buffer_core").setLevel(logging.CRITICAL)
     try:
         frames = ["a", "b", "c", "d", "e", "f"]
         checked = errors = 0
@@ -188,7 +188,7 @@ def test_lookup_transforms_matches_single_lookups_on_dense_random_buffers() -> N
                     assert np.minimum(np.abs(got[1] - want[1]).max(1), np.abs(got[1] + want[1]).max(1)).max() < 1e-9
         assert 0 < errors < checked
     finally:
-        logging.getLogger("zentf.buffer_core").setLevel(logging.NOTSET)
+        logging.getLogger("zentf.core.buffer_core").setLevel(logging.NOTSET)
 
 
 def test_lookup_transforms_lets_inserts_through_between_chunks() -> None:
@@ -294,11 +294,11 @@ def test_lookup_transforms_numba_and_numpy_paths_agree(monkeypatch: pytest.Monke
 
 def test_numba_is_imported_lazily_and_optional(fast_path: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """import zentf (CLI start-up) never loads numba; without numba the numpy path runs silently."""
-    code = "import sys, zentf, zentf.geometry, zentf.buffer_core; assert 'numba' not in sys.modules"
+    code = "import sys, zentf, zentf.core.geometry, zentf.core.buffer_core; assert 'numba' not in sys.modules"
     assert subprocess.run([sys.executable, "-c", code], capture_output=True).returncode == 0
     monkeypatch.setattr(geometry, "_kernel", None)
     monkeypatch.setitem(sys.modules, "numba", None)          # import numba raises ImportError
-    monkeypatch.delitem(sys.modules, "zentf._chain_kernel", raising=False)
+    monkeypatch.delitem(sys.modules, "zentf.core._chain_kernel", raising=False)
     assert geometry.fast_path() == "numpy"
     core = sorted_chain()
     times = np.linspace(100 * S, 105 * S, 500).astype(np.int64)

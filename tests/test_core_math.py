@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from zentf import math3d as m
+from zentf.core import math3d as m
 
 
 def test_set_rpy_convention_matches_fixed_axes_zyx() -> None:

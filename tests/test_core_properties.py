@@ -6,9 +6,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from zentf.buffer_core import BufferCore
-from zentf.math3d import compose
-from zentf.time import Time
+from zentf.core.buffer_core import BufferCore
+from zentf.core.math3d import compose
+from zentf.core.time import Time
 
 S = 1_000_000_000
 
@@ -94,7 +94,7 @@ def test_caches_never_serve_stale_answers(ops) -> None:
     one long-lived core; every answer must equal a cold core rebuilt from the same inserts."""
     import logging
 
-    logging.getLogger("zentf.buffer_core").setLevel(logging.CRITICAL)
+    logging.getLogger("zentf.core.buffer_core").setLevel(logging.CRITICAL)
     try:
         live = BufferCore(cache_time=2.0)
         history: list[tuple] = []
@@ -135,4 +135,4 @@ def test_caches_never_serve_stale_answers(ops) -> None:
                                 assert np.abs(np.subtract(got[0], want[0])).max() < 1e-12
                                 assert close_q(got[1], want[1], 1e-12)
     finally:
-        logging.getLogger("zentf.buffer_core").setLevel(logging.NOTSET)
+        logging.getLogger("zentf.core.buffer_core").setLevel(logging.NOTSET)

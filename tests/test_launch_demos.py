@@ -16,7 +16,7 @@ from zentf.graph import GraphWatcher
 from zentf.listener import TransformListener
 from zentf.node import Node
 from zentf.options import NodeOptions
-from zentf.time import Time
+from zentf.core.time import Time
 
 NUM = r"(-?\d+\.\d+)"
 TRIPLE = rf"\({NUM}, {NUM}, {NUM}\)"

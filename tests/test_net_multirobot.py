@@ -7,7 +7,7 @@ import pytest
 from zentf.buffer import Buffer
 from zentf.listener import TransformListener
 from zentf.node import Node
-from zentf.time import Time
+from zentf.core.time import Time
 
 pytestmark = pytest.mark.timeout(90)
 

@@ -142,7 +142,7 @@ def test_plots_publisher_markers_are_three_growing_line_strips(spawn, node_optio
     """The MarkerArray contract the visualization draws: ns trails, ids 0..2, LINE_STRIP, frames."""
     import threading
 
-    from zentf.messages import Marker, MarkerArray
+    from zentf.core.messages import Marker, MarkerArray
     from zentf.node import Node
 
     got: list[MarkerArray] = []
@@ -172,10 +172,10 @@ def test_drones_follow_a_published_sim_clock(isolated_router, test_namespace, ze
     """With use_sim_time the drones are stamped with /clock and sit exactly where the clock says."""
     from zentf.buffer import Buffer
     from zentf.listener import TransformListener
-    from zentf.messages import Clock
+    from zentf.core.messages import Clock
     from zentf.node import Node
     from zentf.options import NodeOptions, ZenohOptions
-    from zentf.time import Time
+    from zentf.core.time import Time
 
     from nodes.frames_publisher import av2_in_av1
 

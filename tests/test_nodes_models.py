@@ -10,7 +10,7 @@ from nodes.point_publisher import obstacle_position
 from nodes.turtle_follower import follow_command
 from nodes.turtle_teleop import command_at
 from nodes.turtlesim import CENTRE, WORLD_SIZE, Turtle, World, normalize_angle
-from zentf.math3d import inverse_transform, compose
+from zentf.core.math3d import inverse_transform, compose
 
 
 def test_world_geometry_matches_turtlesim():

@@ -5,9 +5,9 @@ import math
 
 import pytest
 
-from zentf.messages import (MESSAGE_TYPES, Header, Point, PointStamped, Pose, PoseStamped, Quaternion,
+from zentf.core.messages import (MESSAGE_TYPES, Header, Point, PointStamped, Pose, PoseStamped, Quaternion,
                             TFMessage, Transform, TransformStamped, Vector3, Vector3Stamped)
-from zentf.time import Duration, Time, to_time
+from zentf.core.time import Duration, Time, to_time
 
 
 def test_time_and_duration_arithmetic() -> None:

@@ -5,9 +5,9 @@ import textwrap
 
 from zentf.buffer import Buffer
 from zentf.listener import TransformListener
-from zentf.messages import Header, Quaternion, Transform, TransformStamped, Vector3
+from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
 from zentf.node import Node
-from zentf.time import Time
+from zentf.core.time import Time
 
 FUZZER = textwrap.dedent("""
     import math, os, random, sys

@@ -12,9 +12,9 @@ import msgpack
 import pytest
 
 from zentf import wire
-from zentf.buffer_core import BufferCore
-from zentf.messages import Header, Quaternion, Transform, TransformStamped, Vector3
-from zentf.time import Time
+from zentf.core.buffer_core import BufferCore
+from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
+from zentf.core.time import Time
 
 S = 1_000_000_000
 FRAMES = ["world", "base", "/base", "arm", "", "cam", "tool"]

@@ -11,7 +11,7 @@ import textwrap
 import pytest
 
 from zentf import graph
-from zentf.messages import Header, Point, PointStamped
+from zentf.core.messages import Header, Point, PointStamped
 from zentf.names import encode_chunk, expand_topic, normalize_namespace, resolve_topic, topic_to_key
 from zentf.node import Node, NodeNameError
 from zentf.options import NodeOptions, OptionsError, ZenohOptions, add_node_arguments
@@ -106,7 +106,7 @@ def test_bad_zenoh_config_file(tmp_path) -> None:
 PUBLISHER = textwrap.dedent("""
     import sys
     from zentf.node import Node, init_logging
-    from zentf.messages import PointStamped, Header, Point
+    from zentf.core.messages import PointStamped, Header, Point
     init_logging()
     node = Node("pub")
     pub = node.create_publisher("points", PointStamped)

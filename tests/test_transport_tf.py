@@ -10,18 +10,18 @@ import pytest
 
 from zentf.buffer import Buffer
 from zentf.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
-from zentf.exceptions import LookupException
+from zentf.core.exceptions import LookupException
 from zentf.listener import TransformListener
-from zentf.messages import Header, PointStamped, Point, Transform, TransformStamped, Vector3, Quaternion
+from zentf.core.messages import Header, PointStamped, Point, Transform, TransformStamped, Vector3, Quaternion
 from zentf.node import Node
-from zentf.time import Time
+from zentf.core.time import Time
 
 BROADCASTER = textwrap.dedent("""
     import math, sys, time
     from zentf.node import Node, init_logging
     from zentf.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
-    from zentf.messages import TransformStamped, Header, Transform, Vector3, Quaternion
-    from zentf.time import Time
+    from zentf.core.messages import TransformStamped, Header, Transform, Vector3, Quaternion
+    from zentf.core.time import Time
     init_logging()
     def ts(parent, child, x, y=0.0, z=0.0, stamp=None):
         return TransformStamped(Header(stamp or Time(), parent), child,

@@ -12,10 +12,10 @@ from zentf.buffer import Buffer
 from zentf.clock import Clock, Rate
 from zentf.listener import TransformListener
 from zentf.message_filter import FilterFailureReason, MessageFilter
-from zentf.messages import Clock as ClockMsg
-from zentf.messages import Header, Point, PointStamped, Quaternion, Transform, TransformStamped, Vector3
+from zentf.core.messages import Clock as ClockMsg
+from zentf.core.messages import Header, Point, PointStamped, Quaternion, Transform, TransformStamped, Vector3
 from zentf.node import Node
-from zentf.time import Time
+from zentf.core.time import Time
 
 from test_transport_tf import BROADCASTER
 

@@ -41,7 +41,7 @@ def test_view_saves_frames_trails_and_points_of_the_drones_demo(spawn, tmp_path,
     view.wait_for_line(r"viewing /t_\w+ in fixed frame 'world'", 20)
     # Bad input on visual topics is dropped without stopping the view.
     from zentf import wire
-    from zentf.messages import Marker, MarkerArray
+    from zentf.core.messages import Marker, MarkerArray
 
     enc = wire.encoding_for(MarkerArray.TYPE_NAME)
     for junk in (b"\xc1garbage", wire.pack({"markers": "nope"}), wire.pack([1, 2, 3]),
@@ -109,7 +109,7 @@ def test_view_follows_a_bag_played_with_clock(spawn, isolated_router, test_names
     env.update({"ZENTF_CONNECT": isolated_router, "ZENTF_MODE": "client", "ZENTF_NO_MULTICAST": "1",
                 "ZENTF_NAMESPACE": test_namespace, "PYTHONUNBUFFERED": "1"})
     bag, rrd = tmp_path / "d.mcap", tmp_path / "sim.rrd"
-    from zentf.bag import write_drones_demo
+    from zentf.tools.bag import write_drones_demo
 
     write_drones_demo(bag, 30.0, start=1_700_000_000.0)
     view = spawn([*ZENTF, "view", "--use-sim-time", "--save", str(rrd), "--duration", "3", "--rate", "10"], env=env)

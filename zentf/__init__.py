@@ -8,17 +8,17 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from .exceptions import (ConnectivityException, ExtrapolationException, InvalidArgumentException,
-                         LookupException, TimeoutException, TransformException, TypeException)
-from .messages import (Header, Point, PointStamped, Pose, PoseStamped, Quaternion, TFMessage,
-                       Transform, TransformStamped, Vector3, Vector3Stamped)
-from .time import Duration, Time
+from .core.exceptions import (ConnectivityException, ExtrapolationException, InvalidArgumentException,
+                              LookupException, TimeoutException, TransformException, TypeException)
+from .core.messages import (Header, Point, PointStamped, Pose, PoseStamped, Quaternion, TFMessage,
+                            Transform, TransformStamped, Vector3, Vector3Stamped)
+from .core.time import Duration, Time
 
 __version__ = "0.1.0"
 
 # name -> module that defines it; filled in as layers land (core first, transport on top).
 _LAZY: dict[str, str] = {
-    "BufferCore": "zentf.buffer_core",
+    "BufferCore": "zentf.core.buffer_core",
     "Buffer": "zentf.buffer",
     "Node": "zentf.node",
     "TransformListener": "zentf.listener",

@@ -6,7 +6,7 @@ from collections.abc import Iterable
 from typing import Any, Union
 
 from . import wire
-from .messages import TFMessage, TransformStamped
+from .core.messages import TFMessage, TransformStamped
 from .node import Node
 
 __all__ = ["TransformBroadcaster", "StaticTransformBroadcaster"]

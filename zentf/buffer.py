@@ -5,9 +5,9 @@ import threading
 import time as _time
 from typing import Any, Union
 
-from .buffer_core import DEFAULT_CACHE_TIME, BufferCore, TimeArg
-from .messages import TransformStamped
-from .time import Duration, to_duration
+from .core.buffer_core import DEFAULT_CACHE_TIME, BufferCore, TimeArg
+from .core.messages import TransformStamped
+from .core.time import Duration, to_duration
 
 __all__ = ["Buffer"]
 
@@ -119,14 +119,14 @@ class Buffer(BufferCore):
     def transform(self, object_stamped: Any, target_frame: str, timeout: TimeoutArg = None,
                   new_type: Any = None) -> Any:
         """A PointStamped/Vector3Stamped/PoseStamped expressed in target_frame (tf2_ros order of args)."""
-        from . import geometry  # numpy loads only when transform helpers are used (CLI start-up)
+        from .core import geometry  # numpy loads only when transform helpers are used (CLI start-up)
 
         return geometry.transform(self, object_stamped, target_frame, new_type,
                                   timeout if _timeout_s(timeout) > 0 else None)
 
     def transform_full(self, object_stamped: Any, target_frame: str, target_time: TimeArg, fixed_frame: str,
                        timeout: TimeoutArg = None, new_type: Any = None) -> Any:
-        from . import geometry
+        from .core import geometry
 
         return geometry.transform_full(self, object_stamped, target_frame, target_time, fixed_frame, new_type,
                                        timeout if _timeout_s(timeout) > 0 else None)

@@ -7,7 +7,7 @@ import threading
 import time as _time
 from collections.abc import Callable
 
-from .time import Duration, Time, to_duration
+from .core.time import Duration, Time, to_duration
 
 __all__ = ["ClockType", "Clock", "Rate", "sleep", "JumpHandle"]
 

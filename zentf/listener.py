@@ -8,7 +8,7 @@ from functools import partial
 from typing import Any
 
 from . import wire
-from .messages import TFMessage
+from .core.messages import TFMessage
 from .node import Node, RateLimitedLog
 
 __all__ = ["TransformListener", "StaticTransformListener"]

@@ -10,7 +10,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from .node import Node, Subscription
-from .time import Time, to_duration
+from .core.time import Time, to_duration
 
 __all__ = ["MessageFilter", "FilterFailureReason"]
 

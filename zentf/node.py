@@ -18,12 +18,12 @@ from typing import Any
 
 from . import wire
 from .clock import Clock, ClockType, Rate
-from .messages import Clock as ClockMsg
-from .messages import Message
+from .core.messages import Clock as ClockMsg
+from .core.messages import Message
 from .names import (encode_chunk, fully_qualified_node_name, normalize_namespace, resolve_topic,
                     topic_to_key, validate_node_name)
 from .options import NodeOptions
-from .time import Duration, to_duration
+from .core.time import Duration, to_duration
 
 __all__ = ["Node", "Publisher", "Subscription", "Timer", "Parameter", "NodeNameError",
            "ParameterNotDeclaredException", "RateLimitedLog", "spin", "init_logging",

@@ -15,8 +15,8 @@ from typing import Any
 
 import msgpack
 
-from .messages import Message, TransformStamped, message_type
-from .time import Time
+from .core.messages import Message, TransformStamped, message_type
+from .core.time import Time
 
 __all__ = [
     "ENCODING", "MAX_PAYLOAD", "encoding_for", "type_name_from_encoding", "pack", "unpack", "encode",

@@ -138,7 +138,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 
 
 def _report_crash(exc: Exception) -> int:
-    from zentf.exceptions import TransformException
+    from zentf.core.exceptions import TransformException
 
     try:
         from zentf.options import OptionsError

@@ -112,7 +112,7 @@ def _resolve_keys(opts: CliOptions, topics: tuple[str, ...], all_topics: bool) -
 def bag_record(topics: tuple[str, ...], all_topics: bool, output: Optional[str], duration: Optional[float],
                compression: str, *, opts: CliOptions) -> None:
     """Record TOPICS (relative to --namespace) or --all into an MCAP file; Ctrl-C stops and closes it."""
-    from zentf.bag import BagError, BagWriter, Recorder
+    from zentf.tools.bag import BagError, BagWriter, Recorder
 
     keys, ns = _resolve_keys(opts, topics, all_topics)
     path = output or time.strftime("zentf_%Y%m%d_%H%M%S.mcap")
@@ -161,7 +161,7 @@ def bag_record(topics: tuple[str, ...], all_topics: bool, output: Optional[str],
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 def bag_info(file: str, as_json: bool) -> None:
     """Topics, types, counts, rates and time span of a bag (rosbag info)."""
-    from zentf.bag import BagError, bag_info as info_of
+    from zentf.tools.bag import BagError, bag_info as info_of
 
     try:
         info = info_of(file)
@@ -213,7 +213,7 @@ def _format_info(info: dict[str, Any]) -> str:
 def bag_play(file: str, clock: bool, clock_hz: float, rate: float, loop: bool, start: float, delay: float,
              *, opts: CliOptions) -> None:
     """Republish a bag's messages with their original timing (rosbag play)."""
-    from zentf.bag import BagError, Player
+    from zentf.tools.bag import BagError, Player
 
     ns = (node_options(opts, "_zentf_bag").namespace or "").strip("/")
     node = open_node(opts, "bag_play")
@@ -252,7 +252,7 @@ def bag_play(file: str, clock: bool, clock_hz: float, rate: float, loop: bool, s
               help="Seconds of flight.")
 def bag_demo(output: str, duration: float) -> None:
     """Write a recording of the drones demo (tf, tf_static, visual_markers) to replay with `bag play`."""
-    from zentf.bag import BagError, write_drones_demo
+    from zentf.tools.bag import BagError, write_drones_demo
 
     try:
         info = write_drones_demo(output, duration)

@@ -68,8 +68,8 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
     (lookup_transform(SOURCE, TARGET)). While the frames are unavailable the reason is printed
     on stderr once a second and the tool keeps waiting.
     """
-    from zentf.exceptions import TransformException
-    from zentf.time import Duration, Time
+    from zentf.core.exceptions import TransformException
+    from zentf.core.time import Duration, Time
 
     from .format import format_echo
 
@@ -460,7 +460,7 @@ def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str
                  period: float, ok: Any = lambda: True) -> None:
     from collections import deque
 
-    from zentf.exceptions import TransformException
+    from zentf.core.exceptions import TransformException
 
     title = f"for {pair[0]} to {pair[1]}" if pair else "for all Frames"
     started = time.monotonic()

@@ -233,7 +233,7 @@ def topic_hz(name: str, window: int, duration: Optional[float], period: float, *
 
 def resolve_type_name(text: str) -> str:
     """'geometry_msgs/msg/Point', 'geometry_msgs/Point' or 'Point' -> the registered type name."""
-    from zentf.messages import MESSAGE_TYPES
+    from zentf.core.messages import MESSAGE_TYPES
 
     if text in MESSAGE_TYPES:
         return text
@@ -254,7 +254,7 @@ def parse_message(type_name: str, data: str) -> Any:
     """DATA (YAML or JSON) -> message of the type; one-line CliError naming the bad field."""
     import yaml
 
-    from zentf.messages import message_type
+    from zentf.core.messages import message_type
 
     try:
         plain = yaml.safe_load(data) if data.strip() else {}

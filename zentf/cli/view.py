@@ -40,7 +40,7 @@ __all__ = ["view"]
 def view(fixed_frame: str, web: bool, web_port: int, grpc_port: int, bind: str, save: Optional[str], rate: float,
          axis_length: float, duration: Optional[float], use_sim_time: bool, *, opts: CliOptions) -> None:
     """Live 3D view of every tf frame (axes + names), marker arrays and points, like RViz."""
-    from zentf.view import require_rerun
+    from zentf.tools.view import require_rerun
 
     try:
         rr = require_rerun()
@@ -50,7 +50,7 @@ def view(fixed_frame: str, web: bool, web_port: int, grpc_port: int, bind: str, 
         raise CliError("no display for the native viewer: use --web (browser) or --save FILE.rrd", code=2)
 
     from zentf.node import Node
-    from zentf.view import Viewer
+    from zentf.tools.view import Viewer
 
     nopts = node_options(opts, f"_zentf_view_{os.getpid()}")
     if use_sim_time:

@@ -72,7 +72,7 @@ class SimClockPublisher:
     """Owns a hidden node that publishes `/clock` at `frequency` Hz and serves CONTROL_KEY."""
 
     def __init__(self, spec: ClockSpec, zenoh_options: Any) -> None:
-        from zentf.messages import Clock as ClockMsg
+        from zentf.core.messages import Clock as ClockMsg
         from zentf.node import Node
         from zentf.options import NodeOptions
 
@@ -93,7 +93,7 @@ class SimClockPublisher:
                  spec.frequency, " (paused)" if spec.paused else "", CONTROL_KEY)
 
     def _publish(self) -> None:
-        from zentf.time import Time
+        from zentf.core.time import Time
 
         self._pub.publish(self._msg_type(clock=Time(nanoseconds=self.sim.now_ns())))
 

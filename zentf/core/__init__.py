@@ -1,0 +1,27 @@
+"""zentf.core: tf2 itself (time, messages, math, per-frame caches, BufferCore, batches); no Zenoh, nothing from outside.
+
+Mirrors tf2's own split: ``buffer_core`` (BufferCore, the walk) over ``cache`` (TimeCache and
+StaticCache, one object per frame), with ``time``, ``messages``, ``math3d``, ``exceptions``,
+``constants`` below and ``geometry`` (do_transform_*, vectorized batches) beside. The transport
+(``zentf.node``, ``zentf.listener`` ...) builds on this package, never the other way.
+"""
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from .exceptions import (ConnectivityException, ExtrapolationException, InvalidArgumentException,
+                         LookupException, TimeoutException, TransformException, TypeException)
+from .time import Duration, Time
+
+__all__ = ["BufferCore", "Time", "Duration", "TransformException", "LookupException", "ConnectivityException",
+           "ExtrapolationException", "InvalidArgumentException", "TimeoutException", "TypeException"]
+
+
+def __getattr__(name: str) -> Any:
+    """BufferCore loads on first use, so importing the core's messages stays light."""
+    if name == "BufferCore":
+        value = importlib.import_module(".buffer_core", __name__).BufferCore
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'zentf.core' has no attribute {name!r}")

@@ -1,0 +1,1 @@
+"""Programs built on the transport: bag record/play (MCAP), the Rerun view."""

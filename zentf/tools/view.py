@@ -1,0 +1,244 @@
+"""Live 3D view of the tf tree, markers and points in Rerun (RViz's TF, Marker and PointStamped displays).
+
+Entity layout (what a saved ``.rrd`` holds): ``tf`` is the fixed frame's space; each frame is
+``tf/<frame>`` with its pose in the fixed frame (Transform3D, TransformAxes3D and a labelled point);
+``tf_links`` draws each child -> parent link; a marker ``(ns, id)`` in frame F is
+``tf/<F>/markers/<ns>/<id>`` and a PointStamped on key K in frame F is ``tf/<F>/points/<K>``, so
+they move with their frame. Time line ``ros_time`` follows the node clock (sim time with /clock).
+Frame names are escaped into one path part (``robot1/base_link`` stays one entity).
+"""
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+import time
+from typing import Any
+
+from .. import wire
+from ..core.messages import Marker, MarkerArray, PointStamped, PoseStamped
+
+__all__ = ["Viewer", "frame_path", "VIEW_TYPES", "require_rerun"]
+
+log = logging.getLogger("zentf.tools.view")
+
+VIEW_TYPES = {MarkerArray.TYPE_NAME: MarkerArray, Marker.TYPE_NAME: Marker, PointStamped.TYPE_NAME: PointStamped,
+              PoseStamped.TYPE_NAME: PoseStamped}
+
+
+def require_rerun() -> Any:
+    """The rerun module, or ImportError with the one-line install hint."""
+    try:
+        import rerun as rr
+    except ImportError:
+        raise ImportError("zentf view needs Rerun: pip install 'zentf[view]' (or: pip install rerun-sdk)") from None
+    return rr
+
+
+def frame_path(frame: str) -> str:
+    import rerun as rr
+
+    return "tf/" + rr.escape_entity_path_part(frame.lstrip("/") or "/")
+
+
+def _rgba(c: Any) -> list[int]:
+    def ch(v: float) -> int:
+        return max(0, min(255, int(round(float(v) * 255)))) if v == v else 0
+
+    a = c.a if c.a > 0 else 1.0  # RViz: alpha 0 is invisible; here it means "not set"
+    return [ch(c.r), ch(c.g), ch(c.b), ch(a)]
+
+
+class Viewer:
+    """Mirrors a namespace's tf tree and visual topics into a Rerun recording stream."""
+
+    def __init__(self, node: Any, recording: Any, *, fixed_frame: str = "world", axis_length: float = 0.3,
+                 label_frames: bool = True) -> None:
+        import rerun as rr
+
+        from ..buffer import Buffer
+        from ..listener import TransformListener
+        from ..names import topic_to_key
+
+        self.rr = rr
+        self.node = node
+        self.rec = recording
+        self.fixed_frame = fixed_frame.lstrip("/")
+        self.axis_length = axis_length
+        self.label_frames = label_frames
+        self.buffer = Buffer()
+        self.listener = TransformListener(self.buffer, node)
+        self._inbox: "queue.Queue[tuple[str, str, bytes]]" = queue.Queue(maxsize=10_000)
+        ns_key = topic_to_key(node.resolve_topic_name("tf")).rpartition("/")[0]
+        self._key = f"{ns_key}/**" if ns_key else "**"
+        self._sub = node.session.declare_subscriber(self._key, self._on_sample)
+        self._token = node._declare_entity("sub", "", self._key)
+        self._marker_paths: dict[tuple[str, int], str] = {}
+        self._shown_frames: set[str] = set()
+        self.ticks = 0
+        self.problems = 0
+        self._warned_fixed = 0.0
+        from ..node import RateLimitedLog
+
+        self._complain = RateLimitedLog(log)
+        self.rec.log("tf", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+
+    def _on_sample(self, sample: Any) -> None:  # Zenoh thread: filter by carried type, copy, hand over
+        try:
+            type_name = wire.type_name_from_encoding(str(sample.encoding))
+            if type_name not in VIEW_TYPES:
+                return
+            self._inbox.put_nowait((str(sample.key_expr), type_name, sample.payload.to_bytes()))
+        except Exception:  # noqa: BLE001 - full queue or odd sample: drop
+            pass
+
+    # ------------------------------------------------------------ one refresh
+    def step(self) -> None:
+        """Log the current tree and every visual message received since the last step."""
+        now = self.node.get_clock().now()
+        self.rec.set_time("ros_time", timestamp=now.nanoseconds / 1e9)
+        self._log_frames()
+        while True:
+            try:
+                key, type_name, payload = self._inbox.get_nowait()
+            except queue.Empty:
+                break
+            try:
+                msg = wire.decode(payload, VIEW_TYPES[type_name])
+                self._log_message(key, msg)
+            except Exception as e:  # noqa: BLE001 - one bad message must not stop the view
+                self.problems += 1
+                self._complain(f"bad:{key}", f"dropped bad {type_name} on '{key}': {e}")
+        self.ticks += 1
+
+    def _log_frames(self) -> None:
+        from ..core.exceptions import TransformException
+
+        rr = self.rr
+        frames = self.buffer.get_frames()
+        if not frames:
+            return
+        if self.fixed_frame not in frames:
+            if time.monotonic() - self._warned_fixed > 5.0:
+                self._warned_fixed = time.monotonic()
+                log.warning("fixed frame '%s' is not in the tf tree (frames: %s)", self.fixed_frame,
+                            ", ".join(sorted(frames)))
+            return
+        origins: dict[str, list[float]] = {}
+        for frame in frames:
+            path = frame_path(frame)
+            try:
+                ts = self.buffer.lookup_transform(self.fixed_frame, frame, 0)
+            except TransformException:
+                if frame in self._shown_frames:  # gone from the tree (buffer cleared, link lost): hide it
+                    self._shown_frames.discard(frame)
+                    self.rec.log(path, rr.Clear(recursive=False))
+                continue  # not connected to the fixed frame (yet)
+            p, q = ts.transform.translation, ts.transform.rotation
+            origins[frame] = [p.x, p.y, p.z]
+            parts = [rr.Transform3D(translation=[p.x, p.y, p.z], quaternion=rr.Quaternion(xyzw=[q.x, q.y, q.z, q.w])),
+                     rr.TransformAxes3D(self.axis_length)]
+            if frame not in self._shown_frames:
+                self._shown_frames.add(frame)
+                if self.label_frames:
+                    parts.append(rr.Points3D([[0.0, 0.0, 0.0]], radii=0.01, labels=[frame], show_labels=True))
+            self.rec.log(path, *parts)
+        links = []
+        for info in self.buffer.frame_info():
+            a, b = origins.get(info["frame"]), origins.get(info["parent"])
+            if a is not None and b is not None:
+                links.append([b, a])
+        if links:
+            self.rec.log("tf_links", rr.LineStrips3D(links, radii=0.003, colors=[[200, 200, 80, 160]]))
+
+    def _log_message(self, key: str, msg: Any) -> None:
+        rr = self.rr
+        if isinstance(msg, MarkerArray):
+            for m in msg.markers:
+                self._log_marker(m)
+        elif isinstance(msg, Marker):
+            self._log_marker(msg)
+        elif isinstance(msg, PointStamped):
+            p = msg.point
+            self.rec.log(f"{frame_path(msg.header.frame_id)}/points/{rr.escape_entity_path_part(self._topic(key))}",
+                         rr.Points3D([[p.x, p.y, p.z]], radii=0.03, colors=[[255, 160, 0]]))
+        elif isinstance(msg, PoseStamped):
+            p, q = msg.pose.position, msg.pose.orientation
+            self.rec.log(f"{frame_path(msg.header.frame_id)}/poses/{rr.escape_entity_path_part(self._topic(key))}",
+                         rr.Transform3D(translation=[p.x, p.y, p.z], quaternion=rr.Quaternion(xyzw=[q.x, q.y, q.z, q.w])),
+                         rr.TransformAxes3D(self.axis_length * 0.5))
+
+    def _topic(self, key: str) -> str:
+        """A key expression shown relative to the viewed namespace ('ns/laser_point' -> 'laser_point')."""
+        prefix = self._key[:-2]
+        return key[len(prefix):] if prefix and key.startswith(prefix) else key
+
+    def _log_marker(self, m: Marker) -> None:
+        rr = self.rr
+        ident = (m.ns, m.id)
+        if m.action == Marker.DELETEALL:
+            for path in self._marker_paths.values():
+                self.rec.log(path, rr.Clear(recursive=True))
+            self._marker_paths.clear()
+            return
+        if m.action == Marker.DELETE:
+            path = self._marker_paths.pop(ident, None)
+            if path is not None:
+                self.rec.log(path, rr.Clear(recursive=True))
+            return
+        ns_part = rr.escape_entity_path_part(m.ns or "_")
+        path = f"{frame_path(m.header.frame_id)}/markers/{ns_part}/{m.id}"
+        old = self._marker_paths.get(ident)
+        if old is not None and old != path:  # the marker changed frame
+            self.rec.log(old, rr.Clear(recursive=True))
+        self._marker_paths[ident] = path
+        p, q = m.pose.position, m.pose.orientation
+        pose = rr.Transform3D(translation=[p.x, p.y, p.z],
+                              quaternion=rr.Quaternion(xyzw=[q.x, q.y, q.z, q.w] if (q.x, q.y, q.z, q.w) != (0, 0, 0, 0)
+                                                       else [0, 0, 0, 1]))
+        color = _rgba(m.color)
+        colors = [_rgba(c) for c in m.colors] if len(m.colors) == len(m.points) and m.colors else [color]
+        pts = [[pt.x, pt.y, pt.z] for pt in m.points]
+        s = m.scale
+        t = m.type
+        if t == Marker.LINE_STRIP:
+            arch = rr.LineStrips3D([pts], radii=max(s.x, 1e-3) / 2, colors=[color], labels=[m.text] if m.text else None)
+        elif t == Marker.LINE_LIST:
+            arch = rr.LineStrips3D([pts[i:i + 2] for i in range(0, len(pts) - 1, 2)], radii=max(s.x, 1e-3) / 2,
+                                   colors=[color])
+        elif t in (Marker.POINTS, Marker.SPHERE_LIST, Marker.CUBE_LIST):
+            arch = rr.Points3D(pts, radii=max(s.x, 1e-3) / 2, colors=colors)
+        elif t == Marker.SPHERE or t == Marker.CYLINDER:
+            arch = rr.Ellipsoids3D(half_sizes=[[s.x / 2, s.y / 2, s.z / 2]], colors=[color], fill_mode="solid")
+        elif t == Marker.CUBE:
+            arch = rr.Boxes3D(half_sizes=[[s.x / 2, s.y / 2, s.z / 2]], colors=[color], fill_mode="solid")
+        elif t == Marker.ARROW:
+            if len(pts) >= 2:
+                a, b = pts[0], pts[1]
+                arch = rr.Arrows3D(origins=[a], vectors=[[b[i] - a[i] for i in range(3)]], colors=[color])
+            else:
+                arch = rr.Arrows3D(origins=[[0, 0, 0]], vectors=[[max(s.x, 1e-3), 0, 0]], colors=[color])
+        elif t == Marker.TEXT_VIEW_FACING:
+            arch = rr.Points3D([[0, 0, 0]], radii=1e-3, labels=[m.text], colors=[color], show_labels=True)
+        else:
+            return
+        self.rec.log(path, pose, arch)
+
+    # ------------------------------------------------------------ loop
+    def run(self, stop: threading.Event, rate: float = 20.0, duration: float | None = None) -> None:
+        period = 1.0 / rate
+        end = None if duration is None else time.monotonic() + duration
+        while not stop.is_set() and self.node.ok():
+            started = time.monotonic()
+            self.step()
+            if end is not None and started >= end:
+                break
+            stop.wait(max(0.0, period - (time.monotonic() - started)))
+
+    def close(self) -> None:
+        for obj in (self._sub, self._token):
+            try:
+                obj.undeclare()
+            except Exception:  # noqa: BLE001
+                pass
+        self.listener.unregister()
