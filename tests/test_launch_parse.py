@@ -5,6 +5,8 @@ import os
 import subprocess
 import sys
 import textwrap
+import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -365,3 +367,31 @@ def test_mangled_launch_files_are_refused_in_one_line_never_crash(tmp_path):
             assert "\n" not in str(e) and str(e).startswith(str(path)), repr(str(e))
             outcomes["refused"] += 1
     assert outcomes["ok"] > 20 and outcomes["refused"] > 100, outcomes
+
+
+def test_a_yaml_alias_bomb_is_refused_in_one_line_quickly_in_bounded_memory(tmp_path):
+    """The "billion laughs": nine levels of nine aliases (9^9 values once expanded, 265 MB after 15 s
+    before the fix); the first alias is refused where it stands, before anything is expanded."""
+    levels = ["l0: &l0 [lol, lol, lol, lol, lol, lol, lol, lol, lol]"]
+    levels += [f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 9)}]" for i in range(1, 9)]
+    f = write(tmp_path, "bomb.yaml", "\n".join(levels) + "\nnodes: [{cmd: [true], parameters: {x: *l8}}]\n")
+    t0 = time.monotonic()
+    p = subprocess.Popen([sys.executable, "-m", "zentf.launch", f, "--print"], cwd=tmp_path,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    killer = threading.Timer(60, p.kill)  # a regression must fail, not hang the suite
+    killer.start()
+    try:
+        out, err = p.stdout.read(), p.stderr.read()  # type: ignore[union-attr]
+        _, status, usage = os.wait4(p.pid, 0)  # this child's own peak RSS
+    finally:
+        killer.cancel()
+        p.stdout.close(), p.stderr.close()  # type: ignore[union-attr]
+    assert os.waitstatus_to_exitcode(status) == 2 and out == ""
+    assert err == "bomb.yaml:2: YAML alias *l0 is not allowed in a launch file " \
+                  "(aliases can expand without bound; write the value out)\n"
+    assert time.monotonic() - t0 < 30
+    assert usage.ru_maxrss < 100_000, usage.ru_maxrss  # kB; about 20 MB for any small file
+    params = write(tmp_path, "params.yaml", "base: &b {gain: 1}\nother: *b\n")  # params files too
+    g = write(tmp_path, "g.yaml", f"nodes: [{{cmd: [true], params_file: {params}}}]\n")
+    assert str(refused(g)) == f"{params}:2: YAML alias *b is not allowed in a launch file " \
+                              "(aliases can expand without bound; write the value out)"

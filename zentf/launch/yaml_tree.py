@@ -64,6 +64,7 @@ def load_yaml_file(path: str, display: str | None = None) -> Y | None:
 
 def load_yaml_text(text: str, file: str) -> Y | None:
     try:
+        _refuse_aliases(text, file)
         loader = Loader(text)
         try:
             node = loader.get_single_node()
@@ -81,6 +82,21 @@ def load_yaml_text(text: str, file: str) -> Y | None:
         raise LaunchError(f"YAML error: character {e.character!r} is not allowed ({e.reason})", file, line) from None
     except yaml.YAMLError as e:
         raise LaunchError(f"YAML error: {str(e).strip().splitlines()[0]}", file) from None
+
+
+def _refuse_aliases(text: str, file: str) -> None:
+    """Refuse `*alias` before composing: a few lines of nested aliases expand to billions of values
+    (the "billion laughs"), and a launch file gains nothing from them that repetition cannot give."""
+    loader = Loader(text)
+    try:
+        while loader.check_event():
+            event = loader.get_event()
+            if isinstance(event, yaml.AliasEvent):
+                raise LaunchError(f"YAML alias *{event.anchor} is not allowed in a launch file "
+                                  "(aliases can expand without bound; write the value out)",
+                                  file, event.start_mark.line + 1)
+    finally:
+        loader.dispose()
 
 
 def _convert(node: yaml.Node, loader: Any, file: str) -> Y:
