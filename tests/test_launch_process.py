@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import select
 import signal
 import sys
@@ -14,6 +15,7 @@ from typing import Iterator
 import pytest
 
 from conftest import Proc
+from zentf.launch.supervisor import RESPAWN_CAP, respawn_wait
 
 PY = sys.executable
 # a node that ignores SIGINT and SIGTERM: only SIGKILL stops it
@@ -155,6 +157,37 @@ def test_a_crashed_node_with_respawn_comes_back_up_to_its_cap(tmp_path, launch):
     os.kill(third, signal.SIGKILL)
     p.wait_for_line(r"not respawning: respawn_max 2 reached", 10)
     assert p.wait(10) == 128 + signal.SIGKILL  # nothing left to run: the launcher ends
+
+
+def test_a_node_crashing_at_once_respawns_with_backoff_and_caps_still_hold(tmp_path, launch):
+    """respawn_delay: 0 once meant ~570 restarts a second; now the waits run 0.1, 0.2, 0.4, ... s."""
+    f = write(tmp_path, """
+        nodes:
+          - {name: crasher, cmd: [sh, -c, 'exit 3'], respawn: true, respawn_delay: 0}
+          - {name: capped, cmd: [sh, -c, 'exit 4'], respawn: true, respawn_delay: 0, respawn_max: 2}
+        """)
+    t0 = time.monotonic()
+    p = launch(f)
+    p.wait_for_line(r"crasher exited with code 3; respawning in 1.6 s$", 30)
+    took = time.monotonic() - t0
+    p.wait_for_line(r"capped exited with code 4; not respawning: respawn_max 2 reached", 10, from_start=True)
+    p.signal(signal.SIGINT)
+    assert p.wait(10) == 0
+    out = p.output()
+    waits = re.findall(r"crasher exited with code 3; respawning in ([\d.]+) s", out)
+    assert waits[:5] == ["0.1", "0.2", "0.4", "0.8", "1.6"], waits
+    assert took >= 0.1 + 0.2 + 0.4 + 0.8, took  # the waits were kept, not only printed
+    assert len(waits) <= 6 and out.count("crasher respawned") == len(waits) - 1  # SIGINT cancels the wait
+    assert re.findall(r"capped exited with code 4; respawning in ([\d.]+) s \((\d)/2\)", out) == \
+        [("0.1", "1"), ("0.2", "2")]
+    assert out.count("capped respawned") == 2
+
+
+def test_respawn_wait_doubles_from_the_floor_up_to_the_cap():
+    assert [respawn_wait(0, n) for n in range(9)] == [0.1, 0.2, 0.4, 0.8, 1.6, 3.2, 6.4, 10.0, 10.0]
+    assert [respawn_wait(3, n) for n in range(4)] == [3.0, 6.0, 10.0, 10.0]
+    assert respawn_wait(30, 0) == respawn_wait(30, 5) == 30.0  # a long respawn_delay is its own cap
+    assert respawn_wait(0, 10**6) == RESPAWN_CAP
 
 
 def test_a_required_node_exiting_takes_the_graph_down_with_its_code(tmp_path, launch):

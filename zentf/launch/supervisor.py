@@ -21,7 +21,8 @@ from typing import BinaryIO, Callable, Mapping
 
 from .description import NodeSpec
 
-__all__ = ["Supervisor", "StopTimes", "exit_code_of"]
+__all__ = ["Supervisor", "StopTimes", "exit_code_of", "respawn_wait", "RESPAWN_FLOOR", "RESPAWN_CAP",
+           "RESPAWN_RESET"]
 
 log = logging.getLogger("zentf.launch")
 
@@ -31,6 +32,13 @@ _prctl = _libc.prctl
 _COLORS = ("36", "33", "32", "35", "34", "31", "96", "93", "92", "95", "94", "91")
 _RESET = "\033[0m"
 _SETPRIV = shutil.which("setpriv")  # util-linux: --pdeathsig since 2.33
+
+#: Respawn backoff (ROS 2 waits respawn_delay every time; we do not, so a node crashing at start cannot
+#: spin): never sooner than RESPAWN_FLOOR s, doubled after every exit that came less than RESPAWN_RESET s
+#: after the start, up to RESPAWN_CAP s (or respawn_delay when that is longer).
+RESPAWN_FLOOR = 0.1
+RESPAWN_CAP = 10.0
+RESPAWN_RESET = 10.0
 
 
 @dataclass
@@ -45,6 +53,12 @@ class StopTimes:
 def exit_code_of(returncode: int) -> int:
     """Shell convention: killed by signal N -> 128 + N."""
     return 128 - returncode if returncode < 0 else returncode
+
+
+def respawn_wait(delay: float, quick_exits: int) -> float:
+    """Seconds before a respawn: respawn_delay (at least the floor) doubled per earlier quick exit, capped."""
+    base = max(delay, RESPAWN_FLOOR)
+    return min(base * 2.0 ** min(quick_exits, 64), max(RESPAWN_CAP, base))
 
 
 def _describe_exit(returncode: int) -> str:
@@ -67,6 +81,8 @@ class _Child:
     log_file: BinaryIO | None = None
     spawns: int = 0
     respawn_at: float | None = None
+    started_at: float = 0.0
+    quick_exits: int = 0  # exits in a row that came less than RESPAWN_RESET s after the start
     last_code: int | None = None
     prefix: bytes = b""
 
@@ -262,6 +278,7 @@ class Supervisor:
             stdout = subprocess.PIPE
         child.respawn_at = None
         child.spawns += 1
+        child.started_at = time.monotonic()
         try:
             popen = subprocess.Popen(argv, env=self._child_env(spec), stdin=subprocess.DEVNULL,
                                      stdout=stdout, stderr=subprocess.STDOUT, close_fds=True, **group)
@@ -423,9 +440,13 @@ class Supervisor:
             done = child.spawns - 1
             if spec.respawn_max is None or done < spec.respawn_max:
                 cap = "" if spec.respawn_max is None else f" ({done + 1}/{spec.respawn_max})"
-                log.warning("%s %s; respawning in %g s%s", spec.full_name, _describe_exit(rc),
-                            spec.respawn_delay, cap)
-                child.respawn_at = time.monotonic() + spec.respawn_delay
+                now = time.monotonic()
+                if now - child.started_at >= RESPAWN_RESET:
+                    child.quick_exits = 0  # it ran well for a while: back to respawn_delay
+                wait = respawn_wait(spec.respawn_delay, child.quick_exits)
+                child.quick_exits += 1
+                log.warning("%s %s; respawning in %g s%s", spec.full_name, _describe_exit(rc), wait, cap)
+                child.respawn_at = now + wait
                 return
             log.error("%s %s; not respawning: respawn_max %d reached", spec.full_name, _describe_exit(rc),
                       spec.respawn_max)
