@@ -4,17 +4,18 @@ from __future__ import annotations
 import json
 import os
 import re
-import select
 import signal
 import sys
 import textwrap
 import time
+import uuid
 from pathlib import Path
 from typing import Iterator
 
 import pytest
 
 from conftest import Proc
+from zentf.launch.proctree import wait_gone
 from zentf.launch.supervisor import RESPAWN_CAP, respawn_wait
 
 PY = sys.executable
@@ -24,6 +25,32 @@ STUBBORN = ("import signal, os, time; signal.signal(signal.SIGINT, signal.SIG_IG
             "time.sleep(120)")
 # a shell node with a grandchild in its process group
 SHELL_TREE = "sleep 120 & echo ready $$ $!; wait"
+# a shell ignoring SIGINT and SIGTERM, with two children that inherit that
+STUBBORN_SHELL = 'trap "" INT TERM; sleep 120 & a=$!; sleep 120 & echo ready $$ $a $!; wait'
+# a node that double-forks a setsid() daemon (stdio on /dev/null, as daemons do) and stays up
+DAEMON = """
+import os, time
+r, w = os.pipe()
+if os.fork() == 0:
+    os.setsid()
+    if os.fork() == 0:
+        null = os.open(os.devnull, os.O_RDWR)
+        for fd in (0, 1, 2):
+            os.dup2(null, fd)
+        os.write(w, b"%d\\n" % os.getpid())
+        time.sleep(120)
+    os._exit(0)
+os.wait()
+print("ready", os.getpid(), int(os.read(r, 64)), flush=True)
+time.sleep(120)
+"""
+# a node that moves its child into a process group of its own
+SETPGID = """
+import os, subprocess, time
+child = subprocess.Popen(["sleep", "120"], preexec_fn=lambda: os.setpgid(0, 0))
+print("ready", os.getpid(), child.pid, flush=True)
+time.sleep(120)
+"""
 
 
 def write(tmp_path: Path, text: str, name: str = "graph.yaml") -> str:
@@ -60,26 +87,8 @@ def launch(tmp_path: Path) -> Iterator:
 
 def dead_within(pids: list[int], timeout: float) -> list[int]:
     """Wait (on pidfds, no polling) until every pid has exited; return those still alive at the deadline."""
-    fds = {}
-    for pid in pids:
-        try:
-            fds[os.pidfd_open(pid)] = pid
-        except ProcessLookupError:
-            pass
-    deadline = time.monotonic() + timeout
-    try:
-        while fds:
-            left = deadline - time.monotonic()
-            if left <= 0:
-                break
-            ready, _, _ = select.select(list(fds), [], [], left)
-            for fd in ready:
-                os.close(fd)
-                del fds[fd]
-        return [pid for pid in fds.values() if not _zombie(pid)]
-    finally:
-        for fd in fds:
-            os.close(fd)
+    wait_gone(pids, timeout)
+    return [pid for pid in pids if not _zombie(pid)]  # judged here, from /proc
 
 
 def _zombie(pid: int) -> bool:
@@ -213,40 +222,134 @@ def test_a_required_node_exiting_takes_the_graph_down_with_its_code(tmp_path, la
     assert dead_within(pids, 5) == []
 
 
-def launch_tree(tmp_path, launch):
-    """A graph of a shell with a grandchild, a node ignoring SIGINT/SIGTERM and a plain sleeper;
-    returns the launcher and the pids of every process below it, once all are up."""
+def launch_tree(tmp_path, launch) -> tuple[Proc, list[int], str]:
+    """A graph of a shell with a grandchild, a node ignoring SIGINT/SIGTERM, a plain sleeper, a node with
+    a setsid() daemon, one with a child in another process group and a shell ignoring SIGINT/SIGTERM
+    with two children; returns the launcher, the pids below it once all are up, and a marker every one
+    of them carries in its environment (to find survivors whatever their parent, group or session)."""
+    marker = uuid.uuid4().hex
+    (tmp_path / "daemon.py").write_text(DAEMON)
+    (tmp_path / "setpgid.py").write_text(SETPGID)
     f = write(tmp_path, f"""
+        env: {{ORPHAN_MARK: {marker}}}
         nodes:
           - {{name: shell, cmd: [sh, -c, '{SHELL_TREE}']}}
           - {{name: stubborn, cmd: [{PY}, -c, "{STUBBORN}"]}}
           - {{name: polite, cmd: [sleep, '120']}}
+          - {{name: daemon, cmd: [{PY}, daemon.py]}}
+          - {{name: grouper, cmd: [{PY}, setpgid.py]}}
+          - {{name: trapper, cmd: [sh, -c, '{STUBBORN_SHELL}']}}
         """)
     p = launch(f)
-    m = p.wait_for_line(r"\[shell\] ready (\d+) (\d+)", 20)
-    pids = [int(m.group(1)), int(m.group(2))]
-    pids.append(int(p.wait_for_line(r"\[stubborn\] ready (\d+)", 20, from_start=True).group(1)))
+    pids = []
+    for name in ("shell", "stubborn", "daemon", "grouper", "trapper"):
+        m = p.wait_for_line(rf"\[{name}\] ready ([\d ]+)$", 20, from_start=True)
+        pids += [int(pid) for pid in m.group(1).split()]
     pids.append(int(p.wait_for_line(r"polite started \(pid (\d+)\)", 20, from_start=True).group(1)))
-    return p, pids
+    assert len(pids) == 11 and all(alive(pid) for pid in pids)
+    assert len(carrying(marker)) >= 11  # (and the reapers)
+    return p, pids, marker
 
 
-def test_sigint_stops_every_child_and_grandchild_within_3_s(tmp_path, launch):
-    p, pids = launch_tree(tmp_path, launch)
+def carrying(marker: str) -> list[int]:
+    """Live processes whose environment has ORPHAN_MARK=marker."""
+    want = f"ORPHAN_MARK={marker}".encode()
+    found = []
+    for name in os.listdir("/proc"):
+        if name.isdigit() and int(name) != os.getpid():
+            try:
+                if want in Path(f"/proc/{name}/environ").read_bytes().split(b"\0") and alive(int(name)):
+                    found.append(int(name))
+            except OSError:
+                pass
+    return found
+
+
+def survivors(pids: list[int], marker: str, timeout: float) -> list[int]:
+    """Wait until none of `pids` and no process carrying `marker` is left; those left at the deadline."""
+    deadline = time.monotonic() + timeout
+    while True:
+        left = dead_within(sorted(set(pids) | set(carrying(marker))), max(0.0, deadline - time.monotonic()))
+        if not left and not carrying(marker):
+            return []
+        if time.monotonic() >= deadline:
+            found = sorted(set(left) | set(carrying(marker)))
+            for pid in found:  # the test fails, but leaves nothing behind
+                try:
+                    os.kill(pid, signal.SIGKILL)
+                except ProcessLookupError:
+                    pass
+            return found
+
+
+def test_sigint_stops_every_descendant_within_3_s_whatever_its_session_or_group(tmp_path, launch):
+    p, pids, marker = launch_tree(tmp_path, launch)
     t0 = time.monotonic()
     p.signal(signal.SIGINT)
     assert p.wait(10) == 0
     took = time.monotonic() - t0
-    assert dead_within(pids, 0.5) == []
+    assert survivors(pids, marker, 0.5) == []
     assert took < 3.0, took
     out = p.output()
-    assert "still running after SIGINT: stubborn; sending SIGTERM" in out
-    assert "still running after SIGTERM: stubborn; sending SIGKILL" in out
+    assert "still running after SIGINT: stubborn, trapper; sending SIGTERM" in out
+    assert "still running after SIGTERM: stubborn, trapper; sending SIGKILL" in out
+    assert "daemon was killed by SIGINT" in out and "grouper was killed by SIGINT" in out
 
 
 def test_sigkill_of_the_launcher_leaves_no_orphans(tmp_path, launch):
-    p, pids = launch_tree(tmp_path, launch)
+    p, pids, marker = launch_tree(tmp_path, launch)
     p.kill()
-    assert dead_within(pids, 5) == []
+    assert survivors(pids, marker, 10) == []
+
+
+def test_sigkill_of_the_launcher_and_its_watchdog_leaves_no_orphans(tmp_path, launch):
+    """Each node's reaper stops its tree on its own: SIGTERM, then SIGKILL after the grace period."""
+    p, pids, marker = launch_tree(tmp_path, launch)
+    watchdogs = [pid for pid in map(int, filter(str.isdigit, os.listdir("/proc")))
+                 if _ppid(pid) == p.pid and b"watchdog.py" in _cmdline(pid)]
+    assert len(watchdogs) == 1
+    os.kill(watchdogs[0], signal.SIGKILL)  # first, so that it can do nothing
+    p.kill()
+    assert survivors(pids, marker, 10) == []
+
+
+def test_what_a_killed_reaper_leaves_is_killed_by_the_launcher_or_else_by_the_watchdog(tmp_path, launch):
+    marker = uuid.uuid4().hex
+    (tmp_path / "daemon.py").write_text(DAEMON)
+    f = write(tmp_path, f"""
+        env: {{ORPHAN_MARK: {marker}}}
+        nodes:
+          - {{name: one, cmd: [{PY}, daemon.py]}}
+          - {{name: two, cmd: [{PY}, daemon.py]}}
+        """)
+    p = launch(f)
+    (node1, daemon1), (node2, daemon2) = [
+        map(int, p.wait_for_line(rf"\[{name}\] ready (\d+) (\d+)", 20, from_start=True).groups())
+        for name in ("one", "two")]
+    reaper1, reaper2 = [int(p.wait_for_line(rf"{name} started \(pid (\d+)\)", 20, from_start=True).group(1))
+                        for name in ("one", "two")]
+    os.kill(reaper1, signal.SIGKILL)  # the node dies of its parent-death signal, its daemon goes to the launcher
+    p.wait_for_line(r"one was killed by SIGKILL", 10)
+    assert dead_within([node1, daemon1], 5) == [] and alive(daemon2)
+    p.signal(signal.SIGSTOP)  # a launcher that can do nothing: the daemon it adopts must wait for the watchdog
+    os.kill(reaper2, signal.SIGKILL)
+    assert dead_within([node2], 5) == [] and alive(daemon2)
+    p.kill()
+    assert survivors([daemon2], marker, 10) == []
+
+
+def _ppid(pid: int) -> int:
+    try:
+        return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
+    except (OSError, IndexError):
+        return 0
+
+
+def _cmdline(pid: int) -> bytes:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return b""
 
 
 def test_all_nodes_ending_ends_the_launcher_with_the_first_failure(tmp_path, launch):

@@ -3,6 +3,11 @@
 Everything happens on the calling (main) thread in one selector loop: child exits arrive as pidfd
 events, output as pipe reads, signals through the wakeup fd. Spawning only from this one long-lived
 thread matters: PR_SET_PDEATHSIG fires when the *thread* that forked the child exits.
+
+No orphans: every node runs under its own subreaper (reaper.py), which adopts and kills whatever the
+node leaves, setsid() daemons included, and stops the node's whole tree when the launcher dies; the
+launcher is a subreaper too (for what a killed reaper leaves), and a watchdog process finds the rest
+by the launch id every descendant inherits in its environment (ZENTF_LAUNCH_ID).
 """
 from __future__ import annotations
 
@@ -10,7 +15,7 @@ import ctypes
 import logging
 import os
 import selectors
-import shutil
+import secrets
 import signal
 import subprocess
 import sys
@@ -19,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import BinaryIO, Callable, Mapping
 
+from . import proctree
 from .description import NodeSpec
 
 __all__ = ["Supervisor", "StopTimes", "exit_code_of", "respawn_wait", "RESPAWN_FLOOR", "RESPAWN_CAP",
@@ -26,12 +32,12 @@ __all__ = ["Supervisor", "StopTimes", "exit_code_of", "respawn_wait", "RESPAWN_F
 
 log = logging.getLogger("zentf.launch")
 
-PR_SET_PDEATHSIG = 1
+PR_SET_CHILD_SUBREAPER = 36
 _libc = ctypes.CDLL(None, use_errno=True)
 _prctl = _libc.prctl
 _COLORS = ("36", "33", "32", "35", "34", "31", "96", "93", "92", "95", "94", "91")
 _RESET = "\033[0m"
-_SETPRIV = shutil.which("setpriv")  # util-linux: --pdeathsig since 2.33
+_REAPER = str(Path(__file__).with_name("reaper.py"))
 
 #: Respawn backoff (ROS 2 waits respawn_delay every time; we do not, so a node crashing at start cannot
 #: spin): never sooner than RESPAWN_FLOOR s, doubled after every exit that came less than RESPAWN_RESET s
@@ -110,6 +116,8 @@ class Supervisor:
     _exit_code: int = field(default=0, init=False)
     _watchdog: subprocess.Popen | None = field(default=None, init=False)
     _wakeup_r: int = field(default=-1, init=False)
+    _launch_id: str = field(default="", init=False)
+    _adopted: set[int] = field(default_factory=set, init=False)  # orphans re-parented to us, until reaped
 
     # ------------------------------------------------------------------ public
     def run(self) -> int:
@@ -117,7 +125,9 @@ class Supervisor:
         if self.out is None:
             self.out = sys.stdout.buffer
         self._sel = selectors.DefaultSelector()
+        self._launch_id = f"{os.getpid()}-{secrets.token_hex(4)}"
         old_handlers, old_wakeup = self._install_signals()
+        subreaper = _prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0) == 0  # what a killed reaper leaves comes here
         try:
             self._start_watchdog()
             self._children = [_Child(spec, i) for i, spec in enumerate(self.nodes)]
@@ -134,6 +144,8 @@ class Supervisor:
             self._kill_everything()
             self._restore_signals(old_handlers, old_wakeup)
             self._close_watchdog()
+            if subreaper:
+                _prctl(PR_SET_CHILD_SUBREAPER, 0, 0, 0, 0)
             for child in self._children:
                 self._close_output(child)
             self._sel.close()
@@ -193,9 +205,9 @@ class Supervisor:
         script = Path(__file__).with_name("watchdog.py")
         try:
             self._watchdog = subprocess.Popen(
-                [sys.executable, "-S", "-I", str(script), str(self.stop_times.sigterm)],
+                [sys.executable, "-S", "-I", str(script), str(self.stop_times.sigterm), self._launch_id],
                 stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=None, start_new_session=True)
-        except OSError as e:  # not fatal: PDEATHSIG still covers direct children
+        except OSError as e:  # not fatal: the reapers still cover the nodes
             log.warning("cannot start the orphan watchdog: %s", e)
             self._watchdog = None
 
@@ -235,6 +247,8 @@ class Supervisor:
         for var in ("ZENTF_PARAMS_FILE", "ZENTF_PARAMS", "ZENTF_REMAP", "ZENTF_NODE_NAME"):
             env.pop(var, None)
         env.update(spec.child_env())
+        env[proctree.LAUNCH_ID_VAR] = proctree.launch_id_value(self.base_env.get(proctree.LAUNCH_ID_VAR),
+                                                              self._launch_id)
         if spec.python_path:
             parts = [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p]
             if spec.python_path not in parts:
@@ -251,23 +265,11 @@ class Supervisor:
 
     def _spawn(self, child: _Child) -> None:
         spec = child.spec
-        launcher_pid = os.getpid()
-
-        def setup() -> None:  # fallback without setpriv: in the child, between fork and exec
-            os.setpgid(0, 0)
-            _prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
-            if os.getppid() != launcher_pid:  # the launcher died before prctl took effect
-                os._exit(1)
-
-        # Python code between fork and exec is unsafe once other threads exist (the sim clock's
-        # Zenoh runtime), so the parent-death signal is set by setpriv(1) in the exec chain when
-        # available, and the process group by the C-level process_group/start_new_session.
-        if _SETPRIV:
-            argv = [_SETPRIV, "--pdeathsig", "TERM", "--", *spec.cmd]
-            group: dict = {"process_group": 0} if sys.version_info >= (3, 11) else {"start_new_session": True}
-        else:
-            argv = list(spec.cmd)
-            group = {"preexec_fn": setup}
+        # The node's own reaper execs it (no Python between fork and exec here: the sim clock's Zenoh
+        # threads may be running); it leads the node's process group.
+        argv = [sys.executable, "-S", "-I", _REAPER, str(os.getpid()), str(self.stop_times.sigterm), "--",
+                *spec.cmd]
+        group: dict = {"process_group": 0} if sys.version_info >= (3, 11) else {"start_new_session": True}
         stdout: int | BinaryIO
         if spec.output == "log" and self.log_dir is not None:
             if child.log_file is not None:
@@ -414,6 +416,7 @@ class Supervisor:
             pass
         rc = popen.wait()
         self._tell_watchdog(f"-{pgid}")
+        self._sweep()  # what the launcher adopted if the node's reaper was killed
         if child.pidfd is not None:
             try:
                 self._sel.unregister(child.pidfd)
@@ -493,10 +496,43 @@ class Supervisor:
             self._stopping = 3
             self._stop_deadline = time.monotonic() + self.stop_times.sigkill
             self._signal_all(signal.SIGKILL)
+            self._sweep(keep_nodes=False)
         else:
             for name in running:
                 log.error("%s does not die even from SIGKILL (stuck in the kernel?); giving up on it", name)
             self._stopping = 4
+
+    def _sweep(self, keep_nodes: bool = True) -> None:
+        """Kill and reap the orphans adopted as subreaper (what a node whose reaper was killed left)."""
+        # Ours carry this launch's id (other children of this process, if any, are not ours to kill).
+        # With keep_nodes=False the running nodes' trees go too (the SIGKILL step).
+        me = os.getpid()
+        nodes = {c.popen.pid for c in self._children if c.popen is not None}
+        for _ in range(50):
+            table = proctree.snapshot()
+            roots = [pid for pid, (ppid, _, _) in table.items() if ppid == me and pid not in self._adopted
+                     and pid not in nodes and proctree.has_launch_id(pid, self._launch_id)]
+            self._adopted.update(roots)
+            doomed = [pid for pid in self._adopted if pid in table]
+            if not keep_nodes:
+                doomed += [pid for pid in nodes if pid in table]
+            for pid in list(doomed):
+                doomed += proctree.descendants(pid, table)
+            live = [pid for pid in doomed if table[pid][2] != "Z"]
+            for pid in live:
+                try:
+                    os.kill(pid, signal.SIGKILL)
+                except OSError:
+                    pass
+            proctree.wait_gone(live, 1.0)
+            for pid in list(self._adopted):  # never a node's reaper: its Popen reaps it
+                try:
+                    if os.waitpid(pid, os.WNOHANG)[0] == pid:
+                        self._adopted.discard(pid)
+                except ChildProcessError:
+                    self._adopted.discard(pid)
+            if not live:
+                return
 
     def _kill_everything(self) -> None:
         """Last resort on the way out (e.g. an exception in the loop): nothing may outlive us."""
@@ -519,6 +555,7 @@ class Supervisor:
                     pass
                 child.pidfd = None
             child.popen = None
+        self._sweep(keep_nodes=False)
         for child in self._children:
             if child.log_file is not None:
                 child.log_file.close()

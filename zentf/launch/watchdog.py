@@ -1,14 +1,21 @@
-"""Orphan guard, run as a tiny separate process by the launcher (stdlib only, started with -S).
+"""Orphan guard, run as a tiny separate process by the launcher (stdlib only, started with -S -I).
 
-The launcher writes `+PGID` / `-PGID` lines on our stdin as it starts and reaps node process
-groups. When stdin reaches EOF the launcher is gone (even by SIGKILL): every group still alive gets
-SIGTERM, then SIGKILL after a grace period. Direct children also carry PR_SET_PDEATHSIG; this
-catches what that cannot (grandchildren such as the programs a `sh -c` node starts).
+The launcher writes `+PGID` / `-PGID` lines on our stdin as it starts and reaps node process groups.
+When stdin reaches EOF the launcher is gone (even by SIGKILL): every group still alive, and every process
+whose environment carries this launch's id (`ZENTF_LAUNCH_ID`, inherited by all a node starts, whatever
+its session, group or parent), gets SIGTERM, then SIGKILL after a grace period. Each node also runs under
+its own subreaper (reaper.py), which does the same for its tree without us; this catches what escaped
+both (a process re-parented to init after its reaper was killed).
 """
+from __future__ import annotations
+
 import os
 import signal
 import sys
 import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # -I leaves our own directory out
+import proctree  # noqa: E402
 
 
 def _alive(pgid: int) -> bool:
@@ -19,10 +26,27 @@ def _alive(pgid: int) -> bool:
         return False
 
 
+def _signal(groups: list[int], launch_id: str, sig: int) -> list[int]:
+    """Send `sig` to the live groups and to every process carrying the launch id; the pids so found."""
+    for g in groups:
+        try:
+            os.killpg(g, sig)
+        except OSError:
+            pass
+    pids = proctree.carrying_launch_id(launch_id) if launch_id else []
+    for pid in pids:
+        try:
+            os.kill(pid, sig)
+        except OSError:
+            pass
+    return pids
+
+
 def main() -> int:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # a terminal Ctrl-C is the launcher's to handle
     signal.signal(signal.SIGHUP, signal.SIG_IGN)
     grace = float(sys.argv[1]) if len(sys.argv) > 1 else 1.0
+    launch_id = sys.argv[2] if len(sys.argv) > 2 else ""
     groups: set[int] = set()
     buf = b""
     while True:
@@ -45,20 +69,20 @@ def main() -> int:
             except ValueError:
                 pass
     alive = [g for g in groups if _alive(g)]
-    for g in alive:
-        try:
-            os.killpg(g, signal.SIGTERM)
-        except OSError:
-            pass
+    pids = _signal(alive, launch_id, signal.SIGTERM)
     deadline = time.monotonic() + grace
-    while alive and time.monotonic() < deadline:
-        time.sleep(0.02)
+    while time.monotonic() < deadline:
         alive = [g for g in alive if _alive(g)]
-    for g in alive:
-        try:
-            os.killpg(g, signal.SIGKILL)
-        except OSError:
-            pass
+        pids = [p for p in pids if proctree.alive(p)]
+        if not alive and not pids:
+            break
+        time.sleep(0.02)
+    for _ in range(20):  # SIGKILL until nothing is left (forks meanwhile are caught next round)
+        alive = [g for g in alive if _alive(g)]
+        pids = _signal(alive, launch_id, signal.SIGKILL)
+        if not alive and not pids:
+            break
+        proctree.wait_gone(pids, 0.2)
     return 0
 
 

@@ -1,0 +1,105 @@
+"""Process-tree facts read from /proc (stdlib only: the watchdog and the node reaper load it by path).
+
+Linux keeps no children list we can rely on (/proc/PID/task/TID/children needs CONFIG_PROC_CHILDREN),
+so a snapshot of every process's parent, process group and state is taken from /proc/PID/stat.
+"""
+from __future__ import annotations
+
+import os
+import select
+import time
+
+__all__ = ["LAUNCH_ID_VAR", "snapshot", "alive", "descendants", "has_launch_id", "carrying_launch_id", "launch_id_value", "wait_gone"]
+
+#: Environment variable every launched process inherits: `:`-joined ids of the launches above it.
+LAUNCH_ID_VAR = "ZENTF_LAUNCH_ID"
+
+
+def snapshot() -> "dict[int, tuple[int, int, str]]":
+    """pid -> (parent pid, process group, state) for every process visible now."""
+    table: dict[int, tuple[int, int, str]] = {}
+    for name in os.listdir("/proc"):
+        if not name.isdigit():
+            continue
+        try:
+            with open(f"/proc/{name}/stat", "rb") as f:
+                data = f.read()
+            fields = data[data.rindex(b")") + 2:].split()
+            table[int(name)] = (int(fields[1]), int(fields[2]), fields[0].decode())
+        except (OSError, ValueError, IndexError):
+            continue  # gone meanwhile
+    return table
+
+
+def alive(pid: int) -> bool:
+    """The process exists and is not a zombie."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            data = f.read()
+        return data[data.rindex(b")") + 2:data.rindex(b")") + 3] != b"Z"
+    except (OSError, ValueError):
+        return False
+
+
+def descendants(root: int, table: "dict[int, tuple[int, int, str]]") -> "list[int]":
+    """Every process below `root` in `table` (children first), zombies included."""
+    children: dict[int, list[int]] = {}
+    for pid, (ppid, _, _) in table.items():
+        children.setdefault(ppid, []).append(pid)
+    out: list[int] = []
+    stack = [root]
+    while stack:
+        for child in children.get(stack.pop(), ()):
+            if child != root:
+                out.append(child)
+                stack.append(child)
+    return out
+
+
+def launch_id_value(inherited: "str | None", own: str) -> str:
+    """The value of LAUNCH_ID_VAR for the children of a launch nested (or not) in others."""
+    return f"{inherited}:{own}" if inherited else own
+
+
+def has_launch_id(pid: int, launch_id: str) -> bool:
+    """The process's environment names `launch_id` in LAUNCH_ID_VAR (False for zombies and the unreadable)."""
+    try:
+        with open(f"/proc/{pid}/environ", "rb") as f:
+            env = f.read()
+    except OSError:
+        return False
+    needle = LAUNCH_ID_VAR.encode() + b"="
+    for entry in env.split(b"\0"):
+        if entry.startswith(needle):
+            return launch_id.encode() in entry[len(needle):].split(b":")
+    return False
+
+
+def carrying_launch_id(launch_id: str) -> "list[int]":
+    """Live processes whose environment names `launch_id`, whatever their parent, group or session."""
+    me = os.getpid()
+    return [pid for pid in (int(n) for n in os.listdir("/proc") if n.isdigit())
+            if pid != me and has_launch_id(pid, launch_id)]
+
+
+def wait_gone(pids: "list[int]", timeout: float) -> None:
+    """Wait (on pidfds) until every pid has exited or `timeout` s have passed."""
+    fds = []
+    for pid in pids:
+        try:
+            fds.append(os.pidfd_open(pid))
+        except OSError:
+            pass
+    deadline = time.monotonic() + timeout
+    try:
+        while fds:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return
+            ready, _, _ = select.select(fds, [], [], left)
+            for fd in ready:
+                os.close(fd)
+                fds.remove(fd)
+    finally:
+        for fd in fds:
+            os.close(fd)
