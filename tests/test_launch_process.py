@@ -183,10 +183,10 @@ def test_a_node_crashing_at_once_respawns_with_backoff_and_caps_still_hold(tmp_p
     p.signal(signal.SIGINT)
     assert p.wait(10) == 0
     out = p.output()
-    waits = re.findall(r"crasher exited with code 3; respawning in ([\d.]+) s", out)
-    assert waits[:5] == ["0.1", "0.2", "0.4", "0.8", "1.6"], waits
+    waits = [float(w) for w in re.findall(r"crasher exited with code 3; respawning in ([\d.]+) s", out)]
+    assert len(waits) >= 5 and waits == [0.1, 0.2, 0.4, 0.8, 1.6, 3.2, 6.4, 10.0][:len(waits)], waits
     assert took >= 0.1 + 0.2 + 0.4 + 0.8, took  # the waits were kept, not only printed
-    assert len(waits) <= 6 and out.count("crasher respawned") == len(waits) - 1  # SIGINT cancels the wait
+    assert len(waits) - 1 <= out.count("crasher respawned") <= len(waits)  # SIGINT cancels a pending wait
     assert re.findall(r"capped exited with code 4; respawning in ([\d.]+) s \((\d)/2\)", out) == \
         [("0.1", "1"), ("0.2", "2")]
     assert out.count("capped respawned") == 2
