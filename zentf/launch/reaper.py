@@ -126,6 +126,8 @@ def main(argv: list[str]) -> int:
         sys.stderr.write("usage: reaper.py LAUNCHER_PID GRACE -- CMD...\n")
         return 2
     launcher, grace, cmd = int(argv[1]), float(argv[2]), argv[4:]
+    if os.getpgrp() != os.getpid():  # the launcher makes us a group leader; never kill a group not ours
+        os.setpgid(0, 0)
     libc = ctypes.CDLL(None, use_errno=True)
     old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, WATCHED)
     libc.prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
