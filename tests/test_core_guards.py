@@ -85,3 +85,30 @@ def test_hot_path_does_not_log_or_consult_the_limiter() -> None:
     for i in range(2, 100):
         assert core.set_transform_raw("w", "a", i * S, 0.0, 0.0, 0.0, *Q, "/x")
     assert core.set_transforms_raw([("w", "a", 200 * S + i, 0.0, 0.0, 0.0, *Q) for i in range(50)], "/x") == 50
+
+
+# ------------------------------------------------------------------ point 7: names escaped in log lines
+
+EVIL = "evil\x1b[2J\r\nTF_FAKE: all good\x07"
+
+
+def test_log_lines_escape_control_characters_in_frame_ids_and_senders(caplog) -> None:
+    core = BufferCore()
+    with caplog.at_level(logging.WARNING, LOGGER):
+        core.set_transform_raw("w", EVIL, S, NAN, 0.0, 0.0, *Q, EVIL)
+        core.set_transform_raw(EVIL, EVIL, S, 0.0, 0.0, 0.0, *Q, "/x")
+        core.set_transform_raw("w", EVIL, 100 * S, 0.0, 0.0, 0.0, *Q, "/x")
+        core.set_transform_raw("w", EVIL, 100 * S, 0.0, 0.0, 0.0, *Q, "/x")
+    text = caplog.text
+    assert len(caplog.records) == 3
+    for ch in "\x1b\r\x07":
+        assert ch not in text
+    assert text.count("\n") == 3  # one line each, none forged
+    assert r"evil\x1b[2J\r\nTF_FAKE: all good\x07" in text
+
+
+def test_escape_keeps_printable_names_and_cuts_long_ones() -> None:
+    assert escape("base_link") == "base_link" and escape("bäse/λ") == "bäse/λ"
+    assert escape("a\nb") == r"a\nb"
+    long = escape("x" * 100_000)
+    assert len(long) < 300 and long.endswith("...(100000 chars)")

@@ -5,7 +5,8 @@ Here the first line of a key (reason and sender) prints at once, the next ones o
 ``period`` seconds are only counted, and the next line printed for the key says how many were
 suppressed. A global budget (``burst`` lines, refilled at ``rate`` lines a second) bounds floods of
 many keys (forged sender names), and the key table is bounded too. Checking costs a dict lookup and
-a clock read; nothing is formatted for a suppressed line.
+a clock read; nothing is formatted for a suppressed line. String arguments (frame ids, sender names)
+are printed escaped, so a name holding ESC, CR or LF cannot rewrite the terminal or forge log lines.
 """
 from __future__ import annotations
 
@@ -65,10 +66,11 @@ class RateLimitedLogger:
             self._suppressed.pop(k, None)
 
     def log(self, level: int, key: Hashable, msg: str, *args: Any) -> bool:
-        """Log ``msg % args`` unless suppressed; True if a line was written."""
+        """Log ``msg % args`` unless suppressed, every str argument escaped; True if a line was written."""
         n = self.allow(key)
         if n < 0:
             return False
+        args = tuple(escape(a) if type(a) is str else a for a in args)
         if n:
             msg += " (%d similar suppressed)"
             args = (*args, n)
