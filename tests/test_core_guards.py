@@ -112,3 +112,25 @@ def test_escape_keeps_printable_names_and_cuts_long_ones() -> None:
     assert escape("a\nb") == r"a\nb"
     long = escape("x" * 100_000)
     assert len(long) < 300 and long.endswith("...(100000 chars)")
+
+
+# ------------------------------------------------------------------ point 9: infinite translations
+
+@pytest.mark.parametrize("xyz", [(INF, 0.0, 0.0), (0.0, -INF, 0.0), (0.0, 0.0, INF), (INF, -INF, 0.0)])
+def test_infinite_translations_are_refused_like_nan(xyz, caplog) -> None:
+    core = BufferCore()
+    assert core.set_transform_raw("w", "a", S, 1.0, 2.0, 3.0, *Q, "/x")
+    with caplog.at_level(logging.WARNING, LOGGER):
+        assert not core.set_transform_raw("w", "a", 2 * S, *xyz, *Q, "/x")
+        assert core.set_transforms_raw([("w", "a", 3 * S, *xyz, *Q), ("w", "b", 3 * S, *xyz, *Q)], "/x") == 0
+    assert "TF_NAN_INPUT" in caplog.text and "infinite value" in caplog.text
+    assert not core.frame_exists("b")
+    inv = core.lookup_transform("a", "w", 0)  # the reverse lookup stays finite: only the good sample is there
+    v = inv.transform.translation
+    assert (v.x, v.y, v.z) == (-1.0, -2.0, -3.0) and inv.header.stamp.nanoseconds == S
+
+
+def test_huge_finite_translations_are_still_accepted() -> None:
+    core = BufferCore()
+    assert core.set_transform_raw("w", "a", S, 1e308, 1e308, 0.0, *Q, "/x")  # sum overflows: full path
+    assert core.lookup_transform("w", "a", 0).transform.translation.x == 1e308

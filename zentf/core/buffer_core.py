@@ -39,6 +39,7 @@ __all__ = ["BufferCore", "TransformableResult", "NEVER_TRANSFORMABLE", "DEFAULT_
 
 logger = logging.getLogger("zentf.core.buffer_core")
 _ERROR, _WARNING = logging.ERROR, logging.WARNING
+_INFINITIES = (math.inf, -math.inf)
 
 #: Handle returned by add_transformable_request when the request can never succeed (tf2 value).
 NEVER_TRANSFORMABLE = 0xFFFFFFFFFFFFFFFF
@@ -161,7 +162,7 @@ class BufferCore:
         tx, ty, tz, qx, qy, qz, qw = v.x, v.y, v.z, q.x, q.y, q.z, q.w
         # hot path, the same as _store's (inlined: a call with 12 arguments costs ~7% of an insert)
         if (-0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
-                and tx == tx and ty == ty and tz == tz and type(stamp) is int and stamp >= 0):
+                and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0):
             self._lock.acquire()  # (not `with`: 0.12 µs less per call, measured)
             try:
                 clean = self._clean
@@ -223,7 +224,7 @@ class BufferCore:
         try:
             for parent, child, stamp, tx, ty, tz, qx, qy, qz, qw in samples:
                 if (-0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
-                        and tx == tx and ty == ty and tz == tz and type(stamp) is int and stamp >= 0):
+                        and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0):
                     cid = clean.get(child)
                     pid = clean.get(parent)
                     if cid is not None and pid is not None and cid != pid:
@@ -269,8 +270,10 @@ class BufferCore:
         # The common case first: a valid sample, newer than everything stored, for an edge whose
         # frames are known by clean names (non-empty, no leading '/'). Anything else - new frames,
         # statics, out-of-order stamps, bad input - takes _store_checked, tf2's full path.
+        # (tx + ty + tz) * 0.0 == 0.0: a finite translation (NaN or ±inf anywhere makes it NaN; a
+        # finite sum that overflows only sends the sample down the full path, which accepts it)
         if (-0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
-                and tx == tx and ty == ty and tz == tz and type(stamp) is int and stamp >= 0):
+                and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0):
             self._lock.acquire()  # (not `with`: 0.12 µs less per call, measured)
             try:
                 clean = self._clean
@@ -321,6 +324,13 @@ class BufferCore:
             warn(_ERROR, ("TF_NAN_INPUT", authority),
                  'TF_NAN_INPUT: Ignoring transform for child_frame_id "%s" from authority "%s" '
                  'because of a nan value in the transform (%f %f %f) (%f %f %f %f)',
+                 child, authority, tx, ty, tz, qx, qy, qz, qw)
+            err = True
+        elif tx in _INFINITIES or ty in _INFINITIES or tz in _INFINITIES:
+            # not in tf2 (it stores them, and an inverse lookup then returns NaN): refused like NaN
+            warn(_ERROR, ("TF_NAN_INPUT", authority),
+                 'TF_NAN_INPUT: Ignoring transform for child_frame_id "%s" from authority "%s" '
+                 'because of an infinite value in the transform (%f %f %f) (%f %f %f %f)',
                  child, authority, tx, ty, tz, qx, qy, qz, qw)
             err = True
         if not abs(qx * qx + qy * qy + qz * qz + qw * qw - 1.0) < 0.01:
