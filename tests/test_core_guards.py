@@ -1,0 +1,136 @@
+"""BufferCore under hostile input (issue 10): rate-limited refusals, escaped names in log lines, bounds on
+frames and frame ids, non-finite translations, stamps beyond int64 nanoseconds.
+
+In-process on purpose: BufferCore has no Zenoh (tests/test_transport_abuse.py drives the same cases
+through a real listener from another process).
+"""
+from __future__ import annotations
+
+import logging
+
+import pytest
+
+from zentf.core.buffer_core import BufferCore
+from zentf.core.ratelimit import RateLimitedLogger, escape
+
+S = 1_000_000_000
+Q = (0.0, 0.0, 0.0, 1.0)
+NAN, INF = float("nan"), float("inf")
+LOGGER = "zentf.core.buffer_core"
+
+
+class FakeClock:
+    """Monotonic seconds the test moves by hand (the rate limiter's period passes without sleeping)."""
+
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def lines(caplog: pytest.LogCaptureFixture) -> list[str]:
+    return [r.getMessage() for r in caplog.records]
+
+
+# ------------------------------------------------------------------ point 5: rate-limited warnings
+
+def test_refusals_are_rate_limited_per_reason_and_sender_with_a_suppressed_count(caplog) -> None:
+    core = BufferCore()
+    clock = core._warn.clock = FakeClock()
+    core.set_transform_raw("w", "a", 100 * S, 0.0, 0.0, 0.0, *Q, "/good")
+    with caplog.at_level(logging.WARNING, LOGGER):
+        for i in range(5000):
+            assert not core.set_transform_raw("w", "a", S + i, NAN, 0.0, 0.0, *Q, "/flooder")
+            assert not core.set_transform_raw("w", "a", S + i, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 5.0, "/flooder")
+            assert not core.set_transform_raw("w", "a", 100 * S, 1.0, 0.0, 0.0, *Q, "/flooder")  # repeated
+            assert not core.set_transform_raw("w", "a", S, 1.0, 0.0, 0.0, *Q, "/other")        # old
+        first = lines(caplog)
+        caplog.clear()
+        clock.now += 5.0  # the period is over: the next line of a key says what was suppressed
+        assert not core.set_transform_raw("w", "a", S, NAN, 0.0, 0.0, *Q, "/flooder")
+        assert not core.set_transform_raw("w", "a", S, 1.0, 0.0, 0.0, *Q, "/other")
+        later = lines(caplog)
+    assert [m.split()[0].rstrip(":") for m in first] == [
+        "TF_NAN_INPUT", "TF_DENORMALIZED_QUATERNION", "TF_REPEATED_DATA", "TF_OLD_DATA"]
+    assert all("suppressed" not in m for m in first)
+    assert later[0].startswith("TF_NAN_INPUT") and later[0].endswith("(4999 similar suppressed)")
+    assert later[1].startswith("TF_OLD_DATA") and later[1].endswith("(4999 similar suppressed)")
+    assert core.lookup_transform("w", "a", 0).transform.translation.x == 0.0  # nothing got in
+
+
+def test_every_sender_gets_its_own_first_line_until_the_global_budget_is_spent(caplog) -> None:
+    core = BufferCore()
+    core._warn.clock = FakeClock()
+    with caplog.at_level(logging.WARNING, LOGGER):
+        for i in range(1000):  # forged sender names: each a new key
+            core.set_transform_raw("w", "a", S, NAN, 0.0, 0.0, *Q, f"/forged{i}")
+    assert len(caplog.records) == core._warn.burst  # a flood of keys is bounded as a whole
+    assert len(core._warn._next) <= core._warn.max_keys
+
+
+def test_rate_limiter_key_table_is_bounded() -> None:
+    clock = FakeClock()
+    lim = RateLimitedLogger(logging.getLogger("zentf.test"), rate=1e9, burst=10**9, max_keys=100, clock=clock)
+    for i in range(10_000):
+        lim.allow(("r", i))
+        clock.now += 0.001
+    assert len(lim._next) <= 100 and len(lim._suppressed) <= 100
+
+
+def test_hot_path_does_not_log_or_consult_the_limiter() -> None:
+    core = BufferCore()
+    core.set_transform_raw("w", "a", S, 0.0, 0.0, 0.0, *Q, "/x")
+    core._warn = None  # type: ignore[assignment]  # any refusal would now raise
+    for i in range(2, 100):
+        assert core.set_transform_raw("w", "a", i * S, 0.0, 0.0, 0.0, *Q, "/x")
+    assert core.set_transforms_raw([("w", "a", 200 * S + i, 0.0, 0.0, 0.0, *Q) for i in range(50)], "/x") == 50
+
+
+# ------------------------------------------------------------------ point 7: names escaped in log lines
+
+EVIL = "evil\x1b[2J\r\nTF_FAKE: all good\x07"
+
+
+def test_log_lines_escape_control_characters_in_frame_ids_and_senders(caplog) -> None:
+    core = BufferCore()
+    with caplog.at_level(logging.WARNING, LOGGER):
+        core.set_transform_raw("w", EVIL, S, NAN, 0.0, 0.0, *Q, EVIL)
+        core.set_transform_raw(EVIL, EVIL, S, 0.0, 0.0, 0.0, *Q, "/x")
+        core.set_transform_raw("w", EVIL, 100 * S, 0.0, 0.0, 0.0, *Q, "/x")
+        core.set_transform_raw("w", EVIL, 100 * S, 0.0, 0.0, 0.0, *Q, "/x")
+    text = caplog.text
+    assert len(caplog.records) == 3
+    for ch in "\x1b\r\x07":
+        assert ch not in text
+    assert text.count("\n") == 3  # one line each, none forged
+    assert r"evil\x1b[2J\r\nTF_FAKE: all good\x07" in text
+
+
+def test_escape_keeps_printable_names_and_cuts_long_ones() -> None:
+    assert escape("base_link") == "base_link" and escape("bäse/λ") == "bäse/λ"
+    assert escape("a\nb") == r"a\nb"
+    long = escape("x" * 100_000)
+    assert len(long) < 300 and long.endswith("...(100000 chars)")
+
+
+# ------------------------------------------------------------------ point 9: infinite translations
+
+@pytest.mark.parametrize("xyz", [(INF, 0.0, 0.0), (0.0, -INF, 0.0), (0.0, 0.0, INF), (INF, -INF, 0.0)])
+def test_infinite_translations_are_refused_like_nan(xyz, caplog) -> None:
+    core = BufferCore()
+    assert core.set_transform_raw("w", "a", S, 1.0, 2.0, 3.0, *Q, "/x")
+    with caplog.at_level(logging.WARNING, LOGGER):
+        assert not core.set_transform_raw("w", "a", 2 * S, *xyz, *Q, "/x")
+        assert core.set_transforms_raw([("w", "a", 3 * S, *xyz, *Q), ("w", "b", 3 * S, *xyz, *Q)], "/x") == 0
+    assert "TF_NAN_INPUT" in caplog.text and "infinite value" in caplog.text
+    assert not core.frame_exists("b")
+    inv = core.lookup_transform("a", "w", 0)  # the reverse lookup stays finite: only the good sample is there
+    v = inv.transform.translation
+    assert (v.x, v.y, v.z) == (-1.0, -2.0, -3.0) and inv.header.stamp.nanoseconds == S
+
+
+def test_huge_finite_translations_are_still_accepted() -> None:
+    core = BufferCore()
+    assert core.set_transform_raw("w", "a", S, 1e308, 1e308, 0.0, *Q, "/x")  # sum overflows: full path
+    assert core.lookup_transform("w", "a", 0).transform.translation.x == 1e308
