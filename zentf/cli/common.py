@@ -72,6 +72,7 @@ class CliOptions:
     mode: Optional[str] = None
     no_multicast: bool = False
     debug: bool = False
+    lan: bool = False
 
     def argv(self) -> list[str]:
         """The same options as a node command line (architecture contract), for child programs."""
@@ -88,6 +89,8 @@ class CliOptions:
             out += ["--mode", self.mode]
         if self.no_multicast:
             out.append("--no-multicast")
+        if self.lan:
+            out.append("--lan")
         return out
 
 
@@ -104,9 +107,12 @@ _SHARED = [
                  help="Zenoh mode. [env ZENTF_MODE]"),
     click.option("--no-multicast", is_flag=True, default=False,
                  help="Turn multicast scouting off. [env ZENTF_NO_MULTICAST=1]"),
+    click.option("--lan", is_flag=True, default=False,
+                 help="Reach other machines (every interface, multicast scouting; unauthenticated). Default: "
+                      "this machine only. [env ZENTF_LAN=1]"),
     click.option("--debug", is_flag=True, default=False, help="Show tracebacks and debug logs."),
 ]
-_SHARED_NAMES = ("namespace", "zenoh_config", "connect", "listen", "mode", "no_multicast", "debug")
+_SHARED_NAMES = ("namespace", "zenoh_config", "connect", "listen", "mode", "no_multicast", "lan", "debug")
 
 
 def with_options(func: Callable[..., Any]) -> Callable[..., Any]:
@@ -118,7 +124,8 @@ def with_options(func: Callable[..., Any]) -> Callable[..., Any]:
         opts = CliOptions(
             namespace=shared["namespace"], zenoh_config=shared["zenoh_config"],
             connect=list(shared["connect"] or ()), listen=list(shared["listen"] or ()),
-            mode=shared["mode"], no_multicast=bool(shared["no_multicast"]), debug=bool(shared["debug"]))
+            mode=shared["mode"], no_multicast=bool(shared["no_multicast"]), debug=bool(shared["debug"]),
+            lan=bool(shared["lan"]))
         if opts.debug:
             _enable_debug()
         return func(*args, opts=opts, **kwargs)
@@ -151,7 +158,7 @@ def node_options(opts: CliOptions, name: str) -> Any:
             base.namespace = opts.namespace
         base.zenoh = ZenohOptions.from_values(
             str(opts.zenoh_config) if opts.zenoh_config is not None else None,
-            opts.connect, opts.listen, opts.mode, opts.no_multicast)
+            opts.connect, opts.listen, opts.mode, opts.no_multicast, lan=opts.lan)
         base._check()
     except OptionsError as exc:
         raise CliError(str(exc), code=2) from exc
