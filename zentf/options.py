@@ -7,7 +7,9 @@ Launcher: ``NodeOptions(...).to_env()`` gives the env vars that pass identity to
 from __future__ import annotations
 
 import argparse
+import ipaddress
 import json
+import logging
 import os
 import re
 import threading
@@ -19,13 +21,22 @@ from .names import normalize_namespace, validate_node_name
 
 __all__ = [
     "OptionsError", "ZenohOptions", "NodeOptions", "add_zenoh_arguments", "add_node_arguments",
-    "parse_param_assignment", "parse_remap", "load_params_file", "ENV_VARS",
+    "parse_param_assignment", "parse_remap", "load_params_file", "ENV_VARS", "LOCAL_PORT",
 ]
 
 ENV_VARS = ("ZENTF_NODE_NAME", "ZENTF_NAMESPACE", "ZENTF_PARAMS", "ZENTF_PARAMS_FILE", "ZENTF_REMAP",
-            "ZENTF_ZENOH_CONFIG", "ZENTF_CONNECT", "ZENTF_LISTEN", "ZENTF_MODE", "ZENTF_NO_MULTICAST")
+            "ZENTF_ZENOH_CONFIG", "ZENTF_CONNECT", "ZENTF_LISTEN", "ZENTF_MODE", "ZENTF_NO_MULTICAST",
+            "ZENTF_LAN", "ZENTF_LOCAL_PORT")
 MODES = ("peer", "client", "router")
 _ENDPOINT = re.compile(r"[a-z0-9]+/\S+\Z")
+#: Loopback port of the local profile's rendezvous: the first zentf process of this machine listens
+#: there, every later one connects to it and gossip links them all (zentf's rmw_zenohd, in-process).
+LOCAL_PORT = 7448
+#: How a peer of the local profile retries the rendezvous (its holder may exit; a later process
+#: takes the port over and everyone is linked again within ~1 s).
+_LOCAL_RETRY = "{period_init_ms: 250, period_max_ms: 1000, period_increase_factor: 2}"
+log = logging.getLogger("zentf.network")
+_warned_exposed = False
 
 
 class OptionsError(ValueError):
@@ -49,9 +60,27 @@ def _truthy(value: str | None) -> bool:
     return (value or "").strip().lower() in ("1", "true", "yes", "on")
 
 
+def _port(value: str | None, what: str) -> int:
+    if not value or not value.strip():
+        return LOCAL_PORT
+    try:
+        port = int(value.strip())
+    except ValueError:
+        port = -1
+    if not 1 <= port <= 65535:
+        raise OptionsError(f"{what}: bad port {value!r} (expected 1-65535)")
+    return port
+
+
 @dataclass
 class ZenohOptions:
-    """How to reach the Zenoh network (config file + endpoint/mode overrides)."""
+    """How to reach the Zenoh network (config file + endpoint/mode overrides).
+
+    Three profiles (docs/networking.md, Security): *local* (the default: loopback only, no multicast,
+    processes of this machine meet at ``tcp/127.0.0.1:LOCAL_PORT``), *lan* (``--lan`` /
+    ``ZENTF_LAN=1``: Zenoh's own defaults, i.e. every interface and multicast scouting) and *file*
+    (``--zenoh-config``: the file decides). Flags override each profile.
+    """
 
     config_file: str | None = None
     connect: list[str] = field(default_factory=list)
@@ -59,6 +88,17 @@ class ZenohOptions:
     mode: str | None = None
     no_multicast: bool = False
     timestamping: bool = True
+    lan: bool = False
+    local_port: int = LOCAL_PORT
+
+    @property
+    def profile(self) -> str:
+        """'file', 'lan' or 'local' (the safe default)."""
+        return "file" if self.config_file else ("lan" if self.lan else "local")
+
+    @property
+    def local_endpoint(self) -> str:
+        return f"tcp/127.0.0.1:{self.local_port}"
 
     @classmethod
     def from_env(cls, env: Mapping[str, str] | None = None) -> "ZenohOptions":
@@ -67,16 +107,21 @@ class ZenohOptions:
                    connect=_check_endpoints(_split_list(env.get("ZENTF_CONNECT")), "ZENTF_CONNECT"),
                    listen=_check_endpoints(_split_list(env.get("ZENTF_LISTEN")), "ZENTF_LISTEN"),
                    mode=(env.get("ZENTF_MODE") or None),
-                   no_multicast=_truthy(env.get("ZENTF_NO_MULTICAST")))
+                   no_multicast=_truthy(env.get("ZENTF_NO_MULTICAST")),
+                   lan=_truthy(env.get("ZENTF_LAN")),
+                   local_port=_port(env.get("ZENTF_LOCAL_PORT"), "ZENTF_LOCAL_PORT"))
         opts._check()
         return opts
 
     @classmethod
     def from_values(cls, zenoh_config: str | None = None, connect: Sequence[str] | None = None,
                     listen: Sequence[str] | None = None, mode: str | None = None,
-                    no_multicast: bool | None = None, env: Mapping[str, str] | None = None) -> "ZenohOptions":
+                    no_multicast: bool | None = None, env: Mapping[str, str] | None = None,
+                    lan: bool | None = None) -> "ZenohOptions":
         """Explicit values (e.g. typer options) over env vars; None/empty means 'not given'."""
         base = cls.from_env(env)
+        if lan:
+            base.lan = True
         if zenoh_config:
             base.config_file = zenoh_config
         if connect:
@@ -96,8 +141,16 @@ class ZenohOptions:
         if self.config_file is not None and not os.path.isfile(self.config_file):
             raise OptionsError(f"Zenoh config file not found: {self.config_file}")
 
-    def config(self) -> Any:
-        """A zenoh.Config: file (if any), then overrides; timestamping on (needed by latched topics)."""
+    def _holds_rendezvous(self) -> bool:
+        """Local profile, peer, no endpoint given: try to be this machine's rendezvous first."""
+        return self.profile == "local" and (self.mode or "peer") == "peer" and not self.listen and not self.connect
+
+    def config(self, *, hold: bool | None = None) -> Any:
+        """A zenoh.Config: profile, then file (if any), then overrides; timestamping on (latched topics).
+
+        ``hold`` (local profile): listen on the rendezvous port (True) or connect to it (False);
+        default: hold when this session may (see ``open_session``, which falls back to joining).
+        """
         import zenoh
 
         self._check()
@@ -105,7 +158,11 @@ class ZenohOptions:
             cfg = zenoh.Config.from_file(self.config_file) if self.config_file else zenoh.Config()
         except Exception as e:  # zenoh raises ZError with a multi-line text
             raise OptionsError(f"bad Zenoh config file {self.config_file}: {_config_error(str(e))}") from None
+        if hold is None:
+            hold = self._holds_rendezvous()
         try:
+            if self.profile == "local":
+                self._local_defaults(cfg, hold)
             if self.mode:
                 cfg.insert_json5("mode", json.dumps(self.mode))
             if self.connect:
@@ -121,11 +178,35 @@ class ZenohOptions:
         _check_tls_files(cfg, self.config_file)
         return cfg
 
+    def _local_defaults(self, cfg: Any, hold: bool) -> None:
+        """The local profile (as rmw_zenoh's default session): loopback only, no multicast, gossip on."""
+        mode = self.mode or "peer"
+        cfg.insert_json5("scouting/multicast/enabled", "false")
+        cfg.insert_json5("scouting/gossip/enabled", "true")
+        if mode != "client":
+            here = self.local_endpoint if hold else "tcp/127.0.0.1:0"
+            cfg.insert_json5("listen/endpoints", json.dumps([here]))
+        if not hold and mode != "router":
+            cfg.insert_json5("connect/endpoints", json.dumps([self.local_endpoint]))
+            cfg.insert_json5("connect/retry", _LOCAL_RETRY)
+
     def open_session(self) -> Any:
-        """zenoh.open(self.config()) with a one-line error on failure (e.g. port already in use)."""
+        """zenoh.open(self.config()) with a one-line error on failure (e.g. port already in use).
+
+        Local profile: the first process of the machine listens on the rendezvous port; when it is
+        taken (the usual case), the session listens on a free loopback port and connects to it.
+        """
+        if self._holds_rendezvous():
+            try:
+                return self._open(self.config(hold=True))
+            except OptionsError as e:
+                if "in use" not in str(e) and "TCP listener" not in str(e):
+                    raise
+        return self._open(self.config(hold=False))
+
+    def _open(self, cfg: Any) -> Any:
         import zenoh
 
-        cfg = self.config()
         # zenoh.open blocks in Rust (a client config may wait for its router forever) where Python
         # cannot run signal handlers: open on a helper thread so Ctrl-C/SIGTERM still stop start-up.
         result: dict[str, Any] = {}
@@ -145,6 +226,7 @@ class ZenohOptions:
             text = re.sub(r"\s+at \S+\.rs:\d+\.?", "", str(e)).strip()
             text = text.splitlines()[0] if text else type(e).__name__
             raise OptionsError(f"cannot open Zenoh session: {text}") from None
+        _warn_if_exposed(cfg)
         return result["session"]
 
     def to_env(self) -> dict[str, str]:
@@ -159,6 +241,10 @@ class ZenohOptions:
             env["ZENTF_MODE"] = self.mode
         if self.no_multicast:
             env["ZENTF_NO_MULTICAST"] = "1"
+        if self.lan:
+            env["ZENTF_LAN"] = "1"
+        if self.local_port != LOCAL_PORT:
+            env["ZENTF_LOCAL_PORT"] = str(self.local_port)
         return env
 
     def to_args(self) -> list[str]:
@@ -173,7 +259,66 @@ class ZenohOptions:
             args += ["--mode", self.mode]
         if self.no_multicast:
             args.append("--no-multicast")
+        if self.lan:
+            args.append("--lan")
         return args
+
+
+def _json_at(cfg: Any, key: str) -> Any:
+    try:
+        return json.loads(cfg.get_json(key))
+    except Exception:
+        return None
+
+
+def _is_loopback(endpoint: str) -> bool:
+    """tcp/127.0.0.1:7447, tcp/[::1]:0, tcp/localhost:7447 (+ #/? suffixes) -> True; unix sockets too."""
+    proto, _, rest = endpoint.partition("/")
+    if proto in ("unixsock-stream", "unixpipe", "vsock"):
+        return proto != "vsock"
+    host = re.split(r"[?#]", rest, maxsplit=1)[0].rsplit(":", 1)[0].strip("[]")
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def exposure(cfg: Any) -> list[str]:
+    """What makes a session reachable from other machines without authentication ([] = loopback/secured)."""
+    mode = _json_at(cfg, "mode") or "peer"
+    listen = _json_at(cfg, "listen/endpoints")
+    if isinstance(listen, dict):
+        listen = listen.get(mode, [])
+    connect = _json_at(cfg, "connect/endpoints")
+    if isinstance(connect, dict):
+        connect = connect.get(mode, [])
+    tls = _json_at(cfg, "transport/link/tls") or {}
+    auth = _json_at(cfg, "transport/auth") or {}
+    secured = bool(tls.get("enable_mtls")) or any(
+        any(v for v in (auth.get(kind) or {}).values()) for kind in ("usrpwd", "pubkey"))
+    out = []
+    wide = [ep for ep in (listen or []) + (connect or []) if isinstance(ep, str) and not _is_loopback(ep)]
+    if wide and not (secured and all(ep.split("/", 1)[0] in ("tls", "quic") for ep in wide)):
+        out.append(", ".join(wide))
+    multicast = _json_at(cfg, "scouting/multicast/enabled")
+    if multicast is None or multicast is True:
+        out.append("multicast scouting on")
+    return out
+
+
+def _warn_if_exposed(cfg: Any) -> None:
+    """One line per process when a session reaches beyond loopback unauthenticated (issue: silent LAN)."""
+    global _warned_exposed
+    if _warned_exposed:
+        return
+    what = exposure(cfg)
+    if what:
+        _warned_exposed = True
+        log.warning("Zenoh reachable beyond this machine without authentication (%s): anyone on "
+                    "the network can read and inject transforms; see docs/networking.md#security",
+                    "; ".join(what))
 
 
 def _check_tls_files(cfg: Any, source: str | None) -> None:
@@ -326,7 +471,7 @@ class NodeOptions:
             src, dst = parse_remap(r)
             opts.remappings[src] = dst
         opts.zenoh = ZenohOptions.from_values(g("zenoh_config"), g("connect"), g("listen"), g("mode"),
-                                              g("no_multicast"), env)
+                                              g("no_multicast"), env, lan=g("lan"))
         opts._check()
         return opts
 
@@ -376,6 +521,9 @@ def add_zenoh_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentPar
     g.add_argument("--mode", choices=MODES, help="Zenoh mode [ZENTF_MODE]")
     g.add_argument("--no-multicast", action="store_true", default=None,
                    help="turn multicast scouting off [ZENTF_NO_MULTICAST=1]")
+    g.add_argument("--lan", action="store_true", default=None,
+                   help="reach other machines: every interface + multicast scouting, unauthenticated "
+                        "(default: this machine only) [ZENTF_LAN=1]")
     return parser
 
 

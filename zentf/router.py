@@ -14,6 +14,7 @@ from .options import OptionsError, ZenohOptions, add_zenoh_arguments
 __all__ = ["open_router", "main", "DEFAULT_ENDPOINT"]
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
+LAN_ENDPOINT = "tcp/0.0.0.0:7447"
 
 
 def open_router(listen: Sequence[str] = (DEFAULT_ENDPOINT,), *, no_multicast: bool = True,
@@ -32,9 +33,9 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m zentf.router"
     args = parser.parse_args(argv)
     try:
         # A config file's own listen endpoints win over the default one (not over --listen).
-        listen = args.listen or ([] if args.zenoh_config else [DEFAULT_ENDPOINT])
+        listen = args.listen or ([] if args.zenoh_config else [LAN_ENDPOINT if args.lan else DEFAULT_ENDPOINT])
         opts = ZenohOptions.from_values(args.zenoh_config, args.connect, listen, "router", args.no_multicast,
-                                        env={})
+                                        env={}, lan=args.lan)
         cfg = opts.config()
         endpoints = opts.listen or _listen_endpoints(cfg) or [DEFAULT_ENDPOINT]
         session = opts.open_session()

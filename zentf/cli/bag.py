@@ -12,7 +12,7 @@ from typing import Any, Iterator, Optional
 
 import click
 
-from .common import CONTEXT_SETTINGS, CliError, CliOptions, node_options, open_node, with_options
+from .common import CONTEXT_SETTINGS, CliError, CliOptions, finite_float, node_options, open_node, with_options
 
 __all__ = ["bag"]
 
@@ -105,7 +105,7 @@ def _resolve_keys(opts: CliOptions, topics: tuple[str, ...], all_topics: bool) -
               help="Record every topic (of --namespace if one is set, else of the whole network).")
 @click.option("--output", "-o", type=click.Path(dir_okay=False, writable=True), default=None,
               help="Output file [default: zentf_<date>_<time>.mcap].")
-@click.option("--duration", type=click.FloatRange(min=0.0, min_open=True), default=None,
+@click.option("--duration", type=finite_float(min=0.0, min_open=True), default=None,
               help="Stop after this many seconds (default: until Ctrl-C).")
 @click.option("--compression", type=click.Choice(["zstd", "lz4", "none"]), default="zstd", show_default=True)
 @with_options
@@ -200,14 +200,14 @@ def _format_info(info: dict[str, Any]) -> str:
 @bag.command("play", context_settings=CONTEXT_SETTINGS)
 @click.argument("file", type=click.Path(dir_okay=False))
 @click.option("--clock", is_flag=True, help="Publish /clock with the bag time (for use_sim_time nodes).")
-@click.option("--hz", "clock_hz", type=click.FloatRange(min=1.0), default=100.0, show_default=True,
+@click.option("--hz", "clock_hz", type=finite_float(min=1.0), default=100.0, show_default=True,
               help="/clock publish rate with --clock.")
-@click.option("--rate", "-r", type=click.FloatRange(min=0.0, min_open=True), default=1.0, show_default=True,
+@click.option("--rate", "-r", type=finite_float(min=0.0, min_open=True), default=1.0, show_default=True,
               help="Playback speed factor.")
 @click.option("--loop", "-l", is_flag=True, help="Start again at the end.")
-@click.option("--start", "-s", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
+@click.option("--start", "-s", type=finite_float(min=0.0), default=0.0, show_default=True,
               help="Seconds into the bag to start at (latched topics before it are still sent).")
-@click.option("--delay", "-d", type=click.FloatRange(min=0.0), default=0.0,
+@click.option("--delay", "-d", type=finite_float(min=0.0), default=0.0,
               help="Seconds to wait after advertising, before playing.")
 @with_options
 def bag_play(file: str, clock: bool, clock_hz: float, rate: float, loop: bool, start: float, delay: float,
@@ -248,7 +248,7 @@ def bag_play(file: str, clock: bool, clock_hz: float, rate: float, loop: bool, s
 
 @bag.command("demo", context_settings=CONTEXT_SETTINGS)
 @click.option("--output", "-o", type=click.Path(dir_okay=False), default="drones.mcap", show_default=True)
-@click.option("--duration", type=click.FloatRange(min=0.1, max=3600), default=10.0, show_default=True,
+@click.option("--duration", type=finite_float(min=0.1, max=3600), default=10.0, show_default=True,
               help="Seconds of flight.")
 def bag_demo(output: str, duration: float) -> None:
     """Write a recording of the drones demo (tf, tf_static, visual_markers) to replay with `bag play`."""

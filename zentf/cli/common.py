@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import functools
+import math
 import os
 import re
 import sys
@@ -12,8 +13,8 @@ from typing import Any, Callable, Iterator, Optional
 
 import click
 
-__all__ = ["CliError", "CliOptions", "CONTEXT_SETTINGS", "liveliness_wait_option", "with_options", "open_node", "open_session",
-           "node_options", "status", "cli_node_name", "clean_error"]
+__all__ = ["CliError", "CliOptions", "CONTEXT_SETTINGS", "FiniteFloat", "FiniteFloatRange", "finite_float",
+           "liveliness_wait_option", "with_options", "open_node", "open_session", "node_options", "status", "cli_node_name", "clean_error"]
 
 
 class CliError(Exception):
@@ -26,8 +27,37 @@ class CliError(Exception):
 
 CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 
+
+def _refuse_non_finite(value: float, ptype: click.ParamType, param: Any, ctx: Any) -> float:
+    if not math.isfinite(value):
+        ptype.fail(f"{value!r} is not finite", param, ctx)
+    return value
+
+
+class FiniteFloat(click.types.FloatParamType):
+    """A float that refuses NaN and ±inf: a NaN timeout or duration would wait (or loop) forever."""
+
+    def convert(self, value: Any, param: Any, ctx: Any) -> Any:
+        return _refuse_non_finite(super().convert(value, param, ctx), self, param, ctx)
+
+
+class FiniteFloatRange(click.FloatRange):
+    """click.FloatRange that refuses NaN and ±inf first (NaN compares false, so a range alone lets it in)."""
+
+    def convert(self, value: Any, param: Any, ctx: Any) -> Any:
+        rv = click.types.FloatParamType.convert(self, value, param, ctx)
+        return super().convert(_refuse_non_finite(rv, self, param, ctx), param, ctx)
+
+
+def finite_float(min: Optional[float] = None, max: Optional[float] = None, *, min_open: bool = False,
+                 max_open: bool = False) -> click.ParamType:
+    """The one float type of every CLI option and argument: finite, optionally within a range."""
+    if min is None and max is None:
+        return FiniteFloat()
+    return FiniteFloatRange(min, max, min_open=min_open, max_open=max_open)
+
 #: `--wait` of the one-shot graph listings (node list/info, topic list/info, graph).
-liveliness_wait_option = click.option("--wait", type=click.FloatRange(min=0.0), default=2.0, show_default=True,
+liveliness_wait_option = click.option("--wait", type=finite_float(min=0.0), default=2.0, show_default=True,
                                       help="Seconds to wait for liveliness replies.")
 
 
@@ -42,6 +72,7 @@ class CliOptions:
     mode: Optional[str] = None
     no_multicast: bool = False
     debug: bool = False
+    lan: bool = False
 
     def argv(self) -> list[str]:
         """The same options as a node command line (architecture contract), for child programs."""
@@ -58,6 +89,8 @@ class CliOptions:
             out += ["--mode", self.mode]
         if self.no_multicast:
             out.append("--no-multicast")
+        if self.lan:
+            out.append("--lan")
         return out
 
 
@@ -74,9 +107,12 @@ _SHARED = [
                  help="Zenoh mode. [env ZENTF_MODE]"),
     click.option("--no-multicast", is_flag=True, default=False,
                  help="Turn multicast scouting off. [env ZENTF_NO_MULTICAST=1]"),
+    click.option("--lan", is_flag=True, default=False,
+                 help="Reach other machines (every interface, multicast scouting; unauthenticated). Default: "
+                      "this machine only. [env ZENTF_LAN=1]"),
     click.option("--debug", is_flag=True, default=False, help="Show tracebacks and debug logs."),
 ]
-_SHARED_NAMES = ("namespace", "zenoh_config", "connect", "listen", "mode", "no_multicast", "debug")
+_SHARED_NAMES = ("namespace", "zenoh_config", "connect", "listen", "mode", "no_multicast", "lan", "debug")
 
 
 def with_options(func: Callable[..., Any]) -> Callable[..., Any]:
@@ -88,7 +124,8 @@ def with_options(func: Callable[..., Any]) -> Callable[..., Any]:
         opts = CliOptions(
             namespace=shared["namespace"], zenoh_config=shared["zenoh_config"],
             connect=list(shared["connect"] or ()), listen=list(shared["listen"] or ()),
-            mode=shared["mode"], no_multicast=bool(shared["no_multicast"]), debug=bool(shared["debug"]))
+            mode=shared["mode"], no_multicast=bool(shared["no_multicast"]), debug=bool(shared["debug"]),
+            lan=bool(shared["lan"]))
         if opts.debug:
             _enable_debug()
         return func(*args, opts=opts, **kwargs)
@@ -121,7 +158,7 @@ def node_options(opts: CliOptions, name: str) -> Any:
             base.namespace = opts.namespace
         base.zenoh = ZenohOptions.from_values(
             str(opts.zenoh_config) if opts.zenoh_config is not None else None,
-            opts.connect, opts.listen, opts.mode, opts.no_multicast)
+            opts.connect, opts.listen, opts.mode, opts.no_multicast, lan=opts.lan)
         base._check()
     except OptionsError as exc:
         raise CliError(str(exc), code=2) from exc

@@ -8,7 +8,7 @@ from typing import Any, Optional
 
 import click
 
-from .common import CONTEXT_SETTINGS, CliError, CliOptions, status, with_options
+from .common import CONTEXT_SETTINGS, CliError, CliOptions, finite_float, status, with_options
 
 __all__ = ["tf"]
 
@@ -48,16 +48,16 @@ def _close(node: Any, listener: Any = None) -> None:
 @tf.command("echo", context_settings=CONTEXT_SETTINGS)
 @click.argument("source")
 @click.argument("target")
-@click.argument("rate_arg", metavar="[RATE]", required=False, type=click.FloatRange(min=0.001))
-@click.option("--rate", "-r", type=click.FloatRange(min=0.001), default=1.0, show_default=True,
+@click.argument("rate_arg", metavar="[RATE]", required=False, type=finite_float(min=0.001))
+@click.option("--rate", "-r", type=finite_float(min=0.001), default=1.0, show_default=True,
               help="Prints per second (tf2_echo's optional third argument does the same).")
 @click.option("--precision", "-p", type=click.IntRange(0, 17), default=3, show_default=True,
               help="Digits after the decimal point.")
-@click.option("--time", "-t", "at_time", type=float, default=None,
+@click.option("--time", "-t", "at_time", type=finite_float(), default=None,
               help="Look up at this fixed time (s) instead of the latest.")
 @click.option("--count", "-c", type=click.IntRange(min=0), default=0,
               help="Exit after this many prints (default: run until Ctrl-C).")
-@click.option("--timeout", type=click.FloatRange(min=0.0), default=None,
+@click.option("--timeout", type=finite_float(min=0.0), default=None,
               help="Exit 1 if no transform arrives within this many seconds (default: wait).")
 @with_options
 def echo(source: str, target: str, rate_arg: Optional[float], rate: float, precision: int,
@@ -193,7 +193,7 @@ def _frame_stats(buffer: Any) -> list:
 @tf.command("frames", context_settings=CONTEXT_SETTINGS)
 @click.option("--output", "-o", default=None, metavar="NAME",
               help="Write NAME.gv and NAME.pdf (a .svg/.png suffix picks that format). Default: frames_<date>.")
-@click.option("--wait", "-w", "--wait-time", type=click.FloatRange(min=0.0), default=5.0, show_default=True,
+@click.option("--wait", "-w", "--wait-time", type=finite_float(min=0.0), default=5.0, show_default=True,
               help="Seconds to listen before writing.")
 @click.option("--print", "-P", "print_tree", is_flag=True, help="Also print the frame tree as text.")
 @with_options
@@ -417,11 +417,11 @@ def _subscribe_tf(node: Any, stats: MonitorStats) -> list:
 @tf.command("monitor", context_settings=CONTEXT_SETTINGS)
 @click.argument("frame_a", required=False)
 @click.argument("frame_b", required=False)
-@click.option("--duration", "-d", type=click.FloatRange(min=0.0, min_open=True), default=None,
+@click.option("--duration", "-d", type=finite_float(min=0.0, min_open=True), default=None,
               help="Gather this many seconds, print one report and exit (default: run until Ctrl-C).")
-@click.option("--period", type=click.FloatRange(min=0.1), default=2.0, show_default=True,
+@click.option("--period", type=finite_float(min=0.1), default=2.0, show_default=True,
               help="Seconds between reports when stdout is not a terminal.")
-@click.option("--window", type=click.FloatRange(min=0.5), default=10.0, show_default=True,
+@click.option("--window", type=finite_float(min=0.5), default=10.0, show_default=True,
               help="Seconds of arrivals used for the rates.")
 @with_options
 def monitor(frame_a: Optional[str], frame_b: Optional[str], duration: Optional[float], period: float,

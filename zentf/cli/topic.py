@@ -9,7 +9,7 @@ from typing import Any, Optional
 
 import click
 
-from .common import CONTEXT_SETTINGS, liveliness_wait_option, CliError, CliOptions, node_options, open_session, status, with_options
+from .common import CONTEXT_SETTINGS, liveliness_wait_option, CliError, CliOptions, finite_float, node_options, open_session, status, with_options
 
 __all__ = ["topic", "resolve_type_name", "render_sample"]
 
@@ -131,7 +131,7 @@ def _subscribe(session: Any, key: str, history: bool) -> tuple[Any, "queue.Queue
 @click.option("--once", is_flag=True, help="Print one message and exit.")
 @click.option("--count", "-c", type=click.IntRange(min=0), default=0, help="Exit after this many messages.")
 @click.option("--json", "as_json", is_flag=True, help="One JSON object per line instead of YAML.")
-@click.option("--timeout", type=click.FloatRange(min=0.0), default=None,
+@click.option("--timeout", type=finite_float(min=0.0), default=None,
               help="Exit 1 if nothing arrives within this many seconds (default: wait).")
 @click.option("--no-history", is_flag=True, help="Do not fetch latched samples (e.g. of tf_static).")
 @with_options
@@ -183,9 +183,9 @@ def topic_echo(name: str, once: bool, count: int, as_json: bool, timeout: Option
 @click.argument("name")
 @click.option("--window", "-w", type=click.IntRange(min=2), default=1000, show_default=True,
               help="Messages in the moving window.")
-@click.option("--duration", "-d", type=click.FloatRange(min=0.0), default=None,
+@click.option("--duration", "-d", type=finite_float(min=0.0), default=None,
               help="Stop after this many seconds (default: until Ctrl-C).")
-@click.option("--period", type=click.FloatRange(min=0.05), default=1.0, show_default=True,
+@click.option("--period", type=finite_float(min=0.05), default=1.0, show_default=True,
               help="Seconds between reports.")
 @with_options
 def topic_hz(name: str, window: int, duration: Optional[float], period: float, *, opts: CliOptions) -> None:
@@ -272,11 +272,11 @@ def parse_message(type_name: str, data: str) -> Any:
 @click.argument("name")
 @click.argument("type_name", metavar="TYPE")
 @click.argument("data", default="{}", required=False)
-@click.option("--rate", "-r", type=click.FloatRange(min=0.001), default=1.0, show_default=True,
+@click.option("--rate", "-r", type=finite_float(min=0.001), default=1.0, show_default=True,
               help="Messages per second.")
 @click.option("--once", "-1", is_flag=True, help="Publish one message and exit.")
 @click.option("--times", "-t", type=click.IntRange(min=0), default=0, help="Publish this many messages and exit.")
-@click.option("--wait-matching", type=click.FloatRange(min=0.0), default=1.0, show_default=True,
+@click.option("--wait-matching", type=finite_float(min=0.0), default=1.0, show_default=True,
               help="Before the first message, wait up to this long for a subscriber.")
 @with_options
 def topic_pub(name: str, type_name: str, data: str, rate: float, once: bool, times: int, wait_matching: float,

@@ -16,7 +16,7 @@ from urllib.parse import quote
 import click
 
 from .bag import _stop_on_signals
-from .common import CONTEXT_SETTINGS, CliError, CliOptions, node_options, with_options
+from .common import CONTEXT_SETTINGS, CliError, CliOptions, finite_float, node_options, with_options
 
 __all__ = ["view"]
 
@@ -30,10 +30,10 @@ __all__ = ["view"]
 @click.option("--bind", default="127.0.0.1", show_default=True, help="Address the --web servers listen on.")
 @click.option("--save", "save", type=click.Path(dir_okay=False, writable=True), default=None,
               help="Write the recording to this .rrd file (open later with `rerun FILE.rrd`).")
-@click.option("--rate", type=click.FloatRange(min=0.5, max=200), default=20.0, show_default=True,
+@click.option("--rate", type=finite_float(min=0.5, max=200), default=20.0, show_default=True,
               help="Scene refreshes per second.")
-@click.option("--axis-length", type=click.FloatRange(min=0.0, min_open=True), default=0.3, show_default=True)
-@click.option("--duration", type=click.FloatRange(min=0.0, min_open=True), default=None,
+@click.option("--axis-length", type=finite_float(min=0.0, min_open=True), default=0.3, show_default=True)
+@click.option("--duration", type=finite_float(min=0.0, min_open=True), default=None,
               help="Stop after this many seconds (default: until Ctrl-C).")
 @click.option("--use-sim-time", is_flag=True, help="Time line from /clock (e.g. with `zentf bag play --clock`).")
 @with_options

@@ -10,7 +10,7 @@ from typing import Any, Optional, Sequence
 
 import click
 
-from zentf.cli.common import CONTEXT_SETTINGS, CliError, CliOptions, clean_error, node_options, with_options
+from zentf.cli.common import CONTEXT_SETTINGS, CliError, CliOptions, clean_error, finite_float, node_options, with_options
 
 from .errors import LaunchError
 
@@ -107,7 +107,7 @@ def _show_args(file: str) -> str:
 @click.option("--log-dir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Directory for nodes with output: log. [env ZENTF_LOG_DIR; default ~/.zentf/log/...]")
 @click.option("--color/--no-color", default=None, help="Colour the node name prefixes (default: on a TTY).")
-@click.option("--stop-timeout", type=click.FloatRange(0.1, 10.0), default=1.0, show_default=True,
+@click.option("--stop-timeout", type=finite_float(0.1, 10.0), default=1.0, show_default=True,
               help="Seconds between SIGINT, SIGTERM and SIGKILL when stopping nodes.")
 @with_options
 def launch(file: str, args: tuple[str, ...], print_only: bool, show_args: bool, log_dir: Optional[Path],
@@ -191,8 +191,8 @@ def _run(desc: Any, zopts: Any, log_dir: Optional[Path], color: bool, stop_timeo
 
 @click.command("clock", context_settings=CONTEXT_SETTINGS)
 @click.argument("command", type=click.Choice(["status", "pause", "resume", "rate"]), default="status")
-@click.argument("factor", required=False, type=float)
-@click.option("--timeout", type=click.FloatRange(0.1, 60.0), default=3.0, show_default=True,
+@click.argument("factor", required=False, type=finite_float())
+@click.option("--timeout", type=finite_float(0.1, 60.0), default=3.0, show_default=True,
               help="Seconds to wait for a launcher's clock to answer.")
 @click.option("--json", "as_json", is_flag=True, help="Print the clock state as JSON.")
 @with_options
