@@ -71,6 +71,11 @@ _COMMANDS: dict[str, tuple[str, str]] = {
     "router": ("zentf.cli.extern:router", "Run a Zenoh router (multi-machine graphs)."),
     "view": ("zentf.cli.view:view", "Live 3D view of frames, markers and points (Rerun)."),
     "bag": ("zentf.cli.bag:bag", "Record, inspect and play MCAP bags (rosbag)."),
+    "urdf": ("zentf.cli.urdf:urdf", "Robot models: check a URDF, graph its tree (check_urdf, urdf_to_graphiz)."),
+    "robot-state-publisher": ("zentf.cli.robot:robot_state_publisher",
+                              "Publish a URDF robot's frames from joint_states (robot_state_publisher)."),
+    "joint-state-publisher": ("zentf.cli.robot:joint_state_publisher",
+                              "Publish joint_states for a URDF: values, --sweep, --gui sliders."),
 }
 
 

@@ -36,10 +36,14 @@ __all__ = ["view"]
 @click.option("--duration", type=finite_float(min=0.0, min_open=True), default=None,
               help="Stop after this many seconds (default: until Ctrl-C).")
 @click.option("--use-sim-time", is_flag=True, help="Time line from /clock (e.g. with `zentf bag play --clock`).")
+@click.option("--robot-description", default="robot_description", show_default=True, metavar="TOPIC",
+              help="Draw the robot model (URDF text) latched on this topic; '' to draw none.")
+@click.option("--frame-prefix", default="", metavar="PREFIX", help="The robot's frames are PREFIX + link name.")
 @with_options
 def view(fixed_frame: str, web: bool, web_port: int, grpc_port: int, bind: str, save: Optional[str], rate: float,
-         axis_length: float, duration: Optional[float], use_sim_time: bool, *, opts: CliOptions) -> None:
-    """Live 3D view of every tf frame (axes + names), marker arrays and points, like RViz."""
+         axis_length: float, duration: Optional[float], use_sim_time: bool, robot_description: str,
+         frame_prefix: str, *, opts: CliOptions) -> None:
+    """Live 3D view of every tf frame (axes + names), marker arrays, points and the robot model, like RViz."""
     from zentf.tools.view import require_rerun
 
     try:
@@ -87,7 +91,8 @@ def view(fixed_frame: str, web: bool, web_port: int, grpc_port: int, bind: str, 
                   f"/?url={quote(grpc_url, safe='')}", flush=True)
         if save:
             print(f"saving to {save}", flush=True)
-        viewer = Viewer(node, rec, fixed_frame=fixed_frame, axis_length=axis_length)
+        viewer = Viewer(node, rec, fixed_frame=fixed_frame, axis_length=axis_length,
+                        robot_description=robot_description or None, frame_prefix=frame_prefix)
         print(f"viewing {node.get_namespace()} in fixed frame '{fixed_frame}' (Ctrl-C to stop)", flush=True)
         with _stop_on_signals() as stop:
             if native is not None:  # closing the viewer window ends the view too

@@ -314,3 +314,31 @@ class MarkerArray(Message):
 
 
 __all__ += ["Twist", "TurtlePose", "SpawnRequest", "SpawnResponse", "ColorRGBA", "Marker", "MarkerArray"]
+
+
+# --- Robot models (zentf.urdf, robot_state_publisher, joint_state_publisher) ---------------------
+
+
+@register
+@dataclass(slots=True)
+class String(Message):
+    """std_msgs/String: the URDF text on ``robot_description``."""
+
+    TYPE_NAME: ClassVar[str] = "std_msgs/msg/String"
+    data: str = ""
+
+
+@register
+@dataclass(slots=True)
+class JointState(Message):
+    """sensor_msgs/JointState: ``name[i]`` is at ``position[i]``; velocity/effort may be empty."""
+
+    TYPE_NAME: ClassVar[str] = "sensor_msgs/msg/JointState"
+    header: Header = field(default_factory=Header)
+    name: list[str] = field(default_factory=list)
+    position: list[float] = field(default_factory=list)
+    velocity: list[float] = field(default_factory=list)
+    effort: list[float] = field(default_factory=list)
+
+
+__all__ += ["String", "JointState"]

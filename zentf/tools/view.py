@@ -53,7 +53,8 @@ class Viewer:
     """Mirrors a namespace's tf tree and visual topics into a Rerun recording stream."""
 
     def __init__(self, node: Any, recording: Any, *, fixed_frame: str = "world", axis_length: float = 0.3,
-                 label_frames: bool = True) -> None:
+                 label_frames: bool = True,
+                 robot_description: str | None = "robot_description", frame_prefix: str = "") -> None:
         import rerun as rr
 
         from ..buffer import Buffer
@@ -82,6 +83,14 @@ class Viewer:
 
         self._complain = RateLimitedLog(log)
         self.rec.log("tf", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        self.robot = None
+        if robot_description:  # RViz's RobotModel: the URDF from the latched topic, drawn on its frames
+            from ..core.messages import String
+            from .robot_view import RobotModelDisplay
+
+            robot = self.robot = RobotModelDisplay(rr, recording, frame_prefix=frame_prefix)
+            node.create_subscription(robot_description, String, lambda m: robot.set_description(m.data),
+                                     latched=True)
 
     def _on_sample(self, sample: Any) -> None:  # Zenoh thread: filter by carried type, copy, hand over
         try:
@@ -109,6 +118,8 @@ class Viewer:
             except Exception as e:  # noqa: BLE001 - one bad message must not stop the view
                 self.problems += 1
                 self._complain(f"bad:{key}", f"dropped bad {type_name} on '{key}': {e}")
+        if self.robot is not None:
+            self.robot.draw(self._shown_frames, frame_path)
         self.ticks += 1
 
     def _log_frames(self) -> None:

@@ -1,0 +1,176 @@
+"""robot_state_publisher + joint_state_publisher as real processes, seen by real listener processes."""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cli_helpers import assert_one_line_error, zentf
+from conftest import REPO
+from zentf.urdf import Kinematics, load_urdf
+
+DATA = REPO / "tests" / "data" / "urdf"
+R2D2 = DATA / "urdf_tutorial" / "urdf" / "06-flexible.urdf"
+BURGER = DATA / "turtlebot3_burger.urdf"
+MY_ROBOT = REPO / "configs" / "robots" / "my_robot.urdf"
+PROBE = str(REPO / "tests" / "tf_lookup_probe.py")
+
+
+def _matrix(t: list[float], q: list[float]) -> np.ndarray:
+    x, y, z, w = q
+    m = np.eye(4)
+    m[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                 [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                 [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+    m[:3, 3] = t
+    return m
+
+
+def _wait_pairs(probe, pairs: set[str], timeout: float = 30.0) -> dict[str, dict]:
+    """The first line of each pair from a tf_lookup_probe process."""
+    got: dict[str, dict] = {}
+    while set(got) != pairs:
+        line = json.loads(probe.wait_for_line(r'^\{"pair"', timeout=timeout).string)
+        got.setdefault(line["pair"], line)
+    return got
+
+
+def test_rsp_and_jsp_processes_give_a_listener_the_fk_frames(spawn, zenoh_args) -> None:
+    values = {"right_front_wheel_joint": 0.7, "gripper_extension": -0.21, "left_gripper_joint": 0.33,
+              "head_swivel": -0.82}
+    rsp = spawn.python("-m", "nodes.robot_state_publisher", str(R2D2))
+    rsp.wait_for_line(r"publishing robot 'visual' \(16 links\): 7 fixed joints on tf_static, 8 movable", timeout=30)
+    jsp = spawn.python("-m", "nodes.joint_state_publisher", str(R2D2),
+                       *[a for n, v in values.items() for a in ("--set", f"{n}={v}")])
+    jsp.wait_for_line(r"publishing joint_states of robot 'visual': 8 movable joints at 10 Hz", timeout=30)
+    pairs = {"base_link:right_front_wheel", "base_link:left_gripper", "base_link:left_tip", "base_link:box"}
+    probe = spawn.python(PROBE, *sorted(pairs))
+    got = _wait_pairs(probe, pairs)
+    kin = Kinematics(load_urdf(R2D2))
+    poses = kin.link_poses(values)
+    for pair, line in got.items():
+        link = pair.split(":")[1]
+        assert np.abs(_matrix(line["t"], line["q"]) - poses[link]).max() < 1e-9, (pair, line)
+    # a listener that joins late, listening to tf_static only, still gets every fixed joint
+    late = spawn.python(PROBE, "--static-only", "base_link:right_base", "left_gripper:left_tip", "head:box")
+    got = _wait_pairs(late, {"base_link:right_base", "left_gripper:left_tip", "head:box"})
+    assert got["base_link:right_base"]["t"] == pytest.approx([0, -0.22, -0.35])
+    assert got["head:box"]["t"] == pytest.approx([0.1814, 0, 0.1414])
+
+
+def test_stamp_mimic_prefix_and_unknown_joints(spawn, node_options) -> None:
+    from zentf.core.messages import Header, JointState
+    from zentf.core.time import Time
+    from zentf.node import Node
+
+    rsp = spawn.python("-m", "nodes.robot_state_publisher", str(MY_ROBOT), "--frame-prefix", "r1/",
+                       "-p", "publish_frequency:=1000")
+    rsp.wait_for_line(r"publishing robot 'my_robot'", timeout=30)
+    probe = spawn.python(PROBE, "r1/gripper_pole:r1/right_gripper", "r1/base_link:r1/gripper_pole")
+    probe.wait_for_line("probe ready", timeout=30)
+    with Node("js_sender", options=node_options) as node:
+        pub = node.create_publisher("joint_states", JointState)
+        assert pub.wait_for_subscribers(10.0)
+        stamp = Time(1_700_000_000, 123_456_789)
+        pub.publish(JointState(Header(stamp), ["left_gripper_joint", "gripper_extension", "bogus"],
+                               [0.4, -0.1, 1.0], [], []))
+        got = _wait_pairs(probe, {"r1/gripper_pole:r1/right_gripper", "r1/base_link:r1/gripper_pole"})
+        right = got["r1/gripper_pole:r1/right_gripper"]
+        assert right["stamp"] == stamp.nanoseconds            # the JointState's stamp, not now
+        assert right["t"] == pytest.approx([0.2, -0.01, 0])
+        # mimic: right_gripper_joint = left_gripper_joint, about -z
+        assert right["q"] == pytest.approx([0, 0, -math.sin(0.2), math.cos(0.2)], abs=1e-12)
+        assert got["r1/base_link:r1/gripper_pole"]["t"] == pytest.approx([0.09, 0, 0.2])
+        for i in range(20):  # a flood of unknown names: one warning
+            pub.publish(JointState(Header(Time(1_700_000_001, i)), ["bogus"], [0.0], [], []))
+        pub.publish(JointState(Header(Time(1_700_000_002, 0)), ["left_gripper_joint"], [0.1], [], []))
+        while True:
+            line = json.loads(probe.wait_for_line(r'^\{"pair"', timeout=30).string)
+            if line["pair"] == "r1/gripper_pole:r1/right_gripper" and line["stamp"] == Time(1_700_000_002, 0).nanoseconds:
+                break
+    warnings = [ln for ln in rsp.lines if "unknown joint 'bogus'" in ln]
+    assert len(warnings) == 1, rsp.output()
+
+
+def test_missing_meshes_do_not_stop_the_publisher_and_robot_description_is_latched(spawn, node_options) -> None:
+    from zentf.core.messages import String
+    from zentf.node import Node
+
+    rsp = spawn.python("-m", "nodes.robot_state_publisher", str(BURGER))
+    rsp.wait_for_line(r"publishing robot 'turtlebot3_burger' \(7 links\): 4 fixed joints", timeout=30)
+    probe = spawn.python(PROBE, "--static-only", "base_footprint:base_scan")
+    got = _wait_pairs(probe, {"base_footprint:base_scan"})
+    assert got["base_footprint:base_scan"]["t"] == pytest.approx([-0.032, 0, 0.182])
+    received: list[str] = []
+    done = threading.Event()
+    with Node("description_reader", options=node_options) as node:
+        node.create_subscription("robot_description", String,
+                                 lambda m: (received.append(m.data), done.set()), latched=True)
+        assert done.wait(20), "robot_description was not delivered to a late subscriber"
+    assert received[0] == BURGER.read_text()
+    assert rsp.returncode is None
+
+
+def _broken_my_robot(tmp_path: Path) -> tuple[Path, int]:
+    text = MY_ROBOT.read_text()
+    broken = text.replace('<parent link="base_link"/>\n    <child link="gripper_pole"/>',
+                          '<parent link="gripper_pole"/>\n    <child link="gripper_pole"/>')
+    path = tmp_path / "my_robot_broken.urdf"
+    path.write_text(broken)
+    return path, 1 + broken[:broken.index('<joint name="gripper_extension"')].count("\n")
+
+
+@pytest.mark.parametrize("program", ["robot_state_publisher", "joint_state_publisher"])
+def test_malformed_urdf_refused_before_anything_starts(program, tmp_path, zenoh_env) -> None:
+    path, line = _broken_my_robot(tmp_path)
+    expected = f"{path}:{line}: <joint name='gripper_extension'>: parent and child are the same link 'gripper_pole'"
+    proc = subprocess.run([sys.executable, "-m", f"nodes.{program}", str(path)], env=zenoh_env, cwd=str(REPO),
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2
+    assert proc.stdout == ""
+    assert proc.stderr.splitlines() == [f"{program}: error: {expected}"]
+    cli = zentf([program.replace("_", "-"), str(path)], zenoh_env)
+    assert_one_line_error(cli, expected, code=2)
+    assert cli.stdout == ""
+
+
+def test_joint_state_publisher_start_errors(zenoh_env) -> None:
+    for args, needle in [
+        (["--set", "head_swivel=abc"], "--set head_swivel=abc: 'abc' is not a number"),
+        (["--set", "nope=1"], "'nope' is not a movable joint of robot 'visual'"),
+        (["--set", "gripper_extension=0.5"], "outside the joint's range [-0.38, 0]"),
+        (["--sweep", "--gui"], "--sweep and --gui exclude each other"),
+        (["--bogus"], "unrecognized arguments: --bogus"),
+    ]:
+        proc = zentf(["joint-state-publisher", str(R2D2), *args], zenoh_env)
+        assert_one_line_error(proc, needle, code=2)
+    proc = zentf(["joint-state-publisher"], zenoh_env)
+    assert_one_line_error(proc, "no robot model", code=2)
+
+
+def test_urdf_check_and_graph(tmp_path) -> None:
+    proc = zentf(["urdf", "check", str(R2D2)], None)
+    assert proc.returncode == 0, proc.stderr
+    out = proc.stdout.splitlines()
+    assert out[0] == "robot name is: visual"
+    assert out[2] == "root Link: base_link has 4 child(ren)"
+    assert "        child(1):  right_base  (fixed joint 'right_base_joint')" in out
+    assert "    child(3):  gripper_pole  (prismatic joint 'gripper_extension')" in out
+    assert "16 links, 15 joints (5 continuous, 7 fixed, 1 prismatic, 2 revolute)" in out
+    path, line = _broken_my_robot(tmp_path)
+    assert_one_line_error(zentf(["urdf", "check", str(path)], None), f"{path}:{line}:", code=2)
+    proc = zentf(["urdf", "graph", str(MY_ROBOT), "-o", str(tmp_path / "my_robot")], None)
+    assert proc.returncode == 0, proc.stderr
+    gv = (tmp_path / "my_robot.gv").read_text()
+    assert '"base_link" -> "joint:gripper_extension" [label="xyz: 0.19 0 0.2 \\nrpy: 0 0 0"];' in gv
+    assert '"joint:gripper_extension" -> "gripper_pole";' in gv
+    if (tmp_path / "my_robot.pdf").exists():
+        assert (tmp_path / "my_robot.pdf").read_bytes().startswith(b"%PDF")
+    else:  # graphviz missing: the .gv alone, with the reason on stderr
+        assert "dot" in proc.stderr

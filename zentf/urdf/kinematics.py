@@ -1,0 +1,196 @@
+"""Forward kinematics: every link's pose in the root link, for one joint vector or many at once.
+
+A joint's transform parent -> child is ``origin · motion(q)``: a rotation about the (origin-frame)
+axis for revolute and continuous joints, a translation along it for prismatic ones; fixed, floating
+and planar joints contribute their origin only (robot_state_publisher's KDL tree does the same).
+Mimic joints follow ``multiplier * q(master) + offset``. The batch path works on ``(N, links, 4, 4)``
+arrays: one numpy step per joint for all N vectors.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.math3d import quaternion_multiply_batch
+from .model import Joint, Robot
+
+__all__ = ["Kinematics", "JointTransforms"]
+
+_FIXED, _REVOLUTE, _PRISMATIC = 0, 1, 2
+
+
+@dataclass(slots=True)
+class _JointData:
+    name: str
+    kind: int
+    parent: int          # index of the parent link in Kinematics.link_names
+    child: int
+    origin: np.ndarray   # 4x4
+    axis: np.ndarray     # (3,)
+    cross: np.ndarray    # 3x3 cross-product matrix of axis
+    source: int          # index into the actuated vector, -1: none (fixed, or mimic of a non-actuated joint)
+    multiplier: float
+    offset: float
+
+
+def _cross_matrix(a: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+
+
+class Kinematics:
+    """FK over a checked ``Robot``. ``joint_names`` is the order of joint vectors (actuated joints)."""
+
+    def __init__(self, robot: Robot) -> None:
+        self.robot = robot
+        order = robot.joints_in_order()
+        self.link_names: list[str] = [robot.root] + [j.child for j in order]
+        self._link_index = {n: i for i, n in enumerate(self.link_names)}
+        actuated = robot.actuated_joints()
+        self.joint_names: list[str] = [j.name for j in actuated]
+        self._index = {n: i for i, n in enumerate(self.joint_names)}
+        self._joints: list[_JointData] = []
+        for j in order:
+            kind = _REVOLUTE if j.type in ("revolute", "continuous") else _PRISMATIC if j.type == "prismatic" else _FIXED
+            source, mult, off = self._source(j)
+            axis = np.array(j.axis, dtype=float)
+            self._joints.append(_JointData(j.name, kind, self._link_index[j.parent], self._link_index[j.child],
+                                           j.origin.matrix(), axis, _cross_matrix(axis), source, mult, off))
+
+    def _source(self, j: Joint) -> tuple[int, float, float]:
+        """Which actuated joint drives j, and how: (index, multiplier, offset)."""
+        if not j.movable:
+            return -1, 0.0, 0.0
+        mult, off = 1.0, 0.0
+        while j.mimic is not None:
+            m = j.mimic
+            off = mult * m.offset + off
+            mult = mult * m.multiplier
+            j = self.robot.joints[m.joint]
+        if not j.movable:
+            return -1, 0.0, off
+        return self._index[j.name], mult, off
+
+    # ------------------------------------------------------------------ positions
+    def vector(self, positions: Mapping[str, float] | Sequence[float] | None) -> np.ndarray:
+        """A joint vector in ``joint_names`` order from a name -> value mapping (missing: 0)."""
+        if positions is None:
+            return np.zeros(len(self.joint_names))
+        if isinstance(positions, Mapping):
+            q = np.zeros(len(self.joint_names))
+            for name, v in positions.items():
+                i = self._index.get(name)
+                if i is not None:
+                    q[i] = float(v)
+            return q
+        q = np.asarray(positions, dtype=float)
+        if q.shape != (len(self.joint_names),):
+            raise ValueError(f"expected {len(self.joint_names)} joint values ({', '.join(self.joint_names)}), "
+                             f"got shape {q.shape}")
+        return q
+
+    def joint_positions(self, positions: Mapping[str, float] | Sequence[float] | None) -> dict[str, float]:
+        """The position of every movable joint (mimic joints computed) for a joint vector."""
+        q = self.vector(positions)
+        return {jd.name: (jd.multiplier * q[jd.source] if jd.source >= 0 else 0.0) + jd.offset
+                for jd in self._joints if jd.kind != _FIXED}
+
+    # ------------------------------------------------------------------ one vector
+    @staticmethod
+    def _motion(jd: _JointData, v: float) -> np.ndarray:
+        m = np.eye(4)
+        if jd.kind == _REVOLUTE:
+            s, c = math.sin(v), math.cos(v)
+            m[:3, :3] += s * jd.cross + (1.0 - c) * (jd.cross @ jd.cross)
+        elif jd.kind == _PRISMATIC:
+            m[:3, 3] = jd.axis * v
+        return m
+
+    def joint_transform(self, joint: str, position: float = 0.0) -> np.ndarray:
+        """4x4 parent -> child of one joint at ``position``."""
+        jd = next((x for x in self._joints if x.name == joint), None)
+        if jd is None:
+            raise KeyError(f"unknown joint {joint!r}")
+        return jd.origin if jd.kind == _FIXED else jd.origin @ self._motion(jd, position)
+
+    def link_poses(self, positions: Mapping[str, float] | Sequence[float] | None = None) -> dict[str, np.ndarray]:
+        """Every link's 4x4 pose in the root link."""
+        q = self.vector(positions)
+        poses = [np.eye(4)] * len(self.link_names)
+        for jd in self._joints:
+            parent = poses[jd.parent]
+            if jd.kind == _FIXED:
+                poses[jd.child] = parent @ jd.origin
+            else:
+                v = (jd.multiplier * q[jd.source] if jd.source >= 0 else 0.0) + jd.offset
+                poses[jd.child] = parent @ jd.origin @ self._motion(jd, v)
+        return dict(zip(self.link_names, poses))
+
+    def link_pose(self, link: str, positions: Mapping[str, float] | Sequence[float] | None = None,
+                  base: str | None = None) -> np.ndarray:
+        """4x4 pose of ``link`` in ``base`` (default: the root link)."""
+        poses = self.link_poses(positions)
+        try:
+            pose = poses[link]
+            return pose if base is None else np.linalg.inv(poses[base]) @ pose
+        except KeyError as e:
+            raise KeyError(f"unknown link {e.args[0]!r}") from None
+
+    # ------------------------------------------------------------------ many vectors
+    def link_poses_batch(self, q: np.ndarray) -> np.ndarray:
+        """``(N, len(link_names), 4, 4)`` poses for ``q`` of shape ``(N, len(joint_names))``."""
+        q = np.asarray(q, dtype=float)
+        if q.ndim != 2 or q.shape[1] != len(self.joint_names):
+            raise ValueError(f"expected an (N, {len(self.joint_names)}) array of joint vectors, got {q.shape}")
+        n = q.shape[0]
+        out = np.empty((n, len(self.link_names), 4, 4))
+        out[:, 0] = np.eye(4)
+        for jd in self._joints:
+            parent = out[:, jd.parent]
+            if jd.kind == _FIXED:
+                np.matmul(parent, jd.origin, out=out[:, jd.child])
+                continue
+            v = q[:, jd.source] * jd.multiplier + jd.offset if jd.source >= 0 else np.full(n, jd.offset)
+            motion = np.zeros((n, 4, 4))
+            motion[:, 3, 3] = 1.0
+            if jd.kind == _REVOLUTE:
+                k = jd.cross
+                motion[:, :3, :3] = (np.eye(3) + np.sin(v)[:, None, None] * k
+                                     + (1.0 - np.cos(v))[:, None, None] * (k @ k))
+            else:
+                motion[:, :3, :3] = np.eye(3)
+                motion[:, :3, 3] = v[:, None] * jd.axis
+            np.matmul(parent @ jd.origin, motion, out=out[:, jd.child])
+        return out
+
+
+class JointTransforms:
+    """robot_state_publisher's per-joint transforms (parent -> child, translation + quaternion),
+    vectorized over the joints of one joint state."""
+
+    def __init__(self, robot: Robot, joints: Sequence[Joint]) -> None:
+        from ..core.math3d import quaternion_from_rpy
+
+        self.names = [j.name for j in joints]
+        self.parents = [j.parent for j in joints]
+        self.children = [j.child for j in joints]
+        self.t0 = np.array([j.origin.xyz for j in joints], dtype=float).reshape(-1, 3)
+        self.q0 = np.array([quaternion_from_rpy(*j.origin.rpy) for j in joints], dtype=float).reshape(-1, 4)
+        axes = np.array([j.axis for j in joints], dtype=float).reshape(-1, 3)
+        self.axis = axes
+        rot = np.array([j.origin.matrix()[:3, :3] for j in joints]).reshape(-1, 3, 3)
+        self.slide = np.einsum("jab,jb->ja", rot, axes)  # prismatic direction in the parent frame
+        self.revolute = np.array([j.type in ("revolute", "continuous") for j in joints], dtype=bool)
+        self.prismatic = np.array([j.type == "prismatic" for j in joints], dtype=bool)
+
+    def compute(self, idx: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(translations (k,3), quaternions (k,4)) of joints ``idx`` at ``values``."""
+        half = np.where(self.revolute[idx], values * 0.5, 0.0)
+        qm = np.empty((len(idx), 4))
+        qm[:, :3] = self.axis[idx] * np.sin(half)[:, None]
+        qm[:, 3] = np.cos(half)
+        q = quaternion_multiply_batch(self.q0[idx], qm)
+        t = self.t0[idx] + self.slide[idx] * np.where(self.prismatic[idx], values, 0.0)[:, None]
+        return t, q
