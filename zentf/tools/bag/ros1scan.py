@@ -48,8 +48,11 @@ def _fields(buf: bytes | memoryview) -> dict[str, bytes]:
     return out
 
 
-def _records(buf: memoryview, base: int) -> Iterator[tuple[int, dict[str, bytes], memoryview]]:
-    """(offset, header fields, data) of each record; raises ValueError at a broken frame."""
+def _records(buf: memoryview, base: int, partial_chunk: bool = False
+             ) -> Iterator[tuple[int, dict[str, bytes], memoryview]]:
+    """(offset, header fields, data) of each record; raises ValueError at a broken frame and
+    EOFError(offset) at one running past the end (with ``partial_chunk``, a chunk cut by the end is
+    still yielded with the bytes there are, then EOFError)."""
     i, n = 0, len(buf)
     while i < n:
         if i + 4 > n:
@@ -61,20 +64,23 @@ def _records(buf: memoryview, base: int) -> Iterator[tuple[int, dict[str, bytes]
         (dl,) = _U32.unpack_from(buf, i + 4 + hl)
         start = i + 8 + hl
         if dl > n - start:
+            if partial_chunk and head.get("op", b"\x00")[0] == _OP_CHUNK:
+                yield base + i, head, buf[start:]
             raise EOFError(base + i)
         yield base + i, head, buf[start:start + dl]
         i = start + dl
 
 
 def _decompress(kind: bytes, data: memoryview, size: int) -> bytes:
+    """The chunk's records; of a chunk cut short, as much as its compressed prefix gives."""
     if kind == b"none":
         return bytes(data)
     if kind == b"bz2":
-        return bz2.decompress(data)
+        return bz2.BZ2Decompressor().decompress(data)
     if kind == b"lz4":
         import lz4.frame
 
-        return lz4.frame.decompress(bytes(data))
+        return lz4.frame.LZ4FrameDecompressor().decompress(bytes(data))
     raise ValueError(f"unknown chunk compression {kind.decode('ascii', 'replace')!r}")
 
 
@@ -106,7 +112,7 @@ class Ros1Scan:
         size = len(data)
         pos = 13  # after the magic line
         try:
-            for off, head, body in _records(data[pos:], pos):
+            for off, head, body in _records(data[pos:], pos, partial_chunk=True):
                 op = head.get("op", b"\x00")[0]
                 if op == _OP_CONN:
                     self._connection(head, body)
@@ -120,9 +126,12 @@ class Ros1Scan:
                         self.skipped_chunks += 1
                         self.problem = f"skipped a damaged chunk at byte {off} ({type(e).__name__})"
                         continue
+                    records = []
                     try:
-                        records = list(_records(memoryview(inner), 0))
-                    except (EOFError, ValueError, KeyError, struct.error) as e:
+                        records.extend(_records(memoryview(inner), 0))
+                    except EOFError:  # a chunk cut by the end of the file: its whole records count
+                        pass
+                    except (ValueError, KeyError, struct.error) as e:
                         self.skipped_chunks += 1
                         self.problem = f"skipped a damaged chunk at byte {off} ({type(e).__name__})"
                         continue

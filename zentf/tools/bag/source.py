@@ -118,21 +118,23 @@ class Bag:
             return
         from zentf.wire import pack
 
-        bad_payloads: dict[str, int] = {}
+        decoded: set[str] = set()  # topics with at least one decoded message
+        bad = 0
         for m in self.raw(topics):
             if m.topic in self.skipped:
                 continue
             try:
                 payload = pack(self.decode(m))
             except ValueError as e:
-                if m.conn.msgtype and self._ros.ensure_type(m.conn) is None:
-                    bad_payloads[m.topic] = bad_payloads.get(m.topic, 0) + 1
-                    if bad_payloads[m.topic] == 1:
+                if m.topic in decoded:  # one damaged message of a good topic costs itself
+                    bad += 1
+                    if bad == 1:
                         log.warning("%s: a %s message does not decode (%s); skipping such messages",
                                     m.topic, m.type_name, e)
                     continue
                 self._skip(m.topic, f"type {m.type_name or '?'} cannot be carried: {e}", on_skip)
                 continue
+            decoded.add(m.topic)
             yield BagMessage(zentf_topic(m.topic), m.type_name, f"application/msgpack;{m.type_name}", m.sender,
                              m.latched, "", m.log_time, payload)
 
