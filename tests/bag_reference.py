@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 DATA = Path(__file__).resolve().parent / "data" / "ros_bags"
-NAV2 = DATA / "nav2_turtlebot.mcap"
+NAV2 = DATA.parent / "nav2_turtlebot.mcap"  # shared with the CDR codec tests
 ROS1 = DATA / "tf_example.bag"
 ROS2_DIR = DATA / "tf_example"
 ROS2_DB3 = DATA / "tf_example" / "tf_example.db3"
