@@ -18,6 +18,7 @@ __all__ = ["load_buffer"]
 log = logging.getLogger("zentf.tools.bag")
 
 _LOAD_CACHE_NS = 1 << 62  # nothing is pruned while loading
+_BATCH = 4096
 
 
 def _set_cache_time(core: Any, ns: int) -> None:
@@ -45,14 +46,25 @@ def load_buffer(path: str | os.PathLike, *, topics: Collection[str] | None = Non
     bag = open_bag(path)
     buf = Buffer(cache_time=Duration(nanoseconds=_LOAD_CACHE_NS))
     insert = buf.set_transforms_raw
+    # rows of consecutive messages with the same (static, authority) go in as one batch: same order,
+    # same result, one lock and one wake-up per batch
+    batch: list = []
+    key: tuple[bool, str] = (False, "")
     for is_static, authority, payload, rows in bag.tf(topics):
         if rows is None:
             try:
                 ingest_tf(payload, buf, authority, is_static)
             except ValueError as e:
                 log.debug("undecodable TFMessage in %s: %s", path, e)
-        elif rows:
-            insert(rows, authority, is_static)
+            continue
+        if (is_static, authority) != key or len(batch) >= _BATCH:
+            if batch:
+                insert(batch, key[1], key[0])
+            batch = []
+            key = (is_static, authority)
+        batch += rows
+    if batch:
+        insert(batch, key[1], key[0])
     newest = oldest = None
     for f in buf.frame_info():
         if f["static"]:

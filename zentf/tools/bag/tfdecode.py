@@ -32,13 +32,15 @@ def rows_of(msg: Any) -> list[Row]:
 
 
 def _zentf_codec() -> Callable[[bytes], list[Row]] | None:
-    """zentf.ros' fast TFMessage decoder, if this tree has it (None otherwise)."""
+    """zentf.ros' hand-laid TFMessage decoder (elements it refuses are dropped, as the buffer would)."""
     try:
-        from zentf.ros import cdr  # type: ignore[attr-defined]
-    except ImportError:
+        from zentf.ros.tf import tf_samples
+    except ImportError:  # pragma: no cover - zentf.ros ships with zentf; kept so this stays one switch
         return None
-    decode = getattr(cdr, "decode_tf_rows", None)
-    return decode if callable(decode) else None
+
+    def decode(raw: bytes) -> list[Row]:
+        return tf_samples(raw)[0]
+    return decode
 
 
 def cdr_tf_decoder() -> tuple[str, Callable[[bytes], list[Row]]]:
