@@ -14,7 +14,7 @@ import struct
 import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
 __all__ = ["McapSchema", "McapChannel", "McapScan", "MAGIC"]
 
@@ -88,6 +88,30 @@ def _decompress(kind: str, data: bytes, size: int) -> bytes:
 
         return lz4.frame.decompress(data)
     raise ValueError(f"unknown chunk compression {kind!r}")
+
+
+def _salvage(kind: str, data: bytes) -> bytes:
+    """As much of a damaged or cut chunk as decompresses, fed in pieces so the output before the
+    damage is kept (zstd and lz4 emit whole blocks, so what comes out was checked block by block)."""
+    if kind == "":
+        return data
+    if kind == "zstd":
+        import zstandard
+
+        dec: Any = zstandard.ZstdDecompressor().decompressobj()
+    elif kind == "lz4":
+        import lz4.frame
+
+        dec = lz4.frame.LZ4FrameDecompressor()
+    else:
+        return b""
+    out = []
+    for i in range(0, len(data), 16384):
+        try:
+            out.append(dec.decompress(data[i:i + 16384]))
+        except Exception:  # noqa: BLE001 - the damage: keep what came before it
+            break
+    return b"".join(out)
 
 
 class McapScan:
@@ -190,12 +214,36 @@ class McapScan:
                         return
             except EOFError as e:
                 where = e.args[0] if e.args else pos
+                yield from self._cut_chunk(f, where)
                 self.problem = f"stopped at byte {where} (a record runs past the end): truncated at byte {self.size}"
                 return
         if self.problem is None:
             self.problem = "no summary (the recorder did not close the file)"
 
+    def _records(self, data: bytes, out: list, strict: bool) -> None:
+        """Messages of a chunk's records into ``out``; a bad record raises (strict) or ends it."""
+        j, end = 0, len(data)
+        channels = self.channels
+        while j + 9 <= end:
+            op, m = _REC.unpack_from(data, j)
+            j += 9
+            if m > end - j or (op == _MESSAGE and m < 22):
+                if strict:
+                    raise ValueError("record runs past the chunk")
+                return
+            if op == _MESSAGE:
+                cid, _, log_time, _ = _MSG.unpack_from(data, j)
+                ch = channels.get(cid)
+                if ch is not None:
+                    out.append((ch, log_time, data[j + 22:j + m]))
+            elif op in (_SCHEMA, _CHANNEL):
+                self._definition(op, data[j:j + m])
+            j += m
+        if strict and j != end:
+            raise ValueError("record runs past the chunk")
+
     def _chunk(self, body: bytes, where: int) -> Iterator[tuple[McapChannel, int, bytes]]:
+        out: list = []
         try:
             _, _, size, crc = _CHUNK_HEAD.unpack_from(body, 0)
             kind, i = _string(body, 28)
@@ -203,27 +251,34 @@ class McapScan:
             i += 8
             if n > len(body) - i:
                 raise ValueError("chunk records run past the chunk")
-            data = _decompress(kind, body[i:i + n], size)
+            try:
+                data = _decompress(kind, body[i:i + n], size)
+            except Exception:  # noqa: BLE001 - damaged compressed data: keep what decodes before it
+                self._records(_salvage(kind, body[i:i + n]), out, strict=False)
+                raise
             if crc and zlib.crc32(data) != crc:
-                raise ValueError("CRC mismatch")
-            out = []
-            j, end = 0, len(data)
-            channels = self.channels
-            while j < end:
-                op, m = _REC.unpack_from(data, j)
-                j += 9
-                if m > end - j:
-                    raise ValueError("record runs past the chunk")
-                if op == _MESSAGE:
-                    cid, _, log_time, _ = _MSG.unpack_from(data, j)
-                    ch = channels.get(cid)
-                    if ch is not None:
-                        out.append((ch, log_time, data[j + 22:j + m]))
-                elif op in (_SCHEMA, _CHANNEL):
-                    self._definition(op, data[j:j + m])
-                j += m
-        except Exception as e:  # noqa: BLE001 - a damaged chunk: skip it, go on
+                raise ValueError("CRC mismatch")  # no telling which records are wrong: none is kept
+            self._records(data, out, strict=True)
+        except Exception as e:  # noqa: BLE001 - a damaged chunk: skip (the rest of) it, go on
             self.skipped_chunks += 1
-            self.problem = f"skipped a damaged chunk at byte {where} ({type(e).__name__}: {str(e)[:60]})"
+            kept = f", kept {len(out)} messages before the damage" if out else ""
+            self.problem = f"skipped a damaged chunk at byte {where} ({type(e).__name__}: {str(e)[:60]}{kept})"
+            if not out:
+                return
+        yield from out
+
+    def _cut_chunk(self, f: BinaryIO, where: int) -> Iterator[tuple[McapChannel, int, bytes]]:
+        """The whole messages of a chunk cut by the end of the file."""
+        try:
+            f.seek(where)
+            head = f.read(9)
+            if len(head) < 9 or head[0] != _CHUNK:
+                return
+            body = f.read()
+            kind, i = _string(body, 28)
+            i += 8
+            out: list = []
+            self._records(_salvage(kind, body[i:]), out, strict=False)
+        except (ValueError, struct.error, UnicodeDecodeError, OSError):
             return
         yield from out
