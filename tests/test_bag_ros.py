@@ -402,3 +402,14 @@ def test_tf_echo_bag_prints_the_pose_at_a_time(tmp_path):
     assert f"- Translation: [{tr.x:.6f}, {tr.y:.6f}, {tr.z:.6f}]" in r.stdout
     r = run("tf", "echo", "map", "base_link", "--bag", str(ROS1), check=False)
     assert r.returncode == 1 and r.stderr.startswith("zentf: error: no transform map -> base_link in ")
+
+
+def test_without_rosbags_a_ros_bag_is_one_line_and_zentf_bags_still_work():
+    """rosbags is the 'ros' extra: without it ROS bags say how to install it, zentf's own bags work."""
+    block = "import sys; sys.modules['rosbags'] = None; from zentf.cli import main; "
+    for path, code, text in ((NAV2, 1, "needs the 'rosbags' package: pip install 'zentf[ros]'"),
+                             (ROS1, 1, "needs the 'rosbags' package"), (DRONES, 0, "zentf MCAP")):
+        r = subprocess.run([sys.executable, "-c", block + f"sys.exit(main(['bag', 'info', {str(path)!r}]))"],
+                           capture_output=True, text=True, timeout=60, cwd=REPO)
+        assert r.returncode == code and text in (r.stderr if code else r.stdout), r.stderr
+        assert "Traceback" not in r.stderr and r.stderr.count("\n") <= 1
