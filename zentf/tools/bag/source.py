@@ -161,8 +161,9 @@ class Bag:
             if conn.msgtype != TF_TYPE:
                 self._skip(conn.topic, f"type {conn.msgtype} is not {TF_TYPE}", None)
                 continue
-            if self._ros.ros1 and self._ros.ensure_type(conn):
-                self._skip(conn.topic, self._ros.ensure_type(conn) or "", None)
+            why = self._ros.ensure_type(conn) if self._ros.ros1 else None  # ROS 1: the bag's own definition
+            if why:
+                self._skip(conn.topic, why, None)
                 continue
             try:
                 rows = decode(raw)
