@@ -4,7 +4,7 @@
 Recorder feeds either) and writes them through rosbags' rosbag2 writer: topic ``tf`` becomes
 ``/tf``, transient-local QoS for latched topics (``/tf_static``). An output path ending in
 ``.mcap`` gets a single MCAP file (its rosbag2 metadata travels inside, as an MCAP metadata
-record); any other path a rosbag2 folder (``metadata.yaml`` + ``<name>_0.mcap``), as
+record); any other path a rosbag2 folder (``metadata.yaml`` + ``<name>.mcap``), as
 ``ros2 bag record -s mcap`` makes. A type rosbags' ROS 2 store does not know is skipped, once,
 with one line.
 """
@@ -140,11 +140,14 @@ class Ros2Writer:
             if self._closed:
                 return
             self._closed = True
-            self._writer.close()
-            if self.bare:
-                (mcap,) = self._dir.glob("*.mcap")
-                os.replace(mcap, self.path)
-                shutil.rmtree(self._dir, ignore_errors=True)
+            try:
+                self._writer.close()
+            finally:
+                if self.bare:
+                    found = sorted(self._dir.glob("*.mcap"))
+                    if found:
+                        os.replace(found[0], self.path)
+                    shutil.rmtree(self._dir, ignore_errors=True)
 
     def __enter__(self) -> "Ros2Writer":
         return self
