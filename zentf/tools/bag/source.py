@@ -16,7 +16,7 @@ from typing import Any
 
 from .errors import BagError
 from .formats import BagFormat, detect_format
-from .native import BagMessage, BagReader
+from .native import BagMessage, BagReader, rebase_key
 
 __all__ = ["Bag", "RawMessage", "open_bag", "zentf_topic", "TF_TOPICS"]
 
@@ -75,8 +75,8 @@ class Bag:
         want = None if topics is None else {t.strip("/") for t in topics}
         if self._ros is None:
             reader = BagReader(self.path)
-            for m in reader:
-                if _matches(m.key, want):
+            for m in reader:  # a name matches the key or the key relative to the recorder's namespace
+                if _matches(m.key, want) or (m.namespace and _matches(rebase_key(m.key, m.namespace, ""), want)):
                     yield RawMessage(m.key, m.type_name, m.latched, m.sender, m.log_time, m.payload, m)
             self.problem, self.skipped_chunks = reader.problem, reader.skipped_chunks
             return
