@@ -4,7 +4,14 @@ Rows: MCAP write (BagWriter vs mcap.Writer), MCAP read (BagReader vs mcap Stream
 Zenoh (Recorder into a file vs a bare Zenoh subscriber that only counts), play over Zenoh (Player
 at full speed vs a bare put loop). Payload: a 2-transform TFMessage (the drones demo's tf).
 
-    python bench/bag.py [-n 20000]
+ROS bags (needs rosbags and mcap-ros2-support): /tf + /tf_static messages per second from the nav2
+MCAP (tests/data/nav2_turtlebot.mcap) into a Buffer with ``load_buffer``, side by side with rosbags'
+own read+decode loop and mcap-ros2-support's (decode only, no buffer: the references do less);
+then a generated ROS 2 MCAP of ``--big-mb`` MB (in /tmp, deleted after) loaded into a Buffer in a
+child process: time, and memory (peak RSS growth) against the raw transform bytes (stamp + 7
+float64 = 64 B per transform).
+
+    python bench/bag.py [-n 20000] [--big-mb 1024] [--only-ros]
 """
 from __future__ import annotations
 
@@ -204,14 +211,189 @@ def bench_play(msgs: list[bytes], d: Path) -> tuple[float, float, int]:
         b.close()
 
 
+# ---------------------------------------------------------------- ROS bags
+
+NAV2 = Path(__file__).resolve().parent.parent / "tests" / "data" / "nav2_turtlebot.mcap"
+TF_TOPICS = ("/tf", "/tf_static")
+
+
+def _best(fn, repeat: int) -> float:
+    best = float("inf")
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
+def bench_nav2(repeat: int = 5) -> list[tuple[str, float]]:
+    """(name, tf msgs/s) for zentf load_buffer and the two references, best of ``repeat`` (interleaved)."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    from rosbags.highlevel import AnyReader
+
+    from zentf.tools.bag import load_buffer
+    from zentf.tools.bag.tfdecode import cdr_tf_decoder
+
+    def rosbags_loop() -> int:
+        n = 0
+        with AnyReader([NAV2]) as r:
+            conns = [c for c in r.connections if c.topic in TF_TOPICS]
+            for c, _, raw in r.messages(connections=conns):
+                r.deserialize(raw, c.msgtype)
+                n += 1
+        return n
+
+    def mcap_ros2_loop() -> int:
+        n = 0
+        with open(NAV2, "rb") as f:
+            for _ in make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages(topics=list(TF_TOPICS)):
+                n += 1
+        return n
+
+    n = rosbags_loop()
+    assert mcap_ros2_loop() == n
+    buf = load_buffer(NAV2)
+    assert buf.lookup_transform("map", "oakd_rgb_camera_optical_frame", 0)
+    times = {"zentf": [], "rosbags": [], "mcap-ros2-support": []}
+    for _ in range(repeat):  # interleaved: a load spike hits all three alike
+        times["zentf"].append(_best(lambda: load_buffer(NAV2), 1))
+        times["rosbags"].append(_best(rosbags_loop, 1))
+        times["mcap-ros2-support"].append(_best(mcap_ros2_loop, 1))
+    print(f"nav2 MCAP: {n} /tf + /tf_static messages; zentf decodes /tf with {cdr_tf_decoder()[0]}")
+    return [(k, n / min(v)) for k, v in times.items()]
+
+
+def generate_big(path: Path, target_mb: int, per_msg: int = 10) -> tuple[int, int]:
+    """A ROS 2 MCAP of ~target_mb MB: TFMessages of ``per_msg`` transforms (a chain of links at 100 Hz,
+    stamps patched into one encoded template). Returns (messages, transforms)."""
+    import struct
+
+    from mcap.writer import CompressionType, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    from zentf.ros.tf import encode_tf
+
+    frames = ["base_link"] + [f"link_{i}" for i in range(per_msg)]
+    marker = 0x5A5A5A5A
+    items = [{"header": {"stamp": {"sec": marker, "nanosec": 0}, "frame_id": frames[i]},
+              "child_frame_id": frames[i + 1],
+              "transform": {"translation": {"x": 0.1 * i, "y": 0.0, "z": 0.05},
+                            "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}} for i in range(per_msg)]
+    template = encode_tf(items)
+    offsets = []
+    i = template.find(struct.pack("<i", marker))
+    while i >= 0:
+        offsets.append(i)
+        i = template.find(struct.pack("<i", marker), i + 4)
+    assert len(offsets) == per_msg, offsets
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    msgdef, _ = store.generate_msgdef("tf2_msgs/msg/TFMessage", ros_version=2)
+    n = max(1, target_mb * 1024 * 1024 // (len(template) + 31))
+    t0 = 1_000_000_000_000
+    pack = struct.Struct("<iI").pack_into
+    with open(path, "wb") as f:
+        w = Writer(f, chunk_size=1024 * 1024, compression=CompressionType.NONE)
+        w.start(profile="ros2", library="zentf bench")
+        sid = w.register_schema(name="tf2_msgs/msg/TFMessage", encoding="ros2msg", data=msgdef.encode())
+        cid = w.register_channel(topic="/tf", message_encoding="cdr", schema_id=sid)
+        buf = bytearray(template)
+        for k in range(n):
+            stamp = t0 + k * 10_000_000
+            sec, nsec = divmod(stamp, 1_000_000_000)
+            for off in offsets:
+                pack(buf, off, sec, nsec)
+            w.add_message(channel_id=cid, log_time=stamp, publish_time=stamp, data=bytes(buf), sequence=k)
+        w.finish()
+    return n, n * per_msg
+
+
+def _rss_kb() -> int:
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    return 0
+
+
+def _load_child(path: str) -> None:
+    """Child: load a bag into a Buffer; print one JSON line of seconds and memory."""
+    import json
+    import resource
+
+    from zentf.tools.bag import load_buffer
+
+    base = _rss_kb()
+    t = time.perf_counter()
+    buf = load_buffer(path)
+    seconds = time.perf_counter() - t
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    samples = sum(f["samples"] for f in buf.frame_info())
+    print(json.dumps({"seconds": seconds, "rss_growth": (_rss_kb() - base) * 1024,
+                      "peak_growth": (peak - base) * 1024, "held": buf.memory_bytes(), "samples": samples}))
+
+
+def bench_big(target_mb: int) -> None:
+    import json
+
+    with tempfile.TemporaryDirectory(dir="/tmp") as tmp:
+        path = Path(tmp) / "big_tf.mcap"
+        t = time.perf_counter()
+        n_msgs, n_tf = generate_big(path, target_mb)
+        size = os.path.getsize(path)
+        print(f"\ngenerated {path.name}: {size / 2**20:,.0f} MiB, {n_msgs:,} TFMessages, {n_tf:,} transforms "
+              f"in {time.perf_counter() - t:.0f} s")
+        out = subprocess.run([sys.executable, __file__, "--load-child", str(path)], capture_output=True, text=True,
+                             check=True)
+        r = json.loads(out.stdout.strip().splitlines()[-1])
+        assert r["samples"] == n_tf, (r, n_tf)
+        raw = n_tf * 64
+        print(f"{'load into a Buffer':<28} {r['seconds']:8.1f} s  {n_msgs / r['seconds']:10,.0f} msg/s "
+              f"{n_tf / r['seconds']:12,.0f} transforms/s")
+        print(f"{'raw transform bytes':<28} {raw / 2**20:8.0f} MiB (64 B x {n_tf:,})")
+        print(f"{'buffer storage (arrays)':<28} {r['held'] / 2**20:8.0f} MiB  = {r['held'] / raw:.2f}x raw")
+        print(f"{'process peak RSS growth':<28} {r['peak_growth'] / 2**20:8.0f} MiB  = {r['peak_growth'] / raw:.2f}x raw "
+              f"(target <= 2x)")
+        from rosbags.highlevel import AnyReader
+
+        t = time.perf_counter()
+        with AnyReader([path]) as reader:  # the reference: rosbags' decode alone, no buffer
+            n = sum(1 for c, _, raw_msg in reader.messages() if reader.deserialize(raw_msg, c.msgtype) is not None)
+        ref = time.perf_counter() - t
+        assert n == n_msgs
+        print(f"{'rosbags read + decode only':<28} {ref:8.1f} s  {n / ref:10,.0f} msg/s  "
+              f"(zentf loads {ref / r['seconds']:.2f}x as fast)")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("-n", type=int, default=20000, help="messages per run")
+    ap.add_argument("--big-mb", type=int, default=1024, help="size of the generated ROS 2 bag (0: skip)")
+    ap.add_argument("--only-ros", action="store_true", help="only the ROS bag rows")
     ap.add_argument("--pump", nargs=2, metavar=("ENDPOINT", "KEY"), help=argparse.SUPPRESS)
+    ap.add_argument("--load-child", metavar="PATH", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.pump:
         _pump_main(args.pump[0], args.pump[1], args.n)
         return 0
+    if args.load_child:
+        _load_child(args.load_child)
+        return 0
+    if not args.only_ros:
+        zenoh_rows(args)
+    rows = bench_nav2()
+    zentf_rate = rows[0][1]
+    faster = max(r for _, r in rows[1:])
+    print(f"{'ROS 2 /tf into a Buffer':<40} {'msg/s':>12} {'vs zentf':>9}")
+    for name, rate in rows:
+        print(f"{name:<40} {rate:12,.0f} {zentf_rate / rate:8.2f}x")
+    print(f"zentf / the faster reference: {zentf_rate / faster:.2f}x (target >= 2)")
+    if args.big_mb:
+        bench_big(args.big_mb)
+    return 0
+
+
+def zenoh_rows(args: argparse.Namespace) -> None:
     msgs = [payload(i) for i in range(args.n)]
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
@@ -227,7 +409,6 @@ def main() -> int:
     for name, refname, o, r in rows:
         print(f"{name:<40} {o:12,.0f} {refname:<30} {r:12,.0f} {o / r:6.2f}")
     print(f"(play: subscriber received {got}/{args.n})")
-    return 0
 
 
 if __name__ == "__main__":

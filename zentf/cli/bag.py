@@ -1,8 +1,9 @@
-"""`zentf bag record | play | info | demo`: rosbag over Zenoh, in MCAP files."""
+"""`zentf bag record | play | info | convert | demo`: rosbag over Zenoh; zentf MCAP, ROS 1 and ROS 2 bags."""
 from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import sys
 import threading
@@ -19,7 +20,7 @@ __all__ = ["bag"]
 
 @click.group("bag", context_settings=CONTEXT_SETTINGS)
 def bag() -> None:
-    """Record topics to MCAP, inspect and play bags (rosbag record/info/play)."""
+    """Record, inspect, play and convert bags: zentf MCAP, ROS 1 .bag, rosbag2 (.db3/.mcap/folder)."""
 
 
 def _human_size(n: float) -> str:
@@ -33,6 +34,23 @@ def _human_size(n: float) -> str:
 def _err(line: str) -> None:
     sys.stderr.write(line + "\n")
     sys.stderr.flush()
+
+
+def _skip_line(topic: str, why: str) -> None:
+    """One line per topic a command leaves out (a type it cannot carry)."""
+    _err(f"zentf: skipping {topic}: {why}")
+
+
+def _path_size(path: str) -> int:
+    if os.path.isdir(path):
+        return sum(os.path.getsize(os.path.join(path, f)) for f in os.listdir(path))
+    return os.path.getsize(path) if os.path.exists(path) else 0
+
+
+def _topic_list(values: tuple[str, ...]) -> Optional[list[str]]:
+    """--topics given repeatedly and/or comma-separated; None when not given."""
+    names = [t for v in values for t in v.split(",") if t.strip()]
+    return [t.strip() for t in names] or None
 
 
 class _Progress:
@@ -103,28 +121,38 @@ def _resolve_keys(opts: CliOptions, topics: tuple[str, ...], all_topics: bool) -
 @click.argument("topics", nargs=-1)
 @click.option("--all", "-a", "all_topics", is_flag=True,
               help="Record every topic (of --namespace if one is set, else of the whole network).")
-@click.option("--output", "-o", type=click.Path(dir_okay=False, writable=True), default=None,
-              help="Output file [default: zentf_<date>_<time>.mcap].")
+@click.option("--output", "-o", type=click.Path(writable=True), default=None,
+              help="Output file [default: zentf_<date>_<time>.mcap; with --format ros2 a rosbag2 folder "
+                   "rosbag2_<date>_<time>, or a single file if the name ends in .mcap].")
+@click.option("--format", "fmt", type=click.Choice(["zentf", "ros2"]), default="zentf", show_default=True,
+              help="zentf: MCAP with msgpack payloads; ros2: rosbag2 MCAP with CDR payloads (ROS 2 tools open it).")
 @click.option("--duration", type=finite_float(min=0.0, min_open=True), default=None,
               help="Stop after this many seconds (default: until Ctrl-C).")
 @click.option("--compression", type=click.Choice(["zstd", "lz4", "none"]), default="zstd", show_default=True)
 @with_options
-def bag_record(topics: tuple[str, ...], all_topics: bool, output: Optional[str], duration: Optional[float],
-               compression: str, *, opts: CliOptions) -> None:
-    """Record TOPICS (relative to --namespace) or --all into an MCAP file; Ctrl-C stops and closes it."""
+def bag_record(topics: tuple[str, ...], all_topics: bool, output: Optional[str], fmt: str,
+               duration: Optional[float], compression: str, *, opts: CliOptions) -> None:
+    """Record TOPICS (relative to --namespace) or --all into a bag; Ctrl-C stops and closes it."""
     from zentf.tools.bag import BagError, BagWriter, Recorder
 
     keys, ns = _resolve_keys(opts, topics, all_topics)
-    path = output or time.strftime("zentf_%Y%m%d_%H%M%S.mcap")
+    writer: Any
     try:
-        writer = BagWriter(path, namespace=ns, compression=compression)
+        if fmt == "ros2":
+            from zentf.tools.bag import Ros2Writer
+
+            path = output or time.strftime("rosbag2_%Y_%m_%d-%H_%M_%S")
+            writer = Ros2Writer(path, namespace=ns, on_skip=_skip_line)
+        else:
+            path = output or time.strftime("zentf_%Y%m%d_%H%M%S.mcap")
+            writer = BagWriter(path, namespace=ns, compression=compression)
     except BagError as exc:
         raise CliError(str(exc)) from exc
     try:
         node = open_node(opts, "bag")
     except BaseException:
         writer.close()
-        os.unlink(path)
+        shutil.rmtree(path, ignore_errors=True) if os.path.isdir(path) else os.unlink(path)
         raise
     try:
         with _stop_on_signals() as stop:
@@ -149,7 +177,7 @@ def bag_record(topics: tuple[str, ...], all_topics: bool, output: Optional[str],
             finally:
                 recorder.close()
                 writer.close()
-            size = os.path.getsize(path) if os.path.exists(path) else 0
+            size = _path_size(path)
             progress.done(f"recorded {writer.messages} msgs, {_human_size(size)}, "
                           f"{writer.duration:.1f} s of messages in {path}")
     finally:
@@ -157,10 +185,10 @@ def bag_record(topics: tuple[str, ...], all_topics: bool, output: Optional[str],
 
 
 @bag.command("info", context_settings=CONTEXT_SETTINGS)
-@click.argument("file", type=click.Path(dir_okay=False))
+@click.argument("file", type=click.Path())
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 def bag_info(file: str, as_json: bool) -> None:
-    """Topics, types, counts, rates and time span of a bag (rosbag info)."""
+    """Format, time span, topics (types, counts, rates) and tf frames of a bag of any format (rosbag info)."""
     from zentf.tools.bag import BagError, bag_info as info_of
 
     try:
@@ -182,6 +210,8 @@ def _format_info(info: dict[str, Any]) -> str:
         return time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime(t)) + f".{int(t * 1000) % 1000:03d} UTC ({t:.3f})"
 
     lines = [f"path:       {info['path']}",
+             f"format:     {info['format']}",
+             f"encoding:   {info['encoding']}",
              f"size:       {_human_size(info['size'])}",
              f"duration:   {info['duration']:.3f} s",
              f"start:      {stamp(info['start'])}",
@@ -194,11 +224,15 @@ def _format_info(info: dict[str, Any]) -> str:
         rate = f"{t['frequency']:8.2f} Hz" if t["frequency"] else " " * 11
         extra = " (latched)" if t["latched"] else ""
         lines.append(f"  {t['key']:<{width}}  {t['count']:7d} msgs {rate}  {t['type'] or '?'}{extra}")
+    for topic, edges in info["tf_edges"].items():
+        if edges:
+            lines.append(f"frames in {topic}: {len({f for e in edges for f in e})}")
+            lines.extend(f"  {parent} -> {child}" for parent, child in edges)
     return "\n".join(lines)
 
 
 @bag.command("play", context_settings=CONTEXT_SETTINGS)
-@click.argument("file", type=click.Path(dir_okay=False))
+@click.argument("file", type=click.Path())
 @click.option("--clock", is_flag=True, help="Publish /clock with the bag time (for use_sim_time nodes).")
 @click.option("--hz", "clock_hz", type=finite_float(min=1.0), default=100.0, show_default=True,
               help="/clock publish rate with --clock.")
@@ -209,10 +243,16 @@ def _format_info(info: dict[str, Any]) -> str:
               help="Seconds into the bag to start at (latched topics before it are still sent).")
 @click.option("--delay", "-d", type=finite_float(min=0.0), default=0.0,
               help="Seconds to wait after advertising, before playing.")
+@click.option("--topics", "topics", multiple=True, metavar="NAMES",
+              help="Only these topics (comma-separated or repeated; '/odom' and 'odom' are the same).")
 @with_options
 def bag_play(file: str, clock: bool, clock_hz: float, rate: float, loop: bool, start: float, delay: float,
-             *, opts: CliOptions) -> None:
-    """Republish a bag's messages with their original timing (rosbag play)."""
+             topics: tuple[str, ...], *, opts: CliOptions) -> None:
+    """Republish a bag (zentf, ROS 1 or ROS 2) with its original timing (rosbag play).
+
+    ROS topic names become zentf topics (/odom -> odom, under --namespace); ROS payloads are
+    re-encoded to zentf's wire form; a type that cannot be carried is skipped with one line.
+    """
     from zentf.tools.bag import BagError, Player
 
     ns = (node_options(opts, "_zentf_bag").namespace or "").strip("/")
@@ -221,7 +261,7 @@ def bag_play(file: str, clock: bool, clock_hz: float, rate: float, loop: bool, s
         with _stop_on_signals() as stop:
             try:
                 player = Player(node.session, file, namespace=ns, rate=rate, clock_hz=clock_hz if clock else 0.0,
-                                loop=loop, start=start, stop=stop,
+                                loop=loop, start=start, stop=stop, topics=_topic_list(topics), on_skip=_skip_line,
                                 declare_token=lambda tn, k: node._declare_entity("pub", tn, k))
             except BagError as exc:
                 raise CliError(str(exc)) from exc
@@ -237,6 +277,8 @@ def bag_play(file: str, clock: bool, clock_hz: float, rate: float, loop: bool, s
 
             try:
                 stats = player.play(show)
+            except BagError as exc:
+                raise CliError(str(exc)) from exc
             finally:
                 player.close()
             progress.done(f"played {stats.messages} msgs from {file}")
@@ -244,6 +286,31 @@ def bag_play(file: str, clock: bool, clock_hz: float, rate: float, loop: bool, s
                 _err(f"zentf: warning: {file}: {stats.problem}; played the readable part")
     finally:
         node.shutdown()
+
+
+@bag.command("convert", context_settings=CONTEXT_SETTINGS)
+@click.argument("src", metavar="IN", type=click.Path())
+@click.argument("dst", metavar="OUT", type=click.Path())
+@click.option("--to", "to", type=click.Choice(["zentf", "ros2"]), default=None,
+              help="Output format [default: zentf for a ROS bag, ros2 for a zentf bag].")
+@click.option("--topics", "topics", multiple=True, metavar="NAMES",
+              help="Only these topics (comma-separated or repeated).")
+def bag_convert(src: str, dst: str, to: Optional[str], topics: tuple[str, ...]) -> None:
+    """Convert IN to OUT: ROS 1 / ROS 2 bags to zentf MCAP, zentf MCAP to ROS 2 MCAP.
+
+    A ROS 2 OUT ending in .mcap is one MCAP file; any other name a rosbag2 folder.
+    """
+    from zentf.tools.bag import BagError, convert
+
+    if os.path.exists(dst):
+        raise CliError(f"{dst} exists already, not overwriting", code=2)
+    try:
+        res = convert(src, dst, to=to, topics=_topic_list(topics), on_skip=_skip_line)
+    except BagError as exc:
+        raise CliError(str(exc)) from exc
+    print(f"wrote {dst}: {res['messages']} msgs as {res['format']}, {_human_size(_path_size(dst))}")
+    if res["problem"]:
+        _err(f"zentf: warning: {src}: {res['problem']}; converted the readable part")
 
 
 @bag.command("demo", context_settings=CONTEXT_SETTINGS)

@@ -59,9 +59,12 @@ def _close(node: Any, listener: Any = None) -> None:
               help="Exit after this many prints (default: run until Ctrl-C).")
 @click.option("--timeout", type=finite_float(min=0.0), default=None,
               help="Exit 1 if no transform arrives within this many seconds (default: wait).")
+@click.option("--bag", "bag_file", type=click.Path(), default=None,
+              help="Answer from this recording (any bag format zentf reads), no network: print once and exit.")
 @with_options
 def echo(source: str, target: str, rate_arg: Optional[float], rate: float, precision: int,
-         at_time: Optional[float], count: int, timeout: Optional[float], *, opts: CliOptions) -> None:
+         at_time: Optional[float], count: int, timeout: Optional[float], bag_file: Optional[str],
+         *, opts: CliOptions) -> None:
     """Print the pose of TARGET in SOURCE at a fixed rate, like tf2_echo.
 
     As in tf2_echo the first argument is the frame the result is expressed in
@@ -73,6 +76,9 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
 
     from .format import format_echo
 
+    if bag_file is not None:
+        _echo_bag(bag_file, source, target, at_time, precision)
+        return
     node, buffer, listener = _listen(opts, "tf_echo")
     try:
         when = Time() if at_time is None else Time.from_sec(at_time)
@@ -127,6 +133,26 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
                 sys.stderr.flush()
     finally:
         _close(node, listener)
+
+
+def _echo_bag(path: str, source: str, target: str, at_time: Optional[float], precision: int) -> None:
+    """tf echo --bag: one lookup in the whole recording (latest common time unless --time)."""
+    from zentf.core.exceptions import TransformException
+    from zentf.core.time import Time
+    from zentf.tools.bag import BagError, load_buffer
+
+    from .format import format_echo
+
+    try:
+        buffer = load_buffer(path, on_problem=lambda line: sys.stderr.write(f"zentf: warning: {line}\n"))
+    except BagError as exc:
+        raise CliError(str(exc)) from exc
+    try:
+        ts = buffer.lookup_transform(source, target, Time() if at_time is None else Time.from_sec(at_time))
+    except TransformException as exc:
+        raise CliError(f"no transform {source} -> {target} in {path}: {' '.join(str(exc).split())}") from exc
+    tr, rot = ts.transform.translation, ts.transform.rotation
+    print(format_echo(ts.header.stamp.nanoseconds, (tr.x, tr.y, tr.z), (rot.x, rot.y, rot.z, rot.w), precision))
 
 
 def _sleep_until(node: Any, when: float) -> bool:
