@@ -71,6 +71,7 @@ _COMMANDS: dict[str, tuple[str, str]] = {
     "router": ("zentf.cli.extern:router", "Run a Zenoh router (multi-machine graphs)."),
     "view": ("zentf.cli.view:view", "Live 3D view of frames, markers and points (Rerun)."),
     "bag": ("zentf.cli.bag:bag", "Record, inspect and play MCAP bags (rosbag)."),
+    "bridge": ("zentf.cli.bridge:bridge", "Relay tf, tf_static, /clock and topics to and from a ROS 2 graph."),
 }
 
 
