@@ -132,6 +132,7 @@ def test_zentf_nodes_speak_ros2_on_the_wire(ros2_options) -> None:
     from zentf.core.time import Time
     from zentf.graph import GraphWatcher
     from zentf.listener import TransformListener
+    from zentf.message_filter import MessageFilter
     from zentf.node import Node
 
     dom = ros2_options.domain_id
@@ -148,20 +149,22 @@ def test_zentf_nodes_speak_ros2_on_the_wire(ros2_options) -> None:
         buf = Buffer()
         listener = TransformListener(buf, sub_node)   # starts after the static was sent: latched history
         points: list = []
-        sub_node.create_subscription("points", PointStamped, points.append)
+        mf = MessageFilter("points", buf, "map", 10, 5.0, node=sub_node, msg_type=PointStamped,
+                           callback=points.append)  # delivers each point once it can be put in map
         assert watcher.wait_for(lambda es: any(e.kind == "sub" and e.topic == "/points" for e in es), 10)
         tf = TransformBroadcaster(pub_node)
         pts = pub_node.create_publisher("points", PointStamped)
         assert _wait(lambda: buf.can_transform("map", "odom", Time()), 10)
         for i in range(1, 6):
-            tf.send_transform(TransformStamped(Header(Time(nanoseconds=time.time_ns()), "odom"), "base_link",
-                                               Transform(Vector3(0.5 * i, 0, 0))))
-            pts.publish(PointStamped(Header(Time(sec=i), "base_link"), Point(i, 0, 0)))
+            stamp = Time(nanoseconds=time.time_ns())
+            pts.publish(PointStamped(Header(stamp, "base_link"), Point(i, 0, 0)))  # before its transform
+            time.sleep(0.01)
+            tf.send_transform(TransformStamped(Header(stamp, "odom"), "base_link", Transform(Vector3(0.5 * i, 0, 0))))
             time.sleep(0.02)
         assert _wait(lambda: len(points) == 5 and buf.can_transform("map", "base_link", Time()))
         t = buf.lookup_transform("map", "base_link", Time())
         assert math.isclose(t.transform.translation.x, 3.5) and t.transform.translation.y == 2.0
-        assert [p.point.x for p in points] == [1, 2, 3, 4, 5]
+        assert [p.point.x for p in points] == [1, 2, 3, 4, 5] and mf.delivered == 5
         assert "Authority undetectable" in buf.all_frames_as_yaml()
         assert listener.stats()["malformed"] == 0
         # on the wire: rmw_zenoh keys, CDR, 33-byte attachments with per-publisher sequence numbers
