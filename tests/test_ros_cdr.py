@@ -124,6 +124,19 @@ def test_type_hashes_are_computed_like_ros2(bag, store) -> None:
     assert compared >= 14
 
 
+def test_schema_text_is_what_rosbag2_writes_and_hashes_the_same(bag) -> None:
+    from zentf.ros import schema_text
+
+    summary, _ = bag
+    (tf_schema,) = {s.data.decode() for s in summary.schemas.values() if s.name == TF}
+    ours = schema_text(TF)
+    # same definitions as ROS 2 stored (comments aside): parsed alike, hashed alike
+    assert parse_schema(TF, ours) == parse_schema(TF, tf_schema)
+    for name in MESSAGE_TYPES:
+        if "/msg/" in name:
+            assert hash_of(name, parse_schema(name, schema_text(name))) == type_hash(name)
+
+
 def test_dds_type_names() -> None:
     assert dds_type_name(TF) == "tf2_msgs::msg::dds_::TFMessage_"
     assert dds_type_name("rosgraph_msgs/msg/Clock") == "rosgraph_msgs::msg::dds_::Clock_"
