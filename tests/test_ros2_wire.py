@@ -214,3 +214,16 @@ def test_bad_cdr_on_a_ros2_topic_is_dropped_with_one_line(ros2_options, caplog) 
     finally:
         node.shutdown()
         raw.close()
+
+
+def test_cli_wire_errors_are_one_line_usage_errors(isolated_router: str) -> None:
+    from cli_helpers import assert_one_line_error, zentf
+    from conftest import child_env
+
+    env = child_env(isolated_router, "")
+    env.update({"ZENTF_WIRE": "ros2", "ROS_DOMAIN_ID": "abc"})
+    assert_one_line_error(zentf(["topic", "list", "--wait", "0.2"], env), "ROS_DOMAIN_ID", code=2)
+    env["ROS_DOMAIN_ID"] = "0"
+    assert_one_line_error(zentf(["node", "list", "--wire", "dds"], env), "--wire", code=2)
+    env["ZENTF_WIRE"] = "dds"
+    assert_one_line_error(zentf(["node", "list", "--wait", "0.2"], env), "wire profile", code=2)
