@@ -147,3 +147,25 @@ def test_a_ros2_node_sees_zentf_broadcasters(ros2_env, procs) -> None:
     assert (got["parent"], got["child"]) == ("robot", "gripper")
     assert got["t"] == [0.25, 0.5, 0.75] and got["stamp"] % 1_000_000_000 == 0 and got["stamp"] > 100e9
     assert math.isclose(sum(q * q for q in got["q"]), 1.0)
+
+
+def test_bag_record_of_a_ros2_graph_is_a_rosbag2_mcap(ros2_env, procs, tmp_path) -> None:
+    mcap_reader = pytest.importorskip("mcap.reader")
+    decoder = pytest.importorskip("mcap_ros2.decoder")
+    sdk = procs([*SDK_NODE, "pub", _router(ros2_env), "--node", "sdk_tf_node"], ros2_env)
+    sdk.wait_for_line("publishing", timeout=60)
+    out = tmp_path / "robot.mcap"
+    rec = zentf(["bag", "record", "/tf", "/tf_static", "-o", str(out), "--duration", "2"], ros2_env)
+    assert rec.returncode == 0, rec.stderr
+    with out.open("rb") as f:   # read back by mcap-ros2-support (independent of zentf)
+        reader = mcap_reader.make_reader(f, decoder_factories=[decoder.DecoderFactory()])
+        assert reader.get_header().profile == "ros2"
+        seen: dict[str, list] = {"/tf": [], "/tf_static": []}
+        for schema, channel, _, msg in reader.iter_decoded_messages():
+            assert schema.name == "tf2_msgs/msg/TFMessage" and schema.encoding == "ros2msg"
+            assert channel.message_encoding == "cdr"
+            assert channel.metadata["topic_type_hash"].startswith("RIHS01_e369d0f0")
+            t = msg.transforms[0]
+            seen[channel.topic].append((t.header.frame_id, t.child_frame_id, t.transform.translation.x))
+    assert len(seen["/tf"]) >= 5 and set(seen["/tf"]) == {("odom", "base_link", 0.5)}
+    assert seen["/tf_static"] and set(seen["/tf_static"]) == {("map", "odom", 1.0)}

@@ -12,7 +12,7 @@ from typing import Any, Iterator, Optional
 
 import click
 
-from .common import CONTEXT_SETTINGS, CliError, CliOptions, node_options, open_node, with_options
+from .common import CONTEXT_SETTINGS, CliError, CliOptions, node_options, open_node, wire_profile, with_options
 
 __all__ = ["bag"]
 
@@ -116,8 +116,16 @@ def bag_record(topics: tuple[str, ...], all_topics: bool, output: Optional[str],
 
     keys, ns = _resolve_keys(opts, topics, all_topics)
     path = output or time.strftime("zentf_%Y%m%d_%H%M%S.mcap")
+    profile = wire_profile(opts)
     try:
-        writer = BagWriter(path, namespace=ns, compression=compression)
+        if profile.name == "ros2":  # a ROS 2 graph: CDR as it came, in a rosbag2-style MCAP (docs/ros2.md)
+            from zentf.tools.ros2_bag import Ros2BagWriter
+
+            keys = [f"{profile.domain_id}/{k}" if k.endswith("**") else profile.data_key("/" + k, None)
+                    for k in keys]
+            writer = Ros2BagWriter(path, profile, compression=compression)
+        else:
+            writer = BagWriter(path, namespace=ns, compression=compression)
     except BagError as exc:
         raise CliError(str(exc)) from exc
     try:
