@@ -1,7 +1,7 @@
 """End-to-end transport benchmark: zentf (send_transform -> lookup-able in another process) side by side
 with raw zenoh-python put -> callback, measured in the same run on loopback.
 
-    python bench/e2e.py [--n-lat 3000] [--rounds 3] [--n-batch 1500] [--n-single 60000]
+    python bench/e2e.py [--n-lat 3000] [--rounds 3] [--n-batch 1500] [--n-single 60000] [--wire ros2]
 
 Two processes talk peer to peer (receiver listens on a free loopback port, sender connects; no
 multicast, no router). Latency: one message every ~1 ms, one-way time from just before
@@ -13,6 +13,8 @@ Ingest: the sender floods pre-encoded TFMessages (100 transforms each, then 1 ea
 transforms accepted by the listener's Buffer per second, against raw messages per second received
 by a bare callback. Also the in-process ingest ceiling (wire.ingest_tf into a Buffer, no network).
 Targets (issue 3): zentf p50 <= 1.5x raw one-way latency; ingest >= 200k transforms/s batched.
+``--wire ros2`` runs zentf's side with the ROS 2 wire profile (rmw_zenoh keys, CDR payloads, attachments;
+issue 14's targets: ingest >= 300k transforms/s at 100 per message, p50 <= 1.5x raw).
 """
 from __future__ import annotations
 
@@ -55,15 +57,26 @@ def tf_dict(parent: str, child: str, stamp_ns: int, x: float = 1.0) -> dict:
                           "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}
 
 
+WIRE = "zentf"  # --wire: the wire profile of zentf's side (zentf.profile)
+
+
+def _encode(transforms: list) -> bytes:
+    if WIRE == "ros2":
+        from zentf.ros import encode_tf
+
+        return encode_tf(transforms)
+    return msgpack.packb({"transforms": transforms})
+
+
 def payloads(n_msgs: int, per_msg: int, base_ns: int) -> list[bytes]:
     """Pre-encoded TFMessages; each child's stamps strictly increase (no TF_REPEATED_DATA)."""
     out = []
     for i in range(n_msgs):
         stamp = base_ns + i * 1000
         if per_msg == 1:
-            out.append(msgpack.packb({"transforms": [tf_dict("world", f"f{i % 100}", stamp)]}))
+            out.append(_encode([tf_dict("world", f"f{i % 100}", stamp)]))
         else:
-            out.append(msgpack.packb({"transforms": [tf_dict("world", f"f{j}", stamp) for j in range(per_msg)]}))
+            out.append(_encode([tf_dict("world", f"f{j}", stamp) for j in range(per_msg)]))
     return out
 
 
@@ -111,8 +124,8 @@ def receiver(args: argparse.Namespace) -> None:
     from zentf.options import NodeOptions
     from zentf.core.time import Time
 
-    node = Node("bench_listener", options=NodeOptions(namespace="bench", zenoh=zopts(listen=args.endpoint)),
-                check_unique=False)
+    node = Node("bench_listener", options=NodeOptions(namespace="bench", zenoh=zopts(listen=args.endpoint),
+                                                      wire=WIRE), check_unique=False)
     buf = Buffer(node=node)
     lat = []
     state = [0, 0, 0]  # first ns, last ns, messages inserted (one insert callback per message)
@@ -152,7 +165,7 @@ def run_case(impl: str, kind: str, count: int, per_msg: int) -> dict:
     port = free_port()
     ep = f"tcp/127.0.0.1:{port}"
     child = subprocess.Popen([sys.executable, __file__, "--role", "recv", "--impl", impl, "--kind", kind,
-                              "--endpoint", ep, "--count", str(count), "--per-msg", str(per_msg)],
+                              "--endpoint", ep, "--count", str(count), "--per-msg", str(per_msg), "--wire", WIRE],
                              stdout=subprocess.PIPE, text=True)
     try:
         assert child.stdout is not None
@@ -175,7 +188,7 @@ def run_case(impl: str, kind: str, count: int, per_msg: int) -> dict:
             from zentf.options import NodeOptions
             from zentf.core.time import Time
 
-            node = Node("bench_sender", options=NodeOptions(namespace="bench", zenoh=zopts(connect=ep)),
+            node = Node("bench_sender", options=NodeOptions(namespace="bench", zenoh=zopts(connect=ep), wire=WIRE),
                         check_unique=False)
             br = TransformBroadcaster(node)
             if not br.wait_for_subscribers(20):
@@ -220,15 +233,16 @@ def run_case(impl: str, kind: str, count: int, per_msg: int) -> dict:
 
 
 def inprocess_ceiling(per_msg: int, n: int) -> float:
-    from zentf import wire
     from zentf.buffer import Buffer
+    from zentf.profile import make_profile
 
+    ingest = make_profile(WIRE).ingest_tf
     data = payloads(n, per_msg, time.time_ns())
     buf = Buffer()
     t0 = time.perf_counter()
     total = 0
     for p in data:
-        total += wire.ingest_tf(p, buf, "/bench", False)[0]
+        total += ingest(p, buf, "/bench", False)[0]
     return total / (time.perf_counter() - t0)
 
 
@@ -249,12 +263,17 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=3, help="alternating raw/zentf latency rounds")
     ap.add_argument("--n-batch", type=int, default=1500, help="TFMessages of 100 transforms in the flood")
     ap.add_argument("--n-single", type=int, default=60000, help="TFMessages of 1 transform in the flood")
+    ap.add_argument("--wire", choices=["zentf", "ros2"], default="zentf",
+                    help="wire profile of zentf's side: zentf (msgpack) or ros2 (rmw_zenoh: CDR, keys, attachments)")
     args = ap.parse_args()
+    global WIRE
+    WIRE = args.wire
     if args.role == "recv":
         receiver(args)
         return
 
-    print(f"# zentf e2e bench  (python {sys.version.split()[0]}, {os.cpu_count()} cpus; loopback, peer to peer)")
+    print(f"# zentf e2e bench  (python {sys.version.split()[0]}, {os.cpu_count()} cpus; loopback, peer to peer; "
+          f"zentf wire profile: {WIRE})")
     rl: list[int] = []
     zl: list[int] = []
     for _ in range(args.rounds):  # alternate, so load drifts on the shared machine hit both alike
@@ -276,7 +295,7 @@ def main() -> None:
         raw_rate = raw["items"] / per_msg / raw["secs"] if raw["secs"] else float("nan")
         z_rate = zt["items"] / zt["secs"] if zt["secs"] else float("nan")
         ceil = inprocess_ceiling(per_msg, min(n, 3000 if per_msg > 1 else 100000))
-        note = " (target >= 200k)" if per_msg > 1 else ""
+        note = (" (target >= 300k)" if WIRE == "ros2" else " (target >= 200k)") if per_msg > 1 else ""
         print(f"| {label} | {raw_rate:,.0f} msgs/s = {raw_rate * per_msg:,.0f} transforms/s | "
               f"{z_rate:,.0f}{note} | {ceil:,.0f} |")
     print()

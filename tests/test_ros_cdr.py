@@ -124,6 +124,19 @@ def test_type_hashes_are_computed_like_ros2(bag, store) -> None:
     assert compared >= 14
 
 
+def test_schema_text_is_what_rosbag2_writes_and_hashes_the_same(bag) -> None:
+    from zentf.ros import schema_text
+
+    summary, _ = bag
+    (tf_schema,) = {s.data.decode() for s in summary.schemas.values() if s.name == TF}
+    ours = schema_text(TF)
+    # same definitions as ROS 2 stored (comments aside): parsed alike, hashed alike
+    assert parse_schema(TF, ours) == parse_schema(TF, tf_schema)
+    for name in MESSAGE_TYPES:
+        if "/msg/" in name:
+            assert hash_of(name, parse_schema(name, schema_text(name))) == type_hash(name)
+
+
 def test_dds_type_names() -> None:
     assert dds_type_name(TF) == "tf2_msgs::msg::dds_::TFMessage_"
     assert dds_type_name("rosgraph_msgs/msg/Clock") == "rosgraph_msgs::msg::dds_::Clock_"
@@ -259,3 +272,29 @@ def test_encoding_refuses_values_that_do_not_fit() -> None:
         serialize({"frame_id": 3}, "std_msgs/msg/Header", definition)
     with pytest.raises(UnknownTypeError, match="nope"):
         decode_plain(_one_tf(), "nope/msg/Nope")
+
+
+def test_many_transforms_per_message_take_the_learnt_layout_and_stay_exact() -> None:
+    """Messages of >= 8 transforms are read through a cached layout; any change of frame names,
+    lengths or bad values falls back to the careful loop: the result is always the generic decoder's."""
+    def msg(names, base, x0):
+        return [TransformStamped(Header(Time(nanoseconds=base + i), p), c, Transform(Vector3(x0 + i, -i, 0.5)))
+                for i, (p, c) in enumerate(names)]
+
+    names = [("world", f"frame_{j}" + "x" * (j % 5)) for j in range(30)]
+    for base, x0, frames in ((10**18, 1.0, names), (10**18 + 5, 2.0, names),        # learn, then reuse
+                             (3 * 10**17, 7.5, [(p, c.replace("frame", "FRAME")) for p, c in names]),  # same sizes
+                             (10**9, 0.0, names[:29] + [("world", "other")]), (10**9, 0.0, names[::-1])):
+        payload = encode_tf(msg(frames, base, x0))
+        expected = [(t["header"]["frame_id"], t["child_frame_id"],
+                     t["header"]["stamp"]["sec"] * 10**9 + t["header"]["stamp"]["nanosec"],
+                     t["transform"]["translation"]["x"], t["transform"]["translation"]["y"],
+                     t["transform"]["translation"]["z"], t["transform"]["rotation"]["x"],
+                     t["transform"]["rotation"]["y"], t["transform"]["rotation"]["z"], t["transform"]["rotation"]["w"])
+                    for t in decode_plain(payload, TF)["transforms"]]
+        assert tf_samples(payload) == (expected, 0, None)
+        assert tf_samples(payload) == (expected, 0, None)
+    bad = bytearray(encode_tf(msg(names, 10**18, 1.0)))
+    struct.pack_into("<i", bad, 8, -1)                  # first stamp negative: the careful loop names it
+    samples, malformed, problem = tf_samples(bytes(bad))
+    assert len(samples) == 29 and malformed == 1 and "bad stamp" in problem

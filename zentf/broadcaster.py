@@ -5,7 +5,6 @@ import threading
 from collections.abc import Iterable
 from typing import Any, Union
 
-from . import wire
 from .core.messages import TFMessage, TransformStamped
 from .node import Node
 
@@ -32,9 +31,10 @@ class TransformBroadcaster:
     def __init__(self, node: Node, topic: str = "tf", qos: int = 100) -> None:
         self.node = node
         self._pub = node.create_publisher(topic, TFMessage, qos)
+        self._encode_tf = node.wire.encode_tf  # msgpack (zentf) or CDR (ros2)
 
     def send_transform(self, transform: TransformsArg) -> None:
-        self._pub.publish_bytes(wire.encode_tf(_as_list(transform)))
+        self._pub.publish_bytes(self._encode_tf(_as_list(transform)))
 
     sendTransform = send_transform
 
@@ -58,7 +58,7 @@ class StaticTransformBroadcaster:
             for t in items:
                 child = t["child_frame_id"] if isinstance(t, dict) else t.child_frame_id
                 self._by_child[child] = t
-            payload = wire.encode_tf(self._by_child.values())
+            payload = self.node.wire.encode_tf(list(self._by_child.values()))
             self._pub.publish_bytes(payload)
 
     sendTransform = send_transform

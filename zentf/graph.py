@@ -8,6 +8,8 @@ namespace with '/' replaced by '%' (``%robot1``, ``%a%b``); ``<type>`` is encode
     @zentf/sub/<ns>/<name>/<type>/<topic key...>
 
 A killed process's session closes, so its tokens vanish and watchers see DELETE samples.
+Every function takes an optional wire ``profile`` (zentf.profile): with the ``ros2`` one the graph is
+read from rmw_zenoh's ``@ros2_lv/<domain>/...`` tokens instead (docs/ros2.md).
 """
 from __future__ import annotations
 
@@ -77,14 +79,30 @@ def _selector(namespace: str | None) -> str:
     return f"{PREFIX}/*/{'%' + ns.replace('/', '%') if ns else '%'}/**"
 
 
-def list_tokens(session: Any, namespace: str | None = None, timeout: float = 2.0) -> list[GraphEntry]:
-    """Every live zentf token (optionally only one namespace, not its children)."""
+def _parser(profile: Any, namespace: str | None) -> tuple[str, Callable[[str], GraphEntry | None]]:
+    """(liveliness selector, token parser) of a wire profile (None: zentf's own tokens)."""
+    if profile is None or profile.name == "zentf":
+        return _selector(namespace), parse_token
+    ns = normalize_namespace(namespace) if namespace is not None else None
+    parse = profile.parse_token
+
+    def parse_in_ns(key: str) -> GraphEntry | None:
+        e = parse(key)
+        return e if e is not None and (ns is None or e.namespace == ns) else None
+
+    return profile.liveliness_selector(namespace), parse_in_ns
+
+
+def list_tokens(session: Any, namespace: str | None = None, timeout: float = 2.0,
+                profile: Any = None) -> list[GraphEntry]:
+    """Every live token of the wire profile (zentf's by default; optionally one namespace, not its children)."""
+    selector, parse = _parser(profile, namespace)
     out = []
-    for reply in session.liveliness().get(_selector(namespace), timeout=timeout):
+    for reply in session.liveliness().get(selector, timeout=timeout):
         sample = reply.ok
         if sample is None:
             continue
-        e = parse_token(str(sample.key_expr))
+        e = parse(str(sample.key_expr))
         if e is not None:
             out.append(e)
     return sorted(set(out), key=lambda e: (e.kind, e.namespace, e.name, e.topic, e.type_name))
@@ -115,22 +133,23 @@ def build_graph(entries: Iterable[GraphEntry]) -> tuple[dict[str, NodeInfo], dic
     return nodes, topics
 
 
-def list_nodes(session: Any, namespace: str | None = None, timeout: float = 2.0) -> list[NodeInfo]:
+def list_nodes(session: Any, namespace: str | None = None, timeout: float = 2.0, profile: Any = None) -> list[NodeInfo]:
     """Live nodes with their publications and subscriptions, sorted by fully qualified name."""
-    nodes, _ = build_graph(list_tokens(session, namespace, timeout))
+    nodes, _ = build_graph(list_tokens(session, namespace, timeout, profile))
     return [nodes[k] for k in sorted(nodes)]
 
 
-def node_info(session: Any, fq_name: str, timeout: float = 2.0) -> NodeInfo | None:
+def node_info(session: Any, fq_name: str, timeout: float = 2.0, profile: Any = None) -> NodeInfo | None:
     """One node by fully qualified name ('/robot1/talker' or 'talker' for the root); None if not alive."""
     fq = fq_name if fq_name.startswith("/") else "/" + fq_name
     ns, _, name = fq.rpartition("/")
-    nodes, _ = build_graph(list_tokens(session, ns, timeout))
+    nodes, _ = build_graph(list_tokens(session, ns, timeout, profile))
     return nodes.get(fully_qualified_node_name(ns, name))
 
 
-def list_topics(session: Any, namespace: str | None = None, timeout: float = 2.0) -> list[TopicInfo]:
-    _, topics = build_graph(list_tokens(session, namespace, timeout))
+def list_topics(session: Any, namespace: str | None = None, timeout: float = 2.0,
+                profile: Any = None) -> list[TopicInfo]:
+    _, topics = build_graph(list_tokens(session, namespace, timeout, profile))
     return [topics[k] for k in sorted(topics)]
 
 
@@ -138,17 +157,18 @@ class GraphWatcher:
     """Live view of the graph: ``on_change(entry, alive)`` per token event; ``snapshot()`` any time."""
 
     def __init__(self, session: Any, on_change: Callable[[GraphEntry, bool], None] | None = None,
-                 namespace: str | None = None) -> None:
+                 namespace: str | None = None, profile: Any = None) -> None:
         import zenoh
 
         self._entries: set[GraphEntry] = set()
         self._cond = threading.Condition()
         self._on_change = on_change
         self._put = zenoh.SampleKind.PUT
-        self._sub = session.liveliness().declare_subscriber(_selector(namespace), self._on_sample, history=True)
+        selector, self._parse = _parser(profile, namespace)
+        self._sub = session.liveliness().declare_subscriber(selector, self._on_sample, history=True)
 
     def _on_sample(self, sample: Any) -> None:
-        e = parse_token(str(sample.key_expr))
+        e = self._parse(str(sample.key_expr))
         if e is None:
             return
         alive = sample.kind == self._put

@@ -7,7 +7,6 @@ import uuid
 from functools import partial
 from typing import Any
 
-from . import wire
 from .core.messages import TFMessage
 from .node import Node, RateLimitedLog
 
@@ -44,14 +43,20 @@ class TransformListener:
         self.bad_messages = 0      # payloads that were not a TFMessage at all
         self._subs: list[Any] = []
         self._tokens: list[Any] = []
-        self._tf_encoding = wire.encoding_for(TFMessage.TYPE_NAME)
+        profile = self.node.wire  # zentf or ros2 (zentf.profile): key layout, payload format, authority
+        self._tf_encoding = profile.encoding(TFMessage.TYPE_NAME)
+        self._check_encoding = profile.check_tf_encoding
+        self._authority = profile.authority
+        self._ingest = profile.ingest_tf
+        #: ROS 2 carries no sender name: tf2_ros records one fixed authority for every transform
+        self._fixed_authority = profile.authority(None, "") if profile.name == "ros2" else None
         self._authorities: dict[bytes, str] = {}
         session = self.node.session
         static_key = wire_key(self.node, tf_static_topic)
         self._subs.append(zx.declare_advanced_subscriber(
             session, static_key, partial(self._on_sample, is_static=True),
             history=zx.HistoryConfig(detect_late_publishers=True)))
-        self._declare_token(static_key)
+        self._declare_token(static_key, is_static=True)
         if not static_only:
             key = wire_key(self.node, tf_topic)
             # the bound method itself (no lambda frame): tf ingest runs right in Zenoh's callback thread
@@ -60,31 +65,34 @@ class TransformListener:
         self._jump = self.node.get_clock().add_jump_callback(self._on_jump)
         self.node.add_on_shutdown(self.unregister)
 
-    def _declare_token(self, key: str) -> None:
+    def _declare_token(self, key: str, is_static: bool = False) -> None:
         if "*" not in key:  # a liveliness token cannot hold a wildcard; '*/tf' listeners stay unlisted
-            self._tokens.append(self.node._declare_entity("sub", TFMessage.TYPE_NAME, key))
+            # depth 100 on both, as tf2_ros's DynamicListenerQoS / StaticListenerQoS
+            self._tokens.append(self.node._declare_entity("sub", TFMessage.TYPE_NAME, key, depth=100,
+                                                          latched=is_static,
+                                                          topic=self.node.wire.topic_of_key(key)[0]))
 
     def _on_sample(self, sample: Any, is_static: bool = False) -> None:
         """Zenoh thread: decode and insert; every failure is contained here."""
         try:
             enc = sample.encoding
             if enc != self._tf_encoding:  # cheap Rust-side compare for the common case
-                type_name = wire.type_name_from_encoding(enc)
-                if type_name is not None and type_name != TFMessage.TYPE_NAME:
-                    raise ValueError(f"wrong type {type_name}, expected {TFMessage.TYPE_NAME}")
-            att = sample.attachment
-            authority = self._authorities.get(att.to_bytes()) if att is not None else None
+                self._check_encoding(enc)
+            authority = self._fixed_authority
             if authority is None:
-                authority = wire.authority_of(att, str(sample.key_expr))
-                if att is not None and len(self._authorities) < 1024:
-                    self._authorities[att.to_bytes()] = authority
-            accepted, rejected, malformed, problem = wire.ingest_tf(sample.payload.to_bytes(), self.buffer,
-                                                                    authority, is_static)
+                att = sample.attachment
+                authority = self._authorities.get(att.to_bytes()) if att is not None else None
+                if authority is None:
+                    authority = self._authority(att, str(sample.key_expr))
+                    if att is not None and len(self._authorities) < 1024:
+                        self._authorities[att.to_bytes()] = authority
+            accepted, rejected, malformed, problem = self._ingest(sample.payload.to_bytes(), self.buffer,
+                                                                  authority, is_static)
         except Exception as e:
             self.bad_messages += 1
             try:
                 key = str(sample.key_expr)
-                sender = wire.authority_of(sample.attachment, "unknown sender")
+                sender = self._authority(sample.attachment, "unknown sender")
             except Exception:
                 key, sender = "?", "unknown sender"
             self._log(f"bad:{key}:{sender}", f"dropped bad message on '{key}' from {sender}: {e}")
@@ -140,14 +148,15 @@ class StaticTransformListener(TransformListener):
 
 def wire_key(node: Node, topic: str) -> str:
     """Key of a tf topic; '*' / '**' parts make it a pattern ('*/tf' = the tf of every robot namespace)."""
+    from .core.messages import TFMessage as _TF
     from .names import topic_to_key
 
     if "*" not in topic:
-        return topic_to_key(node.resolve_topic_name(topic))
+        return node.wire.data_key(node.resolve_topic_name(topic), _TF.TYPE_NAME)
     marks = {"**": "zentf_wild2_", "*": "zentf_wild1_"}
     parts = topic.split("/")
     for part in parts:
         if "*" in part and part not in marks:
             raise ValueError(f"invalid tf topic {topic!r}: a wildcard must be a whole part ('*' or '**')")
-    key = topic_to_key(node.resolve_topic_name("/".join(marks.get(p, p) for p in parts)))
+    key = node.wire.data_key(node.resolve_topic_name("/".join(marks.get(p, p) for p in parts)), _TF.TYPE_NAME)
     return "/".join({v: k for k, v in marks.items()}.get(c, c) for c in key.split("/"))

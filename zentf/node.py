@@ -20,9 +20,10 @@ from . import wire
 from .clock import Clock, ClockType, Rate
 from .core.messages import Clock as ClockMsg
 from .core.messages import Message
-from .names import (encode_chunk, fully_qualified_node_name, normalize_namespace, resolve_topic,
-                    topic_to_key, validate_node_name)
+from .names import (fully_qualified_node_name, key_to_topic, normalize_namespace, resolve_topic,
+                    validate_node_name)
 from .options import NodeOptions
+from .profile import make_profile, zentf_entity_token, zentf_node_token
 from .core.time import Duration, to_duration
 
 __all__ = ["Node", "Publisher", "Subscription", "Timer", "Parameter", "NodeNameError",
@@ -43,11 +44,12 @@ class ParameterNotDeclaredException(KeyError):
 
 
 def node_token_key(namespace: str, name: str) -> str:
-    return f"{LIVELINESS_PREFIX}/node/{encode_chunk(namespace)}/{name}"
+    """zentf's node token (the ``zentf`` wire profile)."""
+    return zentf_node_token(namespace, name)
 
 
 def entity_token_key(kind: str, namespace: str, name: str, type_name: str, key: str) -> str:
-    return f"{LIVELINESS_PREFIX}/{kind}/{encode_chunk(namespace)}/{name}/{encode_chunk(type_name)}/{key}"
+    return zentf_entity_token(kind, namespace, name, type_name, key)
 
 
 def init_logging(level: int = logging.INFO) -> None:
@@ -93,25 +95,32 @@ class Publisher:
     """Publishes messages of one type on one topic; ``publish`` also takes a plain dict."""
 
     def __init__(self, node: "Node", topic: str, msg_type: type[Message], *, latched: bool = False,
-                 history: int = 1) -> None:
+                 history: int = 1, depth: int = 10) -> None:
         import zenoh
         import zenoh.ext as zx
 
         self.node = node
         self.topic_name = topic
         self.msg_type = msg_type
-        self.key = topic_to_key(topic)
+        profile = node.wire
+        self.key = profile.data_key(topic, msg_type.TYPE_NAME)
         self.latched = latched
-        enc = wire.encoding_for(msg_type.TYPE_NAME)
+        self._encode = profile.encode
+        enc = profile.encoding(msg_type.TYPE_NAME)
         if latched:
+            extra = {}
+            if profile.name == "ros2":  # as rmw_zenoh's RELIABLE + TRANSIENT_LOCAL publishers
+                extra["sample_miss_detection"] = zx.MissDetectionConfig(sporadic_heartbeat=0.5)
             self._pub = zx.declare_advanced_publisher(
                 node.session, self.key, encoding=enc, cache=zx.CacheConfig(max_samples=max(1, history)),
-                publisher_detection=True)
+                publisher_detection=True, **extra)
         else:
             self._pub = node.session.declare_publisher(self.key, encoding=enc,
                                                        congestion_control=zenoh.CongestionControl.BLOCK)
-        self._attachment = node.get_fully_qualified_name().encode()
-        self._token = node._declare_entity("pub", msg_type.TYPE_NAME, self.key)
+        self._token, token_key = node._declare_entity("pub", msg_type.TYPE_NAME, self.key, topic=topic,
+                                                      depth=max(1, history) if latched else depth,
+                                                      latched=latched, with_key=True)
+        self._attach = profile.attacher(node, token_key)
 
     def wait_for_subscribers(self, timeout: float = 5.0) -> bool:
         """Block until at least one subscriber matches (event-driven); True at once for latched topics."""
@@ -133,11 +142,11 @@ class Publisher:
         if isinstance(msg, Message) and not isinstance(msg, self.msg_type):
             raise TypeError(f"publisher on {self.topic_name} takes {self.msg_type.__name__}, "
                             f"got {type(msg).__name__}")
-        self.publish_bytes(wire.encode(msg))
+        self.publish_bytes(self._encode(msg, self.msg_type.TYPE_NAME))
 
     def publish_bytes(self, payload: bytes) -> None:
-        """Send an already encoded payload (e.g. from ``wire.encode_tf``)."""
-        self._pub.put(payload, attachment=self._attachment)
+        """Send an already encoded payload (e.g. from ``node.wire.encode_tf``)."""
+        self._pub.put(payload, attachment=self._attach())
 
     def destroy(self) -> None:
         for obj in (self._pub, self._token):
@@ -162,7 +171,7 @@ class Subscription:
         self.topic_name = topic
         self.msg_type = msg_type
         self.callback = callback
-        self.key = topic_to_key(topic)
+        self.key = node.wire.data_key(topic, msg_type.TYPE_NAME if msg_type is not None else None)
         self.received = 0
         self.errors = 0
         self.overflows = 0
@@ -176,7 +185,7 @@ class Subscription:
         else:
             self._sub = node.session.declare_subscriber(self.key, self._on_sample)
         type_name = msg_type.TYPE_NAME if msg_type is not None else ""  # '%' on the wire = any type
-        self._token = node._declare_entity("sub", type_name, self.key)
+        self._token = node._declare_entity("sub", type_name, self.key, topic=topic, depth=depth, latched=latched)
 
     def _on_sample(self, sample: Any) -> None:  # Zenoh thread: copy and hand over
         try:
@@ -201,21 +210,13 @@ class Subscription:
                 payload, enc, att, key = self._queue.popleft()
             self.received += 1
             try:
-                msg = self._decode(payload, enc)
+                msg = self.node.wire.decode(payload, enc, key, self.msg_type)
             except ValueError as e:
                 self.errors += 1
-                sender = wire.authority_of(att, "unknown sender")
+                sender = self.node.wire.authority(att, "unknown sender")
                 self.node._bad_input(key, f"dropped bad message on '{key}' from {sender}: {e}")
                 continue
             self.callback(msg)
-
-    def _decode(self, payload: bytes, enc: str) -> Any:
-        type_name = wire.type_name_from_encoding(enc)
-        if self.msg_type is None:
-            return wire.decode_any(payload, enc)[1]
-        if type_name is not None and type_name != self.msg_type.TYPE_NAME:
-            raise ValueError(f"wrong type {type_name}, expected {self.msg_type.TYPE_NAME}")
-        return wire.decode(payload, self.msg_type)
 
     def destroy(self) -> None:
         for obj in (self._sub, self._token):
@@ -252,6 +253,13 @@ class Timer:
     def destroy(self) -> None:
         self.cancel()
         self.node._timers.discard(self)
+
+
+class _NoToken:
+    """Stands for a token a profile does not declare (e.g. a ROS 2 subscriber of any type)."""
+
+    def undeclare(self) -> None:
+        return None
 
 
 _STOP = object()
@@ -345,13 +353,15 @@ class Node:
         self._shutdown = threading.Event()
         self._closed = False
         self._lock = threading.Lock()
+        #: the wire profile (zentf.profile): keys, payloads, attachments and graph tokens of this node
+        self.wire = make_profile(opts.wire, opts.domain_id)
+        self._ros2_id: int | None = None
         self._owns_session = session is None
-        self.session = session if session is not None else opts.zenoh.open_session()
+        self.session = session if session is not None else self.wire.session_defaults(opts.zenoh).open_session()
         try:
-            if check_unique:
+            if check_unique and self.wire.name == "zentf":  # ROS 2 allows (and warns about) duplicates
                 self._check_unique()
-            self._tokens.append(self.session.liveliness().declare_token(
-                node_token_key(self._namespace, self._name)))
+            self._tokens.append(self.session.liveliness().declare_token(self.wire.node_token(self)))
             use_sim = self.declare_parameter("use_sim_time", False).value
             if isinstance(use_sim, str):
                 use_sim = use_sim.strip().lower() in ("1", "true", "yes", "on")
@@ -405,18 +415,25 @@ class Node:
                 log.debug("liveliness query for %s failed: %s", key, e)
                 return
 
-    def _declare_entity(self, kind: str, type_name: str, key: str) -> Any:
-        return self.session.liveliness().declare_token(
-            entity_token_key(kind, self._namespace, self._name, type_name, key))
+    def _declare_entity(self, kind: str, type_name: str, key: str, *, topic: str | None = None, depth: int = 10,
+                        latched: bool = False, with_key: bool = False) -> Any:
+        """Announce a publisher ('pub') or subscriber ('sub') of ``key`` in the graph (the profile's
+        token layout); with_key: (token, token key)."""
+        token_key = self.wire.entity_token(self, kind, topic or key_to_topic(key), type_name, key,
+                                           depth=depth, latched=latched)
+        token = self.session.liveliness().declare_token(token_key) if token_key else _NoToken()
+        return (token, token_key) if with_key else token
 
     # ---- pub/sub
     def create_publisher(self, topic: str | type[Message], msg_type: type[Message] | str,
                          qos: int = 10, *, latched: bool = False) -> Publisher:
-        """``create_publisher('tf', TFMessage)``; rclpy order ``(TFMessage, 'tf')`` works too."""
+        """``create_publisher('tf', TFMessage)``; rclpy order ``(TFMessage, 'tf')`` works too.
+        ``qos`` is the history depth (a latched topic keeps that many samples for late joiners)."""
         if isinstance(topic, type):
             topic, msg_type = msg_type, topic  # type: ignore[assignment]
         self._check_open()
-        pub = Publisher(self, self.resolve_topic_name(topic), msg_type, latched=latched)  # type: ignore[arg-type]
+        pub = Publisher(self, self.resolve_topic_name(topic), msg_type, latched=latched,  # type: ignore[arg-type]
+                        history=qos if latched and self.wire.name == "ros2" else 1, depth=qos)
         self._publishers.add(pub)
         return pub
 
@@ -460,19 +477,25 @@ class Node:
         return _time.monotonic_ns()
 
     def _start_sim_clock(self) -> None:
-        key = topic_to_key(self.resolve_topic_name("/clock"))
+        topic = self.resolve_topic_name("/clock")
+        key = self.wire.data_key(topic, ClockMsg.TYPE_NAME)
         clock = self._clock
+        profile = self.wire
 
         def on_clock(sample: Any) -> None:  # Zenoh thread: tiny and never raises
             try:
-                d = wire.unpack(sample.payload.to_bytes())
-                st = d["clock"]
-                sec, nsec = st["sec"], st["nanosec"]
+                if profile.name == "zentf":
+                    d = wire.unpack(sample.payload.to_bytes())
+                    st = d["clock"]
+                    sec, nsec = st["sec"], st["nanosec"]
+                else:
+                    st = profile.decode(sample.payload.to_bytes(), "", str(sample.key_expr), ClockMsg).clock
+                    sec, nsec = st.sec, st.nanosec
                 if type(sec) is not int or type(nsec) is not int or sec < 0 or not 0 <= nsec < 1_000_000_000:
                     raise ValueError(f"bad clock value {st!r}"[:100])
             except Exception as e:
                 self._bad_input(str(sample.key_expr), f"dropped bad /clock message on '{sample.key_expr}' "
-                                f"from {wire.authority_of(sample.attachment, 'unknown sender')}: {e}")
+                                f"from {profile.authority(sample.attachment, 'unknown sender')}: {e}")
                 return
             clock.set_sim_time(sec * 1_000_000_000 + nsec)
             self._post(None)
@@ -483,7 +506,7 @@ class Node:
 
         clock.add_jump_callback(on_jump)
         self._clock_sub = self.session.declare_subscriber(key, on_clock)
-        self._tokens.append(self._declare_entity("sub", ClockMsg.TYPE_NAME, key))
+        self._tokens.append(self._declare_entity("sub", ClockMsg.TYPE_NAME, key, topic=topic))
 
     # ---- parameters
     def declare_parameter(self, name: str, default: Any = None) -> Parameter:

@@ -26,7 +26,9 @@ __all__ = [
 
 ENV_VARS = ("ZENTF_NODE_NAME", "ZENTF_NAMESPACE", "ZENTF_PARAMS", "ZENTF_PARAMS_FILE", "ZENTF_REMAP",
             "ZENTF_ZENOH_CONFIG", "ZENTF_CONNECT", "ZENTF_LISTEN", "ZENTF_MODE", "ZENTF_NO_MULTICAST",
-            "ZENTF_LAN", "ZENTF_LOCAL_PORT")
+            "ZENTF_LAN", "ZENTF_LOCAL_PORT", "ZENTF_WIRE", "ROS_DOMAIN_ID")
+#: Wire profiles (zentf.profile): zentf's own format, or rmw_zenoh's to talk to ROS 2 (docs/ros2.md).
+WIRES = ("zentf", "ros2")
 MODES = ("peer", "client", "router")
 _ENDPOINT = re.compile(r"[a-z0-9]+/\S+\Z")
 #: Loopback port of the local profile's rendezvous: the first zentf process of this machine listens
@@ -426,6 +428,8 @@ class NodeOptions:
     params_file: str | None = None
     remappings: dict[str, str] = field(default_factory=dict)
     zenoh: ZenohOptions = field(default_factory=ZenohOptions)
+    wire: str = "zentf"
+    domain_id: int = 0
 
     @classmethod
     def from_env(cls, env: Mapping[str, str] | None = None) -> "NodeOptions":
@@ -435,7 +439,9 @@ class NodeOptions:
                    params=_json_object(env, "ZENTF_PARAMS"),
                    params_file=env.get("ZENTF_PARAMS_FILE") or None,
                    remappings={str(k): str(v) for k, v in _json_object(env, "ZENTF_REMAP").items()},
-                   zenoh=ZenohOptions.from_env(env))
+                   zenoh=ZenohOptions.from_env(env),
+                   wire=(env.get("ZENTF_WIRE") or "zentf").strip().lower(),
+                   domain_id=_domain_id(env.get("ROS_DOMAIN_ID")))
         opts._check()
         return opts
 
@@ -470,6 +476,8 @@ class NodeOptions:
         for r in g("remap") or []:
             src, dst = parse_remap(r)
             opts.remappings[src] = dst
+        if g("wire"):
+            opts.wire = g("wire")
         opts.zenoh = ZenohOptions.from_values(g("zenoh_config"), g("connect"), g("listen"), g("mode"),
                                               g("no_multicast"), env, lan=g("lan"))
         opts._check()
@@ -484,6 +492,8 @@ class NodeOptions:
             raise OptionsError(str(e)) from None
         if self.params_file is not None and not os.path.isfile(self.params_file):
             raise OptionsError(f"params file not found: {self.params_file}")
+        if self.wire not in WIRES:
+            raise OptionsError(f"bad wire profile {self.wire!r} (choose zentf or ros2) [ZENTF_WIRE]")
 
     def resolved_params(self, node_name: str | None = None) -> dict[str, Any]:
         """Params file values overridden by explicit params."""
@@ -509,7 +519,23 @@ class NodeOptions:
             env["ZENTF_PARAMS_FILE"] = self.params_file
         if self.remappings:
             env["ZENTF_REMAP"] = json.dumps(self.remappings)
+        if self.wire != "zentf":
+            env["ZENTF_WIRE"] = self.wire
+            env["ROS_DOMAIN_ID"] = str(self.domain_id)
         return env
+
+
+def _domain_id(text: str | None) -> int:
+    """ROS_DOMAIN_ID as ROS 2 reads it: empty means 0; otherwise an integer 0-232."""
+    if text is None or not text.strip():
+        return 0
+    try:
+        value = int(text.strip())
+    except ValueError:
+        raise OptionsError(f"ROS_DOMAIN_ID must be an integer 0-232, got {text!r}") from None
+    if not 0 <= value <= 232:
+        raise OptionsError(f"ROS_DOMAIN_ID must be an integer 0-232, got {value}")
+    return value
 
 
 def add_zenoh_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
@@ -537,5 +563,7 @@ def add_node_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentPars
     g.add_argument("--params-file", metavar="FILE", help="YAML parameters file [ZENTF_PARAMS_FILE]")
     g.add_argument("-r", "--remap", dest="remap", metavar="FROM:=TO", action="append",
                    help="topic remapping (repeat) [ZENTF_REMAP as JSON]")
+    g.add_argument("--wire", choices=WIRES, default=None,
+                   help="wire format: zentf (default) or ros2 (rmw_zenoh, ROS_DOMAIN_ID) [ZENTF_WIRE]")
     add_zenoh_arguments(parser)
     return parser

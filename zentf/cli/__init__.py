@@ -76,6 +76,7 @@ _COMMANDS: dict[str, tuple[str, str]] = {
                               "Publish a URDF robot's frames from joint_states (robot_state_publisher)."),
     "joint-state-publisher": ("zentf.cli.robot:joint_state_publisher",
                               "Publish joint_states for a URDF: values, --sweep, --gui sliders."),
+    "bridge": ("zentf.cli.bridge:bridge", "Relay tf, tf_static, /clock and topics to and from a ROS 2 graph."),
 }
 
 

@@ -13,7 +13,8 @@ from typing import Any, Iterator, Optional
 
 import click
 
-from .common import CONTEXT_SETTINGS, CliError, CliOptions, finite_float, node_options, open_node, with_options
+from .common import (CONTEXT_SETTINGS, CliError, CliOptions, finite_float, node_options, open_node, wire_profile,
+                     with_options)
 
 __all__ = ["bag"]
 
@@ -137,8 +138,16 @@ def bag_record(topics: tuple[str, ...], all_topics: bool, output: Optional[str],
 
     keys, ns = _resolve_keys(opts, topics, all_topics)
     writer: Any
+    profile = wire_profile(opts)
     try:
-        if fmt == "ros2":
+        if profile.name == "ros2":  # a ROS 2 graph: CDR as it came, in a rosbag2-style MCAP (docs/ros2.md)
+            from zentf.tools.ros2_bag import Ros2BagWriter
+
+            path = output or time.strftime("zentf_%Y%m%d_%H%M%S.mcap")
+            keys = [f"{profile.domain_id}/{k}" if k.endswith("**") else profile.data_key("/" + k, None)
+                    for k in keys]
+            writer = Ros2BagWriter(path, profile, compression=compression)
+        elif fmt == "ros2":
             from zentf.tools.bag import Ros2Writer
 
             path = output or time.strftime("rosbag2_%Y_%m_%d-%H_%M_%S")

@@ -14,7 +14,8 @@ from typing import Any, Callable, Iterator, Optional
 import click
 
 __all__ = ["CliError", "CliOptions", "CONTEXT_SETTINGS", "FiniteFloat", "FiniteFloatRange", "finite_float",
-           "liveliness_wait_option", "with_options", "open_node", "open_session", "node_options", "status", "cli_node_name", "clean_error"]
+           "liveliness_wait_option", "with_options", "open_node", "open_session", "node_options", "status",
+           "cli_node_name", "clean_error", "wire_profile"]
 
 
 class CliError(Exception):
@@ -73,6 +74,7 @@ class CliOptions:
     no_multicast: bool = False
     debug: bool = False
     lan: bool = False
+    wire: Optional[str] = None
 
     def argv(self) -> list[str]:
         """The same options as a node command line (architecture contract), for child programs."""
@@ -91,6 +93,8 @@ class CliOptions:
             out.append("--no-multicast")
         if self.lan:
             out.append("--lan")
+        if self.wire:
+            out += ["--wire", self.wire]
         return out
 
 
@@ -111,8 +115,11 @@ _SHARED = [
                  help="Reach other machines (every interface, multicast scouting; unauthenticated). Default: "
                       "this machine only. [env ZENTF_LAN=1]"),
     click.option("--debug", is_flag=True, default=False, help="Show tracebacks and debug logs."),
+    click.option("--wire", type=click.Choice(["zentf", "ros2"]), default=None,
+                 help="Wire format: zentf, or ros2 to work on a ROS 2 (rmw_zenoh) graph; ROS_DOMAIN_ID "
+                      "picks the domain. [env ZENTF_WIRE]"),
 ]
-_SHARED_NAMES = ("namespace", "zenoh_config", "connect", "listen", "mode", "no_multicast", "lan", "debug")
+_SHARED_NAMES = ("namespace", "zenoh_config", "connect", "listen", "mode", "no_multicast", "lan", "debug", "wire")
 
 
 def with_options(func: Callable[..., Any]) -> Callable[..., Any]:
@@ -125,7 +132,7 @@ def with_options(func: Callable[..., Any]) -> Callable[..., Any]:
             namespace=shared["namespace"], zenoh_config=shared["zenoh_config"],
             connect=list(shared["connect"] or ()), listen=list(shared["listen"] or ()),
             mode=shared["mode"], no_multicast=bool(shared["no_multicast"]), debug=bool(shared["debug"]),
-            lan=bool(shared["lan"]))
+            lan=bool(shared["lan"]), wire=shared["wire"])
         if opts.debug:
             _enable_debug()
         return func(*args, opts=opts, **kwargs)
@@ -159,6 +166,8 @@ def node_options(opts: CliOptions, name: str) -> Any:
         base.zenoh = ZenohOptions.from_values(
             str(opts.zenoh_config) if opts.zenoh_config is not None else None,
             opts.connect, opts.listen, opts.mode, opts.no_multicast, lan=opts.lan)
+        if opts.wire:
+            base.wire = opts.wire
         base._check()
     except OptionsError as exc:
         raise CliError(str(exc), code=2) from exc
@@ -180,11 +189,19 @@ def open_node(opts: CliOptions, tool: str) -> Any:
         raise CliError(_session_error(exc, opts)) from exc
 
 
+def wire_profile(opts: CliOptions) -> Any:
+    """The wire profile (zentf.profile) the options pick: zentf's own, or ros2 for a ROS 2 graph."""
+    from zentf.profile import make_profile
+
+    node_opts = node_options(opts, "_zentf_cli")
+    return make_profile(node_opts.wire, node_opts.domain_id)
+
+
 def open_session(opts: CliOptions) -> Any:
     """A bare Zenoh session (no node token) for tools that only look at the graph."""
     node_opts = node_options(opts, cli_node_name("graph"))
     try:
-        return node_opts.zenoh.open_session()
+        return wire_profile(opts).session_defaults(node_opts.zenoh).open_session()
     except Exception as exc:
         if opts.debug:
             raise

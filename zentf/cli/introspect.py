@@ -5,7 +5,7 @@ import threading
 import time
 from typing import Any, Optional
 
-from .common import CliOptions, node_options, open_session, status
+from .common import CliOptions, node_options, open_session, status, wire_profile
 
 __all__ = ["graph_snapshot", "graph_namespace"]
 
@@ -26,7 +26,8 @@ def graph_snapshot(opts: CliOptions, wait: float, namespace: Optional[str] = Non
     """(nodes, topics) as zentf.graph.build_graph returns them, once token arrivals have settled."""
     from zentf.graph import GraphWatcher, build_graph, list_tokens
 
-    zopts = node_options(opts, "_zentf_cli").zenoh
+    profile = wire_profile(opts)
+    zopts = profile.session_defaults(node_options(opts, "_zentf_cli").zenoh)
     session = open_session(opts)
     opened = time.monotonic()
     last_change = [opened]
@@ -40,8 +41,8 @@ def graph_snapshot(opts: CliOptions, wait: float, namespace: Optional[str] = Non
     try:
         with status("Querying the graph"):
             if zopts.mode != "client":
-                watcher = GraphWatcher(session, on_change=on_change, namespace=namespace)
-            entries = set(list_tokens(session, namespace, timeout=max(0.1, wait)))
+                watcher = GraphWatcher(session, on_change=on_change, namespace=namespace, profile=profile)
+            entries = set(list_tokens(session, namespace, timeout=max(0.1, wait), profile=profile))
             if watcher is not None:
                 deadline = opened + wait
                 while True:

@@ -418,17 +418,17 @@ def _subscribe_tf(node: Any, stats: MonitorStats) -> list:
     """Subscribe tf (plain) and tf_static (latched history) and feed wire.ingest_tf into `stats`."""
     import zenoh.ext as zx
 
-    from zentf import wire
-    from zentf.names import topic_to_key
+    from zentf.core.messages import TFMessage
 
+    profile = node.wire  # zentf's format or ROS 2's (--wire ros2)
     subs = []
     for topic, is_static in (("tf_static", True), ("tf", False)):
-        key = topic_to_key(node.resolve_topic_name(topic))
+        key = profile.data_key(node.resolve_topic_name(topic), TFMessage.TYPE_NAME)
 
         def on_sample(sample: Any, is_static: bool = is_static, key: str = key) -> None:
             try:
-                wire.ingest_tf(sample.payload.to_bytes(), stats,
-                               wire.authority_of(sample.attachment, key), is_static)
+                profile.ingest_tf(sample.payload.to_bytes(), stats,
+                                  profile.authority(sample.attachment, key), is_static)
             except Exception:  # noqa: BLE001 - bad payloads are the publisher's problem, never ours
                 pass
 

@@ -9,7 +9,8 @@ from typing import Any, Optional
 
 import click
 
-from .common import CONTEXT_SETTINGS, liveliness_wait_option, CliError, CliOptions, finite_float, node_options, open_session, status, with_options
+from .common import (CONTEXT_SETTINGS, liveliness_wait_option, CliError, CliOptions, finite_float, node_options,
+                     open_session, status, wire_profile, with_options)
 
 __all__ = ["topic", "resolve_type_name", "render_sample"]
 
@@ -20,15 +21,15 @@ def topic() -> None:
 
 
 def _resolve(opts: CliOptions, name: str) -> tuple[str, str]:
-    """(fully qualified topic, key expression) of a topic name in the command's namespace."""
-    from zentf.names import resolve_topic, topic_to_key
+    """(fully qualified topic, key expression of any type on it) of a topic name in the command's namespace."""
+    from zentf.names import resolve_topic
 
     ns = node_options(opts, "_zentf_cli").namespace or ""
     try:
         fq = resolve_topic(name, ns)
     except ValueError as exc:
         raise CliError(str(exc), code=2) from exc
-    return fq, topic_to_key(fq)
+    return fq, wire_profile(opts).data_key(fq, None)
 
 
 @topic.command("list", context_settings=CONTEXT_SETTINGS)
@@ -76,15 +77,15 @@ def topic_info(name: str, wait: float, *, opts: CliOptions) -> None:
         print(f"  {n}")
 
 
-def render_sample(payload: bytes, encoding: str, as_json: bool) -> str:
-    """One received sample as YAML (ros2 topic echo style) or one JSON line; raw bytes if unknown."""
-    from zentf import wire
+def render_sample(payload: bytes, encoding: str, as_json: bool, key: str = "", profile: Any = None) -> str:
+    """One received sample as YAML (ros2 topic echo style) or one JSON line; raw bytes if unknown.
+    The wire ``profile`` (zentf's by default) decodes it: by the carried encoding, or (ros2) the key's type."""
+    from zentf.profile import WireProfile
 
     data: Any
     try:
-        type_name, value = wire.decode_any(payload, encoding)
+        type_name, value, known = (profile or WireProfile()).decode_any(payload, encoding, key)
         data = value.to_dict() if hasattr(value, "to_dict") else value
-        known = str(encoding).startswith(wire.ENCODING)
     except ValueError:
         known = False
     if not known:
@@ -106,13 +107,14 @@ def _json_default(obj: Any) -> Any:
     return str(obj)
 
 
-def _subscribe(session: Any, key: str, history: bool) -> tuple[Any, "queue.Queue[tuple[bytes, str, float]]"]:
+def _subscribe(session: Any, key: str, history: bool) -> tuple[Any, "queue.Queue[tuple[bytes, str, float, str]]"]:
     """Subscriber whose Zenoh-thread callback only copies the sample into a queue."""
-    inbox: "queue.Queue[tuple[bytes, str, float]]" = queue.Queue(maxsize=100_000)
+    inbox: "queue.Queue[tuple[bytes, str, float, str]]" = queue.Queue(maxsize=100_000)
 
     def on_sample(sample: Any) -> None:
         try:
-            inbox.put_nowait((sample.payload.to_bytes(), str(sample.encoding), time.monotonic()))
+            inbox.put_nowait((sample.payload.to_bytes(), str(sample.encoding), time.monotonic(),
+                              str(sample.key_expr)))
         except Exception:  # noqa: BLE001 - full queue or odd sample: drop, never raise in Zenoh's thread
             pass
 
@@ -160,12 +162,12 @@ def topic_echo(name: str, once: bool, count: int, as_json: bool, timeout: Option
             try:
                 if shown == 0:
                     with status(f"Waiting for messages on {fq}"):
-                        payload, enc, _ = inbox.get(timeout=min(wait, 0.5))
+                        payload, enc, _, got = inbox.get(timeout=min(wait, 0.5))
                 else:
-                    payload, enc, _ = inbox.get(timeout=wait)
+                    payload, enc, _, got = inbox.get(timeout=wait)
             except queue.Empty:
                 continue
-            sys.stdout.write(render_sample(payload, enc, as_json) + "\n")
+            sys.stdout.write(render_sample(payload, enc, as_json, got, node.wire) + "\n")
             sys.stdout.flush()
             shown += 1
         sub.undeclare()
@@ -207,7 +209,7 @@ def topic_hz(name: str, window: int, duration: Optional[float], period: float, *
                 now = time.monotonic()
                 stop_at = next_report if end is None else min(next_report, end)
                 try:
-                    _, _, t = inbox.get(timeout=max(0.0, stop_at - now))
+                    _, _, t, _ = inbox.get(timeout=max(0.0, stop_at - now))
                     arrivals.append(t)
                     continue
                 except queue.Empty:
@@ -282,8 +284,6 @@ def parse_message(type_name: str, data: str) -> Any:
 def topic_pub(name: str, type_name: str, data: str, rate: float, once: bool, times: int, wait_matching: float,
               *, opts: CliOptions) -> None:
     """Publish DATA (YAML or JSON, e.g. '{x: 1.0}') as a TYPE message on a topic."""
-    from zentf.names import topic_to_key
-
     from .common import open_node
 
     tname = resolve_type_name(type_name)
@@ -293,7 +293,7 @@ def topic_pub(name: str, type_name: str, data: str, rate: float, once: bool, tim
     node = open_node(opts, "topic_pub")
     try:
         pub = node.create_publisher(name, type(msg))
-        _wait_for_subscriber(node, topic_to_key(pub.topic_name), wait_matching)
+        _wait_for_subscriber(node, pub.topic_name, wait_matching)
         sent = 0
         next_t = time.monotonic()
         from .tf import _sleep_until
@@ -311,17 +311,16 @@ def topic_pub(name: str, type_name: str, data: str, rate: float, once: bool, tim
         node.shutdown()
 
 
-def _wait_for_subscriber(node: Any, key: str, timeout: float) -> bool:
-    """Block until some live node subscribes `key` (liveliness), at most `timeout` s."""
+def _wait_for_subscriber(node: Any, topic: str, timeout: float) -> bool:
+    """Block until some live node subscribes `topic` (liveliness), at most `timeout` s."""
     if timeout <= 0:
         return False
     from zentf.graph import GraphWatcher
-    from zentf.names import topic_to_key
 
-    watcher = GraphWatcher(node.session)
+    watcher = GraphWatcher(node.session, profile=node.wire)
     try:
         with status("Waiting for a subscriber"):
             return watcher.wait_for(
-                lambda entries: any(e.kind == "sub" and topic_to_key(e.topic) == key for e in entries), timeout)
+                lambda entries: any(e.kind == "sub" and e.topic == topic for e in entries), timeout)
     finally:
         watcher.close()

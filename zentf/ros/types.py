@@ -8,15 +8,18 @@ from .errors import UnknownTypeError
 from .msgdef import MsgDef, parse_msg
 from .typehash import type_hash as _type_hash
 
-__all__ = ["definition", "known_types", "dds_type_name", "ros_type_name", "type_hash", "register_definition"]
+__all__ = ["definition", "known_types", "dds_type_name", "ros_type_name", "type_hash", "register_definition",
+           "schema_text"]
 
 _DEFS: dict[str, MsgDef] = {}
+_TEXTS: dict[str, str] = dict(DEFINITIONS)
 
 
 def register_definition(type_name: str, text: str) -> MsgDef:
     """Add (or replace) a .msg definition, e.g. for a message type a program defines itself."""
     d = parse_msg(type_name, text)
     _DEFS[type_name] = d
+    _TEXTS[type_name] = text
     type_hash.cache_clear()
     return d
 
@@ -58,3 +61,20 @@ def ros_type_name(dds_name: str) -> str:
 def type_hash(type_name: str) -> str:
     """RIHS01 hash of a known message type, computed from its definition and those it references."""
     return _type_hash(type_name, definition)
+
+
+def schema_text(type_name: str) -> str:
+    """The rosbag2 'ros2msg' schema of a type: its .msg text, then a block per referenced type
+    (``=====`` line, ``MSG: pkg/msg/Name``, its text), as ROS 2 writes into MCAP files."""
+    seen: list[str] = []
+    todo = [f.base for f in definition(type_name).fields if f.nested]
+    while todo:
+        ref = todo.pop(0)
+        if ref in seen:
+            continue
+        seen.append(ref)
+        todo.extend(f.base for f in definition(ref).fields if f.nested)
+    parts = [_TEXTS[type_name].strip("\n")]
+    for ref in seen:
+        parts.append("=" * 80 + f"\nMSG: {ref}\n" + _TEXTS[ref].strip("\n"))
+    return "\n".join(parts) + "\n"

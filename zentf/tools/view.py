@@ -72,6 +72,9 @@ class Viewer:
         self._inbox: "queue.Queue[tuple[str, str, bytes]]" = queue.Queue(maxsize=10_000)
         ns_key = topic_to_key(node.resolve_topic_name("tf")).rpartition("/")[0]
         self._key = f"{ns_key}/**" if ns_key else "**"
+        self._profile = node.wire  # zentf's format, or ROS 2's (the type is then in the key)
+        if self._profile.name == "ros2":
+            self._key = f"{self._profile.domain_id}/{self._key}"
         self._sub = node.session.declare_subscriber(self._key, self._on_sample)
         self._token = node._declare_entity("sub", "", self._key)
         self._marker_paths: dict[tuple[str, int], str] = {}
@@ -94,7 +97,10 @@ class Viewer:
 
     def _on_sample(self, sample: Any) -> None:  # Zenoh thread: filter by carried type, copy, hand over
         try:
-            type_name = wire.type_name_from_encoding(str(sample.encoding))
+            if self._profile.name == "ros2":
+                type_name = self._profile.topic_of_key(str(sample.key_expr))[1]
+            else:
+                type_name = wire.type_name_from_encoding(str(sample.encoding))
             if type_name not in VIEW_TYPES:
                 return
             self._inbox.put_nowait((str(sample.key_expr), type_name, sample.payload.to_bytes()))
@@ -113,7 +119,7 @@ class Viewer:
             except queue.Empty:
                 break
             try:
-                msg = wire.decode(payload, VIEW_TYPES[type_name])
+                msg = self._profile.decode(payload, "", key, VIEW_TYPES[type_name])
                 self._log_message(key, msg)
             except Exception as e:  # noqa: BLE001 - one bad message must not stop the view
                 self.problems += 1
