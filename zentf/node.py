@@ -433,6 +433,25 @@ class Node:
         self._subscriptions.add(sub)
         return sub
 
+    # ---- services (zentf.service)
+    def create_service(self, name: Any, srv_type: Any, callback: Callable[..., Any]) -> Any:
+        """A service server: ``create_service('spawn', Spawn, handler)``; rclpy's order works too."""
+        from .service import Service
+
+        if isinstance(name, type):
+            name, srv_type = srv_type, name
+        self._check_open()
+        return Service(self, self.resolve_topic_name(name), srv_type, callback)
+
+    def create_client(self, name: Any, srv_type: Any) -> Any:
+        """A service client: ``create_client('spawn', Spawn)``; rclpy's order works too."""
+        from .service import Client
+
+        if isinstance(name, type):
+            name, srv_type = srv_type, name
+        self._check_open()
+        return Client(self, self.resolve_topic_name(name), srv_type)
+
     def destroy_publisher(self, pub: Publisher) -> None:
         pub.destroy()
 

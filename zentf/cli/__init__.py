@@ -71,6 +71,8 @@ _COMMANDS: dict[str, tuple[str, str]] = {
     "router": ("zentf.cli.extern:router", "Run a Zenoh router (multi-machine graphs)."),
     "view": ("zentf.cli.view:view", "Live 3D view of frames, markers and points (Rerun)."),
     "bag": ("zentf.cli.bag:bag", "Record, inspect and play MCAP bags (rosbag)."),
+    "service": ("zentf.cli.service:service", "Services: list, type, call."),
+    "param": ("zentf.cli.param:param", "Node parameters over the network: list, get, set, dump."),
 }
 
 
