@@ -6,13 +6,14 @@ rclpy (``Spawn.Request(x=4.0, y=2.0)``). Its messages are registered like any me
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import ClassVar
 
-from .messages import Message, SpawnRequest, SpawnResponse, register
+from .messages import Message, SpawnRequest, SpawnResponse, TransformStamped, register
+from .time import Duration, Time
 
 __all__ = ["ServiceType", "SERVICE_TYPES", "register_service", "service_type", "Spawn", "Kill",
-           "TeleportAbsolute", "Empty", "Trigger", "SetBool"]
+           "TeleportAbsolute", "Empty", "Trigger", "SetBool", "TF2Error", "LookupTransform"]
 
 #: Every service type by its ROS name ("std_srvs/srv/Trigger").
 SERVICE_TYPES: dict[str, type["ServiceType"]] = {}
@@ -128,3 +129,47 @@ class SetBoolResponse(Message):
 
 
 SetBool = _srv("std_srvs/srv/SetBool", SetBoolRequest, SetBoolResponse)
+
+
+# ---- tf2_msgs: the buffer server's lookup (tf2_ros serves it as an action; zentf as one request/reply)
+@register
+@dataclass(slots=True)
+class TF2Error(Message):
+    """tf2_msgs/msg/TF2Error: which tf2 exception a remote lookup raised, and its text."""
+
+    TYPE_NAME: ClassVar[str] = "tf2_msgs/msg/TF2Error"
+    NO_ERROR: ClassVar[int] = 0
+    LOOKUP_ERROR: ClassVar[int] = 1
+    CONNECTIVITY_ERROR: ClassVar[int] = 2
+    EXTRAPOLATION_ERROR: ClassVar[int] = 3
+    INVALID_ARGUMENT_ERROR: ClassVar[int] = 4
+    TIMEOUT_ERROR: ClassVar[int] = 5
+    TRANSFORM_ERROR: ClassVar[int] = 6
+    error: int = 0
+    error_string: str = ""
+
+
+@dataclass(slots=True)
+class LookupTransformRequest(Message):
+    """The goal of tf2_msgs/action/LookupTransform (``advanced``: the full form with a fixed frame)."""
+
+    TYPE_NAME: ClassVar[str] = "tf2_msgs/action/LookupTransform_Request"
+    target_frame: str = ""
+    source_frame: str = ""
+    source_time: Time = field(default_factory=Time)
+    timeout: Duration = field(default_factory=Duration)
+    target_time: Time = field(default_factory=Time)
+    fixed_frame: str = ""
+    advanced: bool = False
+
+
+@dataclass(slots=True)
+class LookupTransformResponse(Message):
+    """The result of tf2_msgs/action/LookupTransform: the transform, or the error."""
+
+    TYPE_NAME: ClassVar[str] = "tf2_msgs/action/LookupTransform_Response"
+    transform: TransformStamped = field(default_factory=TransformStamped)
+    error: TF2Error = field(default_factory=TF2Error)
+
+
+LookupTransform = _srv("tf2_msgs/action/LookupTransform", LookupTransformRequest, LookupTransformResponse)
