@@ -253,7 +253,7 @@ class Client:
                     f"service {name}: no response (no server is running, or it went away during the call)"))
 
         try:
-            self.node.session.get(self.key, zenoh.handlers.Callback(on_reply, on_done), target=self._target,
+            self.node.session.get(self.key, zenoh.handlers.Callback(on_reply, on_done, indirect=False), target=self._target,
                                   timeout=limit, payload=payload, encoding=self._req_enc,
                                   attachment=self._attachment)
         except Exception as e:
