@@ -2,8 +2,9 @@
 
 Every 1/`rate` s (default 10 Hz) looks up `target_frame` (default turtle1) in the follower's frame
 (`turtlename`, default turtle2) and publishes `<turtlename>/cmd_vel` with angular
-4*atan2(y, x) and linear 0.5*sqrt(x^2 + y^2). Spawn requests (at `spawn_x`, `spawn_y`,
-`spawn_theta`, default 4, 2, 0) go on `spawn` until the new turtle's pose is seen.
+4*atan2(y, x) and linear 0.5*sqrt(x^2 + y^2). First, as the tutorial's listener does, it waits for
+the `spawn` service and calls it (at `spawn_x`, `spawn_y`, `spawn_theta`, default 4, 2, 0); a turtle
+of that name that already exists (a restarted follower) is taken over.
 Prints `distance to <target>: d` once per second (`print_period`).
 """
 from __future__ import annotations
@@ -18,9 +19,11 @@ from nodes import _common
 from zentf.buffer import Buffer
 from zentf.core.exceptions import TransformException
 from zentf.listener import TransformListener
-from zentf.core.messages import SpawnRequest, TurtlePose, Twist, Vector3
+from zentf.core.messages import TurtlePose, Twist, Vector3
+from zentf.core.services import Spawn
 from zentf.node import RateLimitedLog
 from zentf.options import NodeOptions
+from zentf.service import ServiceException, ServiceTimeoutError, ServiceUnavailableError
 from zentf.core.time import Time
 
 log = logging.getLogger("turtle_follower")
@@ -43,28 +46,26 @@ def _run(opts: NodeOptions) -> None:
         target = str(_common.param(node, "target_frame", "turtle1"))
         rate = _common.param_positive(node, "rate", 10.0)
         print_period = _common.param_positive(node, "print_period", 1.0)
-        spawn = SpawnRequest(x=_common.param_float(node, "spawn_x", 4.0),
+        spawn = Spawn.Request(x=_common.param_float(node, "spawn_x", 4.0),
                              y=_common.param_float(node, "spawn_y", 2.0),
                              theta=_common.param_float(node, "spawn_theta", 0.0), name=me)
         buffer = Buffer()
         listener = TransformListener(buffer, node)  # noqa: F841  (kept alive by this frame)
         complain = RateLimitedLog(log, 2.0)
         cmd = node.create_publisher(f"{me}/cmd_vel", Twist)
-        spawner = node.create_publisher("spawn", SpawnRequest)
-        spawned = [False]
         last_print = [-math.inf]
+        alive = [False]
 
         def on_my_pose(_msg: TurtlePose) -> None:
-            if not spawned[0]:
-                spawned[0] = True
+            if not alive[0]:
+                alive[0] = True
                 _common.say(f"{me} is alive")
 
         node.create_subscription(f"{me}/pose", TurtlePose, on_my_pose)
+        if not _spawn(node, spawn):
+            return
 
         def tick() -> None:
-            if not spawned[0]:
-                spawner.publish(spawn)
-                return
             try:
                 ts = buffer.lookup_transform(me, target, Time())
             except TransformException as e:
@@ -80,6 +81,32 @@ def _run(opts: NodeOptions) -> None:
 
         node.create_timer(1.0 / rate, tick)
         node.spin()
+
+
+def _spawn(node: object, request: Spawn.Request) -> bool:
+    """rospy.wait_for_service('spawn'), then call it; False if the node was stopped meanwhile."""
+    client = node.create_client("spawn", Spawn)  # type: ignore[attr-defined]
+    waited = False
+    while not client.wait_for_service(timeout=1.0):
+        if not node.ok():  # type: ignore[attr-defined]
+            return False
+        if not waited:
+            waited = True
+            log.info("waiting for service spawn")
+    while node.ok():  # type: ignore[attr-defined]
+        try:
+            name = client.call(request, timeout=5.0).name
+            log.info("spawned %s", name)
+            return True
+        except (ServiceTimeoutError, ServiceUnavailableError) as e:  # turtlesim restarting: try again
+            log.warning("%s; retrying", e)
+            client.wait_for_service(timeout=1.0)
+        except ServiceException as e:
+            if "already exists" in str(e):
+                log.info("%s exists already: following with it", request.name)
+                return True
+            raise ValueError(f"spawn refused: {e}") from None
+    return False
 
 
 if __name__ == "__main__":

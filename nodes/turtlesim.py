@@ -1,13 +1,13 @@
-"""Headless turtlesim: turtles driven by `<turtle>/cmd_vel`, poses on `<turtle>/pose`, spawn on `spawn`.
+"""Headless turtlesim: turtles driven by `<turtle>/cmd_vel`, poses on `<turtle>/pose`, ROS's services.
 
 Kinematics follow ROS turtlesim: an 11.09 m square world (500 px at 45 px/m), turtle1 born at its
 centre facing +x, a velocity command lasts 1 s, theta stays in (-pi, pi], a turtle that hits a wall
-is clamped to it. A SpawnRequest published on `spawn` creates a turtle (an empty name picks
-`turtleN`); re-spawning an existing name is ignored, so clients may repeat the request until the
-new turtle's pose appears. Each spawn is answered with a SpawnResponse on `spawn_response`.
+is clamped to it. Services, as in ROS: `spawn` (`turtlesim/srv/Spawn`: x, y, theta, name -> name;
+an empty name picks `turtleN`; an existing name is an error), `kill` (`turtlesim/srv/Kill`) and
+`<turtle>/teleport_absolute` (`turtlesim/srv/TeleportAbsolute`).
 
 Parameters: `rate` (Hz, default 62.5), `spawn_first` (default true: create turtle1 at start).
-Prints `spawned <name> at (x, y, theta)` for every new turtle.
+Prints `spawned <name> at (x, y, theta)` for every new turtle, `killed <name>` when one goes.
 """
 from __future__ import annotations
 
@@ -20,7 +20,8 @@ from dataclasses import dataclass
 from typing import Callable, Sequence
 
 from nodes import _common
-from zentf.core.messages import SpawnRequest, SpawnResponse, TurtlePose, Twist
+from zentf.core.messages import SpawnResponse, TurtlePose, Twist
+from zentf.core.services import Kill, Spawn, TeleportAbsolute
 from zentf.options import NodeOptions
 
 log = logging.getLogger("turtlesim")
@@ -106,6 +107,23 @@ class World:
             self.turtles[name] = t
             return t
 
+    def kill(self, name: str) -> None:
+        """Remove a turtle; ValueError (turtlesim's words) if there is none of that name."""
+        with self._lock:
+            if self.turtles.pop(name, None) is None:
+                raise ValueError(f"Tried to kill turtle [{name}], which does not exist")
+
+    def teleport(self, name: str, x: float, y: float, theta: float) -> None:
+        """Put a turtle at (x, y, theta) (clamped to the world), keeping its command."""
+        if not all(map(math.isfinite, (x, y, theta))):
+            raise ValueError("teleport_absolute needs finite x, y and theta")
+        with self._lock:
+            t = self.turtles.get(name)
+            if t is None:
+                raise ValueError(f"no turtle named {name!r}")
+            t.x, t.y = min(max(x, 0.0), WORLD_SIZE), min(max(y, 0.0), WORLD_SIZE)
+            t.theta = normalize_angle(theta)
+
     def command(self, name: str, lin_x: float, lin_y: float, ang_z: float, now: float) -> None:
         if not all(map(math.isfinite, (lin_x, lin_y, ang_z))):
             raise ValueError(f"cmd_vel for {name} has a non-finite value")
@@ -135,7 +153,7 @@ def _run(opts: NodeOptions) -> None:
         clock = node.get_clock()
         rate = _common.param_positive(node, "rate", 62.5)
         pose_pubs: dict[str, object] = {}
-        spawn_pub = node.create_publisher("spawn_response", SpawnResponse)
+        per_turtle: dict[str, list] = {}  # name -> its subscription and service, destroyed on kill
         walls: set[str] = set()
         lock = threading.Lock()
 
@@ -150,24 +168,39 @@ def _run(opts: NodeOptions) -> None:
                     log.warning("ignoring %s", e)
             return cb
 
-        def add(name: str, x: float, y: float, theta: float) -> None:
+        def on_teleport(name: str) -> Callable[[TeleportAbsolute.Request], TeleportAbsolute.Response]:
+            def cb(req: TeleportAbsolute.Request) -> TeleportAbsolute.Response:
+                world.teleport(name, req.x, req.y, req.theta)
+                return TeleportAbsolute.Response()
+            return cb
+
+        def add(name: str, x: float, y: float, theta: float) -> str:
             with lock:
                 t = world.spawn(name, x, y, theta)
                 pose_pubs[t.name] = node.create_publisher(f"{t.name}/pose", TurtlePose)
-                node.create_subscription(f"{t.name}/cmd_vel", Twist, on_cmd(t.name))
-            spawn_pub.publish(SpawnResponse(name=t.name))
+                per_turtle[t.name] = [node.create_subscription(f"{t.name}/cmd_vel", Twist, on_cmd(t.name)),
+                                      node.create_service(f"{t.name}/teleport_absolute", TeleportAbsolute,
+                                                          on_teleport(t.name))]
             _common.say(f"spawned {t.name} at ({t.x:.3f}, {t.y:.3f}, {t.theta:.3f})")
+            return t.name
 
-        def on_spawn(req: SpawnRequest) -> None:
-            if req.name and req.name in world.turtles:
-                log.debug("spawn: %s already exists", req.name)
-                return
-            try:
-                add(req.name, req.x, req.y, req.theta)
-            except ValueError as e:
-                log.warning("spawn refused: %s", e)
+        def on_spawn(req: Spawn.Request) -> SpawnResponse:
+            # a bad or duplicate request raises: the caller gets the reason (turtlesim's ROS_ERROR)
+            return SpawnResponse(name=add(req.name, req.x, req.y, req.theta))
 
-        node.create_subscription("spawn", SpawnRequest, on_spawn)
+        def on_kill(req: Kill.Request) -> Kill.Response:
+            with lock:
+                world.kill(req.name)
+                pub = pose_pubs.pop(req.name, None)
+                if pub is not None:
+                    pub.destroy()
+                for obj in per_turtle.pop(req.name, []):
+                    obj.destroy()
+            _common.say(f"killed {req.name}")
+            return Kill.Response()
+
+        node.create_service("spawn", Spawn, on_spawn)
+        node.create_service("kill", Kill, on_kill)
         if _common.param_bool(node, "spawn_first", True):
             add("turtle1", CENTRE, CENTRE, 0.0)
 

@@ -69,8 +69,27 @@ class Clock:
             except Exception:
                 log.exception("time jump callback failed")
 
+    def _set_ros_time_is_active(self, active: bool) -> None:
+        """Switch between sim and wall time (``use_sim_time`` set at run time, rclpy's name); the jump
+        callbacks run with the times before and after, as tf2_ros clears its buffer on such a change."""
+        with self._cond:
+            if self._sim == bool(active):
+                return
+            old = self.now()
+            self._sim = bool(active)
+            if active:
+                self.clock_type = ClockType.ROS_TIME
+            new = self.now()
+            self._cond.notify_all()
+            callbacks = list(self._jump_callbacks)
+        for h in callbacks:
+            try:
+                h.callback(old, new)
+            except Exception:
+                log.exception("time jump callback failed")
+
     def add_jump_callback(self, callback: JumpCallback) -> JumpHandle:
-        """Call ``callback(old, new)`` whenever sim time goes backwards."""
+        """Call ``callback(old, new)`` whenever sim time goes backwards or sim time is switched on/off."""
         h = JumpHandle(callback)
         with self._cond:
             self._jump_callbacks.append(h)
@@ -88,32 +107,30 @@ class Clock:
             self._cond.notify_all()
 
     def sleep_until(self, until: Time | int, timeout: float | None = None) -> bool:
-        """Block until this clock reaches ``until``; False on timeout (wall seconds) or shutdown."""
+        """Block until this clock reaches ``until``; False on timeout (wall seconds) or shutdown.
+
+        Follows a switch between wall and sim time made while sleeping (``use_sim_time`` set at run time).
+        """
         target = until.nanoseconds if isinstance(until, Time) else int(until)
         deadline = None if timeout is None else _time.monotonic() + timeout
-        if not self._sim:
+        with self._cond:
             while True:
-                remaining = (target - _time.time_ns()) / 1e9
-                if remaining <= 0:
-                    return True
+                if self._sim:
+                    if self._sim_ns >= target:
+                        return True
+                    wait = None
+                else:
+                    wait = (target - _time.time_ns()) / 1e9
+                    if wait <= 0:
+                        return True
                 if deadline is not None:
                     left = deadline - _time.monotonic()
                     if left <= 0:
                         return False
-                    remaining = min(remaining, left)
-                with self._cond:
-                    if self._closed:
-                        return False
-                    self._cond.wait(remaining)
-        with self._cond:
-            while self._sim_ns < target:
+                    wait = left if wait is None else min(wait, left)
                 if self._closed:
                     return False
-                left = None if deadline is None else deadline - _time.monotonic()
-                if left is not None and left <= 0:
-                    return False
-                self._cond.wait(left)
-            return True
+                self._cond.wait(wait)
 
     def sleep_for(self, duration: Duration | float, timeout: float | None = None) -> bool:
         return self.sleep_until(self.now_ns() + to_duration(duration).nanoseconds, timeout)

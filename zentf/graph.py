@@ -6,6 +6,8 @@ namespace with '/' replaced by '%' (``%robot1``, ``%a%b``); ``<type>`` is encode
     @zentf/node/<ns>/<name>
     @zentf/pub/<ns>/<name>/<type>/<topic key...>
     @zentf/sub/<ns>/<name>/<type>/<topic key...>
+    @zentf/srv/<ns>/<name>/<type>/<service key...>   (service server, zentf.service)
+    @zentf/cli/<ns>/<name>/<type>/<service key...>   (service client)
 
 A killed process's session closes, so its tokens vanish and watchers see DELETE samples.
 Every function takes an optional wire ``profile`` (zentf.profile): with the ``ros2`` one the graph is
@@ -21,14 +23,14 @@ from typing import Any
 from .names import decode_chunk, fully_qualified_node_name, key_to_topic, normalize_namespace
 
 __all__ = ["GraphEntry", "NodeInfo", "TopicInfo", "parse_token", "list_tokens", "list_nodes", "node_info",
-           "list_topics", "GraphWatcher", "build_graph"]
+           "list_topics", "list_services", "GraphWatcher", "build_graph"]
 
 PREFIX = "@zentf"
 
 
 @dataclass(frozen=True)
 class GraphEntry:
-    """One parsed token: kind is 'node', 'pub' or 'sub'."""
+    """One parsed token: kind is 'node', 'pub', 'sub', 'srv' (service server) or 'cli' (client)."""
 
     kind: str
     namespace: str
@@ -48,6 +50,8 @@ class NodeInfo:
     fq_name: str
     publishers: list[tuple[str, str]] = field(default_factory=list)  # (topic, type)
     subscriptions: list[tuple[str, str]] = field(default_factory=list)
+    services: list[tuple[str, str]] = field(default_factory=list)  # (service, type) it serves
+    clients: list[tuple[str, str]] = field(default_factory=list)
 
 
 @dataclass
@@ -67,7 +71,7 @@ def parse_token(key: str) -> GraphEntry | None:
     ns = decode_chunk(parts[2])
     if kind == "node" and len(parts) == 4:
         return GraphEntry("node", ns, parts[3])
-    if kind in ("pub", "sub") and len(parts) >= 6:
+    if kind in ("pub", "sub", "srv", "cli") and len(parts) >= 6:
         return GraphEntry(kind, ns, parts[3], decode_chunk(parts[4]), key_to_topic("/".join(parts[5:])))
     return None
 
@@ -119,6 +123,9 @@ def build_graph(entries: Iterable[GraphEntry]) -> tuple[dict[str, NodeInfo], dic
         if e.kind == "node":
             continue
         info = nodes.setdefault(e.node, NodeInfo(e.name, "/" + e.namespace, e.node))
+        if e.kind in ("srv", "cli"):
+            (info.services if e.kind == "srv" else info.clients).append((e.topic, e.type_name))
+            continue
         (info.publishers if e.kind == "pub" else info.subscriptions).append((e.topic, e.type_name))
         t = topics.setdefault(e.topic, TopicInfo(e.topic))
         if e.type_name and e.type_name not in t.types:
@@ -127,6 +134,8 @@ def build_graph(entries: Iterable[GraphEntry]) -> tuple[dict[str, NodeInfo], dic
     for info in nodes.values():
         info.publishers.sort()
         info.subscriptions.sort()
+        info.services.sort()
+        info.clients.sort()
     for t in topics.values():
         t.publishers.sort()
         t.subscribers.sort()
@@ -145,6 +154,16 @@ def node_info(session: Any, fq_name: str, timeout: float = 2.0, profile: Any = N
     ns, _, name = fq.rpartition("/")
     nodes, _ = build_graph(list_tokens(session, ns, timeout, profile))
     return nodes.get(fully_qualified_node_name(ns, name))
+
+
+def list_services(session: Any, namespace: str | None = None, timeout: float = 2.0,
+                  profile: Any = None) -> dict[str, list[tuple[str, str]]]:
+    """Live service servers: {service name: [(type, node fq name)...]}, sorted by name."""
+    out: dict[str, list[tuple[str, str]]] = {}
+    for e in list_tokens(session, namespace, timeout, profile):
+        if e.kind == "srv":
+            out.setdefault(e.topic, []).append((e.type_name, e.node))
+    return {k: sorted(out[k]) for k in sorted(out)}
 
 
 def list_topics(session: Any, namespace: str | None = None, timeout: float = 2.0,

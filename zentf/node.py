@@ -332,7 +332,8 @@ class Node:
 
     def __init__(self, name: str | None = None, namespace: str | None = None,
                  params: dict[str, Any] | None = None, *, options: NodeOptions | None = None,
-                 session: Any = None, check_unique: bool = True) -> None:
+                 session: Any = None, check_unique: bool = True,
+                 start_parameter_services: bool | None = None) -> None:
         opts = options if options is not None else NodeOptions.from_env()
         self.options = opts
         self._name = validate_node_name(opts.name or name or "")
@@ -342,6 +343,8 @@ class Node:
         self._overrides: dict[str, Any] = dict(params or {})
         self._overrides.update(opts.resolved_params(self._name))
         self._params: dict[str, Parameter] = {}
+        self._param_types: dict[str, int] = {}  # rcl_interfaces ParameterType, fixed at declaration
+        self._param_callbacks: list[Callable[[list[Parameter]], Any]] = []
         self._logger = logging.getLogger(f"zentf.node.{self._fq_name.strip('/').replace('/', '.')}")
         self._bad_input = RateLimitedLog(self._logger)
         self._publishers: set[Publisher] = set()
@@ -366,10 +369,17 @@ class Node:
             if isinstance(use_sim, str):
                 use_sim = use_sim.strip().lower() in ("1", "true", "yes", "on")
             use_sim = bool(use_sim)
+            self._params["use_sim_time"].value = use_sim
             self._clock = Clock(ClockType.ROS_TIME if use_sim else ClockType.SYSTEM_TIME, sim=use_sim)
             self._clock_sub = None
+            self._clock_token = None
+            self._clock_jump = None
             if use_sim:
                 self._start_sim_clock()
+            if start_parameter_services if start_parameter_services is not None else not self._name.startswith("_"):
+                from .parameters import ParameterService
+
+                ParameterService(self)  # ~/get_parameters, ~/set_parameters, ... (hidden tool nodes skip them)
             self._executor = threading.Thread(target=self._run_executor, name=f"zentf-exec{self._fq_name}",
                                               daemon=True)
             self._executor.start()
@@ -450,6 +460,25 @@ class Node:
         self._subscriptions.add(sub)
         return sub
 
+    # ---- services (zentf.service)
+    def create_service(self, name: Any, srv_type: Any, callback: Callable[..., Any]) -> Any:
+        """A service server: ``create_service('spawn', Spawn, handler)``; rclpy's order works too."""
+        from .service import Service
+
+        if isinstance(name, type):
+            name, srv_type = srv_type, name
+        self._check_open()
+        return Service(self, self.resolve_topic_name(name), srv_type, callback)
+
+    def create_client(self, name: Any, srv_type: Any) -> Any:
+        """A service client: ``create_client('spawn', Spawn)``; rclpy's order works too."""
+        from .service import Client
+
+        if isinstance(name, type):
+            name, srv_type = srv_type, name
+        self._check_open()
+        return Client(self, self.resolve_topic_name(name), srv_type)
+
     def destroy_publisher(self, pub: Publisher) -> None:
         pub.destroy()
 
@@ -504,13 +533,37 @@ class Node:
             for t in list(self._timers):
                 t._next = new.nanoseconds + t.timer_period_ns
 
-        clock.add_jump_callback(on_jump)
+        if self._clock_jump is None:
+            self._clock_jump = clock.add_jump_callback(on_jump)
         self._clock_sub = self.session.declare_subscriber(key, on_clock)
-        self._tokens.append(self._declare_entity("sub", ClockMsg.TYPE_NAME, key, topic=topic))
+        self._clock_token = self._declare_entity("sub", ClockMsg.TYPE_NAME, key, topic=topic)
+
+    def _set_use_sim_time(self, active: bool) -> None:
+        """``use_sim_time`` changed at run time: follow /clock (time 0 until the first) or the wall clock."""
+        if active == self._clock.ros_time_is_active:
+            return
+        if active and self._clock_sub is None:
+            self._start_sim_clock()
+        elif not active:
+            for obj in (self._clock_sub, self._clock_token):
+                try:
+                    obj.undeclare()
+                except Exception:
+                    pass
+            self._clock_sub = self._clock_token = None
+        self._clock._set_ros_time_is_active(active)  # jump callbacks run: listeners clear their buffers
+        now = self._timer_now()
+        for t in list(self._timers):
+            t._next = now + t.timer_period_ns
+        self._post(None)
 
     # ---- parameters
     def declare_parameter(self, name: str, default: Any = None) -> Parameter:
-        value = self._overrides.get(name, default)
+        """Declare with a default (an override from flags/launch wins); the default's type is the
+        parameter's type from now on (None: any type)."""
+        from .parameters import declared_type
+
+        self._param_types[name], value = declared_type(default, self._overrides.get(name, default))
         p = Parameter(name, value)
         self._params[name] = p
         return p
@@ -537,7 +590,27 @@ class Node:
             return default
 
     def set_parameter(self, name: str, value: Any) -> None:
-        self._params.setdefault(name, Parameter(name)).value = value
+        """Set one parameter: a declared one through its type check and the on-set callbacks
+        (InvalidParameterTypeException / InvalidParameterValueException); an undeclared one is created."""
+        from .parameters import raise_for
+
+        if name not in self._params:
+            self._params[name] = Parameter(name, value)
+            return
+        raise_for(name, value, self.set_parameters([Parameter(name, value)])[0])
+
+    def set_parameters(self, parameters: list[Parameter]) -> list[Any]:
+        """rclpy's set_parameters: one SetParametersResult per parameter (each applied on its own)."""
+        from .parameters import set_one
+
+        return [set_one(self, p.name, p.value) for p in parameters]
+
+    def add_on_set_parameters_callback(self, callback: Callable[[list[Parameter]], Any]) -> None:
+        """``callback(params) -> SetParametersResult`` (or bool) runs before a set; False rejects it."""
+        self._param_callbacks.append(callback)
+
+    def remove_on_set_parameters_callback(self, callback: Callable[[list[Parameter]], Any]) -> None:
+        self._param_callbacks.remove(callback)
 
     def get_parameters_dict(self) -> dict[str, Any]:
         return {n: p.value for n, p in self._params.items()}
@@ -629,11 +702,12 @@ class Node:
         for obj in [*self._subscriptions, *self._publishers]:
             obj.destroy()
         self._timers.clear()
-        if self._clock_sub is not None:
-            try:
-                self._clock_sub.undeclare()
-            except Exception:
-                pass
+        for obj in (self._clock_sub, self._clock_token):
+            if obj is not None:
+                try:
+                    obj.undeclare()
+                except Exception:
+                    pass
         for tok in self._tokens:
             try:
                 tok.undeclare()

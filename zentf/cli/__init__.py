@@ -77,6 +77,8 @@ _COMMANDS: dict[str, tuple[str, str]] = {
     "joint-state-publisher": ("zentf.cli.robot:joint_state_publisher",
                               "Publish joint_states for a URDF: values, --sweep, --gui sliders."),
     "bridge": ("zentf.cli.bridge:bridge", "Relay tf, tf_static, /clock and topics to and from a ROS 2 graph."),
+    "service": ("zentf.cli.service:service", "Services: list, type, call."),
+    "param": ("zentf.cli.param:param", "Node parameters over the network: list, get, set, dump."),
 }
 
 
