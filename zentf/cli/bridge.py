@@ -7,7 +7,7 @@ from typing import Optional
 
 import click
 
-from .common import CONTEXT_SETTINGS, CliError, CliOptions, node_options, with_options
+from .common import CONTEXT_SETTINGS, CliError, CliOptions, finite_float, node_options, with_options
 
 __all__ = ["bridge"]
 
@@ -28,7 +28,7 @@ def bridge() -> None:
 @click.option("--domain", type=click.IntRange(0, 232), default=None,
               help="ROS_DOMAIN_ID of the ROS 2 side. [env ROS_DOMAIN_ID]")
 @click.option("--no-clock", is_flag=True, help="Do not relay /clock.")
-@click.option("--duration", type=click.FloatRange(min=0.0, min_open=True), default=None,
+@click.option("--duration", type=finite_float(min=0.0, min_open=True), default=None,
               help="Stop after this many seconds (default: until Ctrl-C).")
 @with_options
 def bridge_ros2(topics: tuple[str, ...], ros2_connect: tuple[str, ...], ros2_mode: Optional[str],

@@ -6,11 +6,11 @@ from typing import Any, Iterator, Optional
 
 import click
 
-from .common import CONTEXT_SETTINGS, CliError, CliOptions, liveliness_wait_option, with_options
+from .common import CONTEXT_SETTINGS, CliError, CliOptions, finite_float, liveliness_wait_option, with_options
 
 __all__ = ["param"]
 
-timeout_option = click.option("--timeout", type=click.FloatRange(min=0.0, min_open=True), default=5.0,
+timeout_option = click.option("--timeout", type=finite_float(min=0.0, min_open=True), default=5.0,
                               show_default=True, help="Seconds to wait for the node and for each answer.")
 
 _KIND = {bool: "Boolean", int: "Integer", float: "Double", str: "String"}

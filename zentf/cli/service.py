@@ -5,7 +5,7 @@ from typing import Any
 
 import click
 
-from .common import CONTEXT_SETTINGS, CliError, CliOptions, liveliness_wait_option, with_options
+from .common import CONTEXT_SETTINGS, CliError, CliOptions, finite_float, liveliness_wait_option, with_options
 
 __all__ = ["service"]
 
@@ -96,7 +96,7 @@ def _parse_request(text: str, srv: Any) -> Any:
 @click.argument("name")
 @click.argument("type_name", metavar="TYPE")
 @click.argument("values", metavar="'YAML'", default="")
-@click.option("--timeout", type=click.FloatRange(min=0.0, min_open=True), default=10.0, show_default=True,
+@click.option("--timeout", type=finite_float(min=0.0, min_open=True), default=10.0, show_default=True,
               help="Seconds to wait for the server and then for its response.")
 @with_options
 def service_call(name: str, type_name: str, values: str, timeout: float, *, opts: CliOptions) -> None:
