@@ -151,11 +151,10 @@ def main(argv: list[str]) -> int:
         info = signal.sigwaitinfo(WATCHED)
         if info.si_signo == signal.SIGCHLD:
             r.reap()
-        elif info.si_signo == PARENT_DIED:
-            if os.getppid() != launcher:
-                r.terminate_all()
-                return 1
-        else:
+        elif os.getppid() != launcher:  # PARENT_DIED, or a signal that came first: stop the tree once
+            r.terminate_all()
+            return 1
+        elif info.si_signo in STOP_SIGNALS:
             r.forward(info)
     r.kill_all()
     _exit_like(r.status)
