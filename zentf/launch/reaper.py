@@ -98,7 +98,7 @@ class Reaper:
     def forward(self, info: signal.struct_siginfo) -> None:
         """A stop signal: descendants outside the group missed the launcher's killpg; pass it on."""
         self.send(self.below(outside_group_only=True), info.si_signo)
-        if info.si_pid not in (self.launcher, self.me) and self.status is None:
+        if info.si_pid not in (self.launcher, self.me) and self.node and self.status is None:
             self.send([self.node], info.si_signo)  # sent to this pid by someone else: the node's too
 
 
