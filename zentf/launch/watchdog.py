@@ -1,7 +1,8 @@
 """Orphan guard, run as a tiny separate process by the launcher (stdlib only, started with -S -I).
 
-The launcher writes `+PGID` / `-PGID` lines on our stdin as it starts and reaps node process groups.
-When stdin reaches EOF the launcher is gone (even by SIGKILL). Each node's reaper (reaper.py) then stops
+The launcher writes `+PGID` / `-PGID` lines on our stdin as it starts and reaps node process groups,
+and `.` when it has stopped and swept everything itself. When stdin reaches EOF without that, the
+launcher is gone (even by SIGKILL). Each node's reaper (reaper.py) then stops
 its own tree; this process sends SIGTERM to whatever no live reaper covers: groups whose reaper is gone,
 and every process whose environment carries this launch's id (`ZENTF_LAUNCH_ID`, inherited by all a
 node starts, whatever its session, group or parent: e.g. re-parented to init after its reaper was
@@ -60,6 +61,7 @@ def main() -> int:
     grace = float(sys.argv[1]) if len(sys.argv) > 1 else 1.0
     launch_id = sys.argv[2] if len(sys.argv) > 2 else ""
     groups: set[int] = set()
+    clean = False
     buf = b""
     while True:
         try:
@@ -78,8 +80,12 @@ def main() -> int:
                     groups.add(int(line[1:]))
                 elif line[:1] == b"-":
                     groups.discard(int(line[1:]))
+                elif line == b".":
+                    clean = True
             except ValueError:
                 pass
+    if clean:
+        return 0
     alive = [g for g in groups if _alive(g)]
     pids = _signal(alive, launch_id, signal.SIGTERM, spare_reapers=True)
     deadline = time.monotonic() + grace
