@@ -1,7 +1,9 @@
 """The launcher as a process: output prefixes, log files, env contract, respawn, required, clean stops."""
 from __future__ import annotations
 
+import io
 import json
+import logging
 import os
 import re
 import signal
@@ -16,7 +18,9 @@ import pytest
 
 from conftest import Proc
 from zentf.launch.proctree import wait_gone
-from zentf.launch.supervisor import RESPAWN_CAP, respawn_wait
+from zentf.launch import supervisor
+from zentf.launch.description import NodeSpec
+from zentf.launch.supervisor import RESPAWN_CAP, Supervisor, respawn_wait
 
 PY = sys.executable
 # a node that ignores SIGINT and SIGTERM: only SIGKILL stops it
@@ -197,6 +201,19 @@ def test_respawn_wait_doubles_from_the_floor_up_to_the_cap():
     assert [respawn_wait(3, n) for n in range(4)] == [3.0, 6.0, 10.0, 10.0]
     assert respawn_wait(30, 0) == respawn_wait(30, 5) == 30.0  # a long respawn_delay is its own cap
     assert respawn_wait(0, 10**6) == RESPAWN_CAP
+
+
+def test_a_run_longer_than_the_reset_time_resets_the_backoff(monkeypatch, caplog):
+    """In-process supervisor (real node processes) with the reset time cut from 10 s to 0.5 s."""
+    monkeypatch.setattr(supervisor, "RESPAWN_RESET", 0.5)
+    nodes = [NodeSpec("steady", "", ["sh", "-c", "sleep 0.7; exit 1"], respawn=True, respawn_delay=0, respawn_max=3),
+             NodeSpec("flaky", "", ["sh", "-c", "exit 1"], respawn=True, respawn_delay=0, respawn_max=3)]
+    caplog.set_level(logging.INFO, logger="zentf.launch")
+    assert Supervisor(nodes, base_env=base_env(), out=io.BytesIO()).run() == 1
+    lines = "\n".join(r.getMessage() for r in caplog.records)
+    waits = {name: re.findall(rf"^{name} exited with code 1; respawning in ([\d.]+) s", lines, re.M)
+             for name in ("steady", "flaky")}
+    assert waits == {"steady": ["0.1", "0.1", "0.1"], "flaky": ["0.1", "0.2", "0.4"]}
 
 
 def test_a_required_node_exiting_takes_the_graph_down_with_its_code(tmp_path, launch):

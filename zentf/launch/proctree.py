@@ -9,7 +9,8 @@ import os
 import select
 import time
 
-__all__ = ["LAUNCH_ID_VAR", "snapshot", "alive", "descendants", "has_launch_id", "carrying_launch_id", "launch_id_value", "wait_gone"]
+__all__ = ["LAUNCH_ID_VAR", "snapshot", "alive", "descendants", "has_launch_id", "carrying_launch_id",
+           "launch_id_value", "wait_gone"]
 
 #: Environment variable every launched process inherits: `:`-joined ids of the launches above it.
 LAUNCH_ID_VAR = "ZENTF_LAUNCH_ID"
@@ -21,10 +22,13 @@ def snapshot() -> "dict[int, tuple[int, int, str]]":
     for name in os.listdir("/proc"):
         if not name.isdigit():
             continue
-        try:
-            with open(f"/proc/{name}/stat", "rb") as f:
-                data = f.read()
-            fields = data[data.rindex(b")") + 2:].split()
+        try:  # os.open/os.read: this runs on every stop, in several processes at once
+            fd = os.open(f"/proc/{name}/stat", os.O_RDONLY)
+            try:
+                data = os.read(fd, 4096)
+            finally:
+                os.close(fd)
+            fields = data[data.rindex(b")") + 2:].split(None, 3)
             table[int(name)] = (int(fields[1]), int(fields[2]), fields[0].decode())
         except (OSError, ValueError, IndexError):
             continue  # gone meanwhile

@@ -98,7 +98,7 @@ class Reaper:
     def forward(self, info: signal.struct_siginfo) -> None:
         """A stop signal: descendants outside the group missed the launcher's killpg; pass it on."""
         self.send(self.below(outside_group_only=True), info.si_signo)
-        if info.si_pid not in (self.launcher, self.me) and self.status is None:
+        if info.si_pid not in (self.launcher, self.me) and self.node and self.status is None:
             self.send([self.node], info.si_signo)  # sent to this pid by someone else: the node's too
 
 
@@ -151,11 +151,10 @@ def main(argv: list[str]) -> int:
         info = signal.sigwaitinfo(WATCHED)
         if info.si_signo == signal.SIGCHLD:
             r.reap()
-        elif info.si_signo == PARENT_DIED:
-            if os.getppid() != launcher:
-                r.terminate_all()
-                return 1
-        else:
+        elif os.getppid() != launcher:  # PARENT_DIED, or a signal that came first: stop the tree once
+            r.terminate_all()
+            return 1
+        elif info.si_signo in STOP_SIGNALS:
             r.forward(info)
     r.kill_all()
     _exit_like(r.status)

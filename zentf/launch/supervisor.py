@@ -118,6 +118,7 @@ class Supervisor:
     _wakeup_r: int = field(default=-1, init=False)
     _launch_id: str = field(default="", init=False)
     _adopted: set[int] = field(default_factory=set, init=False)  # orphans re-parented to us, until reaped
+    _subreaper: bool = field(default=False, init=False)
 
     # ------------------------------------------------------------------ public
     def run(self) -> int:
@@ -127,7 +128,7 @@ class Supervisor:
         self._sel = selectors.DefaultSelector()
         self._launch_id = f"{os.getpid()}-{secrets.token_hex(4)}"
         old_handlers, old_wakeup = self._install_signals()
-        subreaper = _prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0) == 0  # what a killed reaper leaves comes here
+        self._subreaper = _prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0) == 0  # what a killed reaper leaves comes here
         try:
             self._start_watchdog()
             self._children = [_Child(spec, i) for i, spec in enumerate(self.nodes)]
@@ -144,7 +145,7 @@ class Supervisor:
             self._kill_everything()
             self._restore_signals(old_handlers, old_wakeup)
             self._close_watchdog()
-            if subreaper:
+            if self._subreaper:
                 _prctl(PR_SET_CHILD_SUBREAPER, 0, 0, 0, 0)
             for child in self._children:
                 self._close_output(child)
@@ -416,7 +417,8 @@ class Supervisor:
             pass
         rc = popen.wait()
         self._tell_watchdog(f"-{pgid}")
-        self._sweep()  # what the launcher adopted if the node's reaper was killed
+        if not self._stopping:  # (when stopping, the final sweep does it once for all)
+            self._sweep()  # what the launcher adopted if the node's reaper was killed
         if child.pidfd is not None:
             try:
                 self._sel.unregister(child.pidfd)
@@ -556,6 +558,8 @@ class Supervisor:
                 child.pidfd = None
             child.popen = None
         self._sweep(keep_nodes=False)
+        if self._subreaper:  # every descendant came back to us and is gone: the watchdog may just exit
+            self._tell_watchdog(".")
         for child in self._children:
             if child.log_file is not None:
                 child.log_file.close()

@@ -1,11 +1,12 @@
 """Orphan guard, run as a tiny separate process by the launcher (stdlib only, started with -S -I).
 
-The launcher writes `+PGID` / `-PGID` lines on our stdin as it starts and reaps node process groups.
-When stdin reaches EOF the launcher is gone (even by SIGKILL): every group still alive, and every process
-whose environment carries this launch's id (`ZENTF_LAUNCH_ID`, inherited by all a node starts, whatever
-its session, group or parent), gets SIGTERM, then SIGKILL after a grace period. Each node also runs under
-its own subreaper (reaper.py), which does the same for its tree without us; this catches what escaped
-both (a process re-parented to init after its reaper was killed).
+The launcher writes `+PGID` / `-PGID` lines on our stdin as it starts and reaps node process groups,
+and `.` when it has stopped and swept everything itself. When stdin reaches EOF without that, the
+launcher is gone (even by SIGKILL). Each node's reaper (reaper.py) then stops
+its own tree; this process sends SIGTERM to whatever no live reaper covers: groups whose reaper is gone,
+and every process whose environment carries this launch's id (`ZENTF_LAUNCH_ID`, inherited by all a
+node starts, whatever its session, group or parent: e.g. re-parented to init after its reaper was
+killed). After the grace period, everything left of the groups and of the id's carriers gets SIGKILL.
 """
 from __future__ import annotations
 
@@ -26,14 +27,26 @@ def _alive(pgid: int) -> bool:
         return False
 
 
-def _signal(groups: list[int], launch_id: str, sig: int) -> list[int]:
-    """Send `sig` to the live groups and to every process carrying the launch id; the pids so found."""
+def _signal(groups: list[int], launch_id: str, sig: int, spare_reapers: bool = False) -> list[int]:
+    """Send `sig` to the live groups and to every process carrying the launch id; the pids so found.
+
+    With spare_reapers, a group whose leader (the node's reaper) is alive is left to it, with its
+    whole tree: it stops that tree itself when the launcher dies, and one SIGTERM is enough."""
+    covered: set[int] = set()
+    if spare_reapers:
+        table = proctree.snapshot()
+        for g in groups:
+            if g in table and table[g][2] != "Z":
+                covered.add(g)
+                covered.update(proctree.descendants(g, table))
+                covered.update(p for p, (_, pg, _) in table.items() if pg == g)
     for g in groups:
-        try:
-            os.killpg(g, sig)
-        except OSError:
-            pass
-    pids = proctree.carrying_launch_id(launch_id) if launch_id else []
+        if g not in covered:
+            try:
+                os.killpg(g, sig)
+            except OSError:
+                pass
+    pids = [p for p in proctree.carrying_launch_id(launch_id) if p not in covered] if launch_id else []
     for pid in pids:
         try:
             os.kill(pid, sig)
@@ -48,6 +61,7 @@ def main() -> int:
     grace = float(sys.argv[1]) if len(sys.argv) > 1 else 1.0
     launch_id = sys.argv[2] if len(sys.argv) > 2 else ""
     groups: set[int] = set()
+    clean = False
     buf = b""
     while True:
         try:
@@ -66,10 +80,14 @@ def main() -> int:
                     groups.add(int(line[1:]))
                 elif line[:1] == b"-":
                     groups.discard(int(line[1:]))
+                elif line == b".":
+                    clean = True
             except ValueError:
                 pass
+    if clean:
+        return 0
     alive = [g for g in groups if _alive(g)]
-    pids = _signal(alive, launch_id, signal.SIGTERM)
+    pids = _signal(alive, launch_id, signal.SIGTERM, spare_reapers=True)
     deadline = time.monotonic() + grace
     while time.monotonic() < deadline:
         alive = [g for g in alive if _alive(g)]
