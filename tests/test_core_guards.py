@@ -134,3 +134,52 @@ def test_huge_finite_translations_are_still_accepted() -> None:
     core = BufferCore()
     assert core.set_transform_raw("w", "a", S, 1e308, 1e308, 0.0, *Q, "/x")  # sum overflows: full path
     assert core.lookup_transform("w", "a", 0).transform.translation.x == 1e308
+
+
+# ------------------------------------------------------------------ point 10: stamps beyond int64 ns
+
+BIG = 2**62 + 5  # inside int64 but above the old 'no data' sentinel of the latest-common-time walk
+
+
+@pytest.mark.parametrize("stamp", [2**62 - 1, 2**62, BIG, 2**63 - 1])
+def test_latest_lookup_returns_the_stamp_however_large(stamp: int) -> None:
+    core = BufferCore()
+    assert core.set_transform_raw("w", "a", stamp, 1.0, 0.0, 0.0, *Q, "/x")
+    assert core.set_transform_raw("a", "b", stamp, 2.0, 0.0, 0.0, *Q, "/x")
+    assert core.set_transform_raw("w", "c", 0, 0.0, 0.0, 0.0, *Q, "/x", is_static=True)
+    for target, source in (("w", "a"), ("w", "b"), ("b", "w"), ("c", "b"), ("a", "b")):
+        t = core.lookup_transform(target, source, 0)
+        assert t.header.stamp.nanoseconds == stamp, (target, source)
+        assert core.get_latest_common_time(target, source).nanoseconds == stamp
+    assert core.lookup_transform("w", "b", 0).transform.translation.x == 3.0
+
+
+def test_a_chain_takes_the_oldest_of_its_large_stamps() -> None:
+    core = BufferCore()
+    for parent, child, newest in (("w", "a", BIG + 10), ("a", "b", BIG), ("w", "c", BIG + 20)):
+        assert core.set_transform_raw(parent, child, BIG - 100, 1.0, 0.0, 0.0, *Q, "/x")
+        assert core.set_transform_raw(parent, child, newest, 1.0, 0.0, 0.0, *Q, "/x")
+    assert core.get_latest_common_time("c", "b").nanoseconds == BIG
+    assert core.lookup_transform("c", "b", 0).header.stamp.nanoseconds == BIG
+
+
+def test_stamps_beyond_int64_are_refused_with_a_clear_line(caplog) -> None:
+    core = BufferCore()
+    assert core.set_transform_raw("w", "a", S, 1.0, 0.0, 0.0, *Q, "/x")
+    with caplog.at_level(logging.WARNING, LOGGER):
+        assert not core.set_transform_raw("w", "a", 2**63, 1.0, 0.0, 0.0, *Q, "/x")
+        assert core.set_transforms_raw([("w", "a", 2**64, 5.0, 0.0, 0.0, *Q), ("w", "z", 2**63, 5.0, 0.0, 0.0, *Q),
+                                        ("w", "a", 2 * S, 2.0, 0.0, 0.0, *Q)], "/y") == 1
+    msgs = lines(caplog)
+    assert len(msgs) == 2 and all("is beyond the largest the buffer holds" in m for m in msgs)
+    latest = core.lookup_transform("w", "a", 0)
+    assert latest.header.stamp.nanoseconds == 2 * S and latest.transform.translation.x == 2.0
+
+
+def test_lookup_time_beyond_int64_is_a_clear_error() -> None:
+    core = BufferCore()
+    core.set_transform_raw("w", "a", S, 1.0, 0.0, 0.0, *Q, "/x")
+    with pytest.raises(ValueError, match="beyond the latest a buffer holds"):
+        core.lookup_transform("w", "a", 1e300)
+    with pytest.raises(ValueError, match="beyond the latest a buffer holds"):
+        core.can_transform("w", "a", 10**12)

@@ -25,7 +25,7 @@ from enum import IntEnum
 from typing import Any, Callable, Iterable, Optional, Sequence, Union
 
 from .cache import StaticCache, TimeCache
-from .constants import DEFAULT_CACHE_TIME, MAX_GRAPH_DEPTH
+from .constants import DEFAULT_CACHE_TIME, MAX_GRAPH_DEPTH, MAX_STAMP_NS
 from .constants import INSERT_OK as _OK
 from .constants import INSERT_OLD as _OLD
 from .exceptions import (ConnectivityException, ExtrapolationException, InvalidArgumentException,
@@ -75,9 +75,12 @@ def _ns(t: Any) -> int:
     else:
         if not math.isfinite(t):
             raise ValueError(f"time must be finite, got {t!r}")
-        ns = round(t * NSEC_PER_SEC)
+        ns = t * NSEC_PER_SEC
+        ns = round(ns) if -1e19 < ns < 1e19 else MAX_STAMP_NS + 1  # (1e300 s: no OverflowError)
     if ns < 0:
         raise ValueError(f"time cannot be negative ({t!r})")
+    if ns > MAX_STAMP_NS:
+        raise ValueError(f"time {t!r} s is beyond the latest a buffer holds ({MAX_STAMP_NS} ns, int64)")
     return ns
 
 
@@ -162,7 +165,8 @@ class BufferCore:
         tx, ty, tz, qx, qy, qz, qw = v.x, v.y, v.z, q.x, q.y, q.z, q.w
         # hot path, the same as _store's (inlined: a call with 12 arguments costs ~7% of an insert)
         if (-0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
-                and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0):
+                and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0
+                and stamp <= 9223372036854775807):
             self._lock.acquire()  # (not `with`: 0.12 µs less per call, measured)
             try:
                 clean = self._clean
@@ -224,7 +228,8 @@ class BufferCore:
         try:
             for parent, child, stamp, tx, ty, tz, qx, qy, qz, qw in samples:
                 if (-0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
-                        and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0):
+                        and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0
+                        and stamp <= 9223372036854775807):
                     cid = clean.get(child)
                     pid = clean.get(parent)
                     if cid is not None and pid is not None and cid != pid:
@@ -271,9 +276,11 @@ class BufferCore:
         # frames are known by clean names (non-empty, no leading '/'). Anything else - new frames,
         # statics, out-of-order stamps, bad input - takes _store_checked, tf2's full path.
         # (tx + ty + tz) * 0.0 == 0.0: a finite translation (NaN or ±inf anywhere makes it NaN; a
-        # finite sum that overflows only sends the sample down the full path, which accepts it)
+        # finite sum that overflows only sends the sample down the full path, which accepts it);
+        # 9223372036854775807 is MAX_STAMP_NS as a literal (a constant load, not a global one)
         if (-0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
-                and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0):
+                and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0
+                and stamp <= 9223372036854775807):
             self._lock.acquire()  # (not `with`: 0.12 µs less per call, measured)
             try:
                 clean = self._clean
@@ -352,6 +359,12 @@ class BufferCore:
             self._warn.log(_ERROR, ("TF_BAD_STAMP", authority),
                            'Ignoring transform for child_frame_id "%s" from authority "%s" because its '
                            'stamp is negative (%d ns)', child, authority, stamp)
+            return False
+        if stamp > MAX_STAMP_NS:
+            self._warn.log(_ERROR, ("TF_BAD_STAMP", authority),
+                           'Ignoring transform for child_frame_id "%s" from authority "%s" because its '
+                           'stamp (%d ns) is beyond the largest the buffer holds (%d ns, int64)',
+                           child, authority, stamp, MAX_STAMP_NS)
             return False
         values = tuple(float(x) for x in (tx, ty, tz, qx, qy, qz, qw))
         with self._lock:
@@ -734,7 +747,7 @@ class BufferCore:
         if source_id == target_id:
             cache = caches[source_id]
             return cache.newest_stamp() if cache is not None else 0
-        big = 1 << 62
+        big = MAX_STAMP_NS + 1  # 'no dynamic link yet': above every stamp a cache can hold
         # walk up from the source, recording (newest stamp, parent) per link; a cache's newest
         # stamp is -1 when empty (no parent: stop), 0 for statics (ignored in the minimum)
         stamps: list[int] = []

@@ -1,12 +1,14 @@
 """Limits and status codes shared by the buffer core, its caches and the vectorized batches."""
 from __future__ import annotations
 
-__all__ = ["DEFAULT_CACHE_TIME", "MAX_GRAPH_DEPTH", "INSERT_OK", "INSERT_OLD", "INSERT_REPEATED"]
+__all__ = ["DEFAULT_CACHE_TIME", "MAX_GRAPH_DEPTH", "MAX_STAMP_NS", "INSERT_OK", "INSERT_OLD", "INSERT_REPEATED"]
 
 #: Seconds of history a BufferCore keeps by default (tf2's DEFAULT_CACHE_TIME).
 DEFAULT_CACHE_TIME = 10.0
 #: Longest chain a walk follows before it reports a loop (tf2's MAX_GRAPH_DEPTH).
 MAX_GRAPH_DEPTH = 1000
+#: Largest stamp a buffer holds: int64 nanoseconds (year 2262). Later stamps are refused on insert.
+MAX_STAMP_NS = 2**63 - 1
 
 #: What a cache's insert() answers: stored, older than the cache keeps, or a stamp already held.
 INSERT_OK, INSERT_OLD, INSERT_REPEATED = 0, 1, 2
