@@ -25,7 +25,8 @@ from enum import IntEnum
 from typing import Any, Callable, Iterable, Optional, Sequence, Union
 
 from .cache import StaticCache, TimeCache
-from .constants import DEFAULT_CACHE_TIME, MAX_GRAPH_DEPTH, MAX_STAMP_NS
+from .constants import (DEFAULT_CACHE_TIME, DEFAULT_MAX_FRAME_ID_LENGTH, DEFAULT_MAX_FRAMES, MAX_GRAPH_DEPTH,
+                        MAX_STAMP_NS)
 from .constants import INSERT_OK as _OK
 from .constants import INSERT_OLD as _OLD
 from .exceptions import (ConnectivityException, ExtrapolationException, InvalidArgumentException,
@@ -123,9 +124,18 @@ class BufferCore:
     ``add_insert_callback`` (wake waiters), ``add_transformable_request`` (MessageFilter),
     ``frame_info``/``chain_as_vector``/``get_parent``/``frame_exists`` (tools), and the numpy
     batches ``lookup_transforms``/``transform_points`` (see zentf.core.geometry).
+
+    Bounds tf2 does not have (deliberate, for memory under hostile input): at most ``max_frames``
+    distinct frame names (default 10,000) and frame ids of at most ``max_frame_id_length`` UTF-8
+    bytes (default 256); a sample that would pass either is refused with a logged line
+    (TF_TOO_MANY_FRAMES, TF_FRAME_ID_TOO_LONG). None lifts a bound; both are plain attributes.
     """
 
-    def __init__(self, cache_time: Union[Duration, float, int] = DEFAULT_CACHE_TIME) -> None:
+    def __init__(self, cache_time: Union[Duration, float, int] = DEFAULT_CACHE_TIME, *,
+                 max_frames: Optional[int] = DEFAULT_MAX_FRAMES,
+                 max_frame_id_length: Optional[int] = DEFAULT_MAX_FRAME_ID_LENGTH) -> None:
+        self.max_frames = max_frames
+        self.max_frame_id_length = max_frame_id_length
         if isinstance(cache_time, Duration):
             self._cache_ns = cache_time.nanoseconds
         else:
@@ -370,22 +380,40 @@ class BufferCore:
         with self._lock:
             ids = self._ids
             cid = ids.get(child)
-            if cid is None:
-                cid = self._add_frame(child)
             pid = ids.get(parent)
-            if pid is None:
-                pid = self._add_frame(parent)
-            if not cid:
-                return True
-            cache = self._caches[cid]
-            if cache is None:
-                cache = StaticCache() if is_static else TimeCache(self._cache_ns)
-                self._caches[cid] = cache
-            res = cache.insert(stamp, pid, values)
-            if res == _OK:
-                self._version += 1
-                cache.authority = authority
-                return True
+            refused = None
+            if cid is None or pid is None:
+                refused = self._bound_new_frames(child if cid is None else None, parent if pid is None else None)
+                if refused is None:
+                    if cid is None:
+                        cid = self._add_frame(child)
+                    if pid is None:
+                        pid = self._add_frame(parent)
+            if refused is None:
+                if not cid:
+                    return True
+                cache = self._caches[cid]
+                if cache is None:
+                    cache = StaticCache() if is_static else TimeCache(self._cache_ns)
+                    self._caches[cid] = cache
+                res = cache.insert(stamp, pid, values)
+                if res == _OK:
+                    self._version += 1
+                    cache.authority = authority
+                    return True
+        if refused is not None:
+            reason, name, size, limit = refused
+            if reason == "TF_FRAME_ID_TOO_LONG":
+                self._warn.log(_ERROR, (reason, authority),
+                               'TF_FRAME_ID_TOO_LONG: Ignoring transform for child_frame_id "%s" from authority '
+                               '"%s" because frame id "%s" is %d bytes long (max_frame_id_length %d)',
+                               child, authority, name, size, limit)
+            else:
+                self._warn.log(_ERROR, (reason, authority),
+                               'TF_TOO_MANY_FRAMES: Ignoring transform for child_frame_id "%s" from authority '
+                               '"%s" because the buffer already holds %d frames (max_frames %d)',
+                               child, authority, size, limit)
+            return False
         self._log_refused(res, child, stamp, authority)
         return False
 
@@ -399,6 +427,21 @@ class BufferCore:
             self._warn.log(_WARNING, ("TF_REPEATED_DATA", authority),
                            "TF_REPEATED_DATA ignoring data with redundant timestamp for frame %s at "
                            "time %.6f according to authority %s", child, stamp / 1e9, authority)
+
+    def _bound_new_frames(self, child: Optional[str], parent: Optional[str]) -> Optional[tuple]:
+        """(reason, name, size, limit) if adding these new names would pass a bound, else None."""
+        longest = self.max_frame_id_length
+        if longest is not None:
+            for name in (child, parent):
+                if name is not None and (len(name) > longest or (not name.isascii()
+                                                                 and len(name.encode("utf-8", "replace")) > longest)):
+                    return ("TF_FRAME_ID_TOO_LONG", name, len(name.encode("utf-8", "replace")), longest)
+        most = self.max_frames
+        if most is not None:
+            held = len(self._names) - 1
+            if held + (child is not None) + (parent is not None) > most:
+                return ("TF_TOO_MANY_FRAMES", "", held, most)
+        return None
 
     def _add_frame(self, name: str) -> int:
         fid = len(self._names)
