@@ -134,3 +134,104 @@ def test_huge_finite_translations_are_still_accepted() -> None:
     core = BufferCore()
     assert core.set_transform_raw("w", "a", S, 1e308, 1e308, 0.0, *Q, "/x")  # sum overflows: full path
     assert core.lookup_transform("w", "a", 0).transform.translation.x == 1e308
+
+
+# ------------------------------------------------------------------ point 10: stamps beyond int64 ns
+
+BIG = 2**62 + 5  # inside int64 but above the old 'no data' sentinel of the latest-common-time walk
+
+
+@pytest.mark.parametrize("stamp", [2**62 - 1, 2**62, BIG, 2**63 - 1])
+def test_latest_lookup_returns_the_stamp_however_large(stamp: int) -> None:
+    core = BufferCore()
+    assert core.set_transform_raw("w", "a", stamp, 1.0, 0.0, 0.0, *Q, "/x")
+    assert core.set_transform_raw("a", "b", stamp, 2.0, 0.0, 0.0, *Q, "/x")
+    assert core.set_transform_raw("w", "c", 0, 0.0, 0.0, 0.0, *Q, "/x", is_static=True)
+    for target, source in (("w", "a"), ("w", "b"), ("b", "w"), ("c", "b"), ("a", "b")):
+        t = core.lookup_transform(target, source, 0)
+        assert t.header.stamp.nanoseconds == stamp, (target, source)
+        assert core.get_latest_common_time(target, source).nanoseconds == stamp
+    assert core.lookup_transform("w", "b", 0).transform.translation.x == 3.0
+
+
+def test_a_chain_takes_the_oldest_of_its_large_stamps() -> None:
+    core = BufferCore()
+    for parent, child, newest in (("w", "a", BIG + 10), ("a", "b", BIG), ("w", "c", BIG + 20)):
+        assert core.set_transform_raw(parent, child, BIG - 100, 1.0, 0.0, 0.0, *Q, "/x")
+        assert core.set_transform_raw(parent, child, newest, 1.0, 0.0, 0.0, *Q, "/x")
+    assert core.get_latest_common_time("c", "b").nanoseconds == BIG
+    assert core.lookup_transform("c", "b", 0).header.stamp.nanoseconds == BIG
+
+
+def test_stamps_beyond_int64_are_refused_with_a_clear_line(caplog) -> None:
+    core = BufferCore()
+    assert core.set_transform_raw("w", "a", S, 1.0, 0.0, 0.0, *Q, "/x")
+    with caplog.at_level(logging.WARNING, LOGGER):
+        assert not core.set_transform_raw("w", "a", 2**63, 1.0, 0.0, 0.0, *Q, "/x")
+        assert core.set_transforms_raw([("w", "a", 2**64, 5.0, 0.0, 0.0, *Q), ("w", "z", 2**63, 5.0, 0.0, 0.0, *Q),
+                                        ("w", "a", 2 * S, 2.0, 0.0, 0.0, *Q)], "/y") == 1
+    msgs = lines(caplog)
+    assert len(msgs) == 2 and all("is beyond the largest the buffer holds" in m for m in msgs)
+    latest = core.lookup_transform("w", "a", 0)
+    assert latest.header.stamp.nanoseconds == 2 * S and latest.transform.translation.x == 2.0
+
+
+def test_lookup_time_beyond_int64_is_a_clear_error() -> None:
+    core = BufferCore()
+    core.set_transform_raw("w", "a", S, 1.0, 0.0, 0.0, *Q, "/x")
+    with pytest.raises(ValueError, match="beyond the latest a buffer holds"):
+        core.lookup_transform("w", "a", 1e300)
+    with pytest.raises(ValueError, match="beyond the latest a buffer holds"):
+        core.can_transform("w", "a", 10**12)
+
+
+# ------------------------------------------------------------------ point 8: bounds on frames and frame ids
+
+def test_defaults_are_documented_values() -> None:
+    core = BufferCore()
+    assert (core.max_frames, core.max_frame_id_length) == (10_000, 256)
+
+
+def test_distinct_frames_are_capped_with_one_logged_refusal(caplog) -> None:
+    core = BufferCore(max_frames=100)
+    with caplog.at_level(logging.WARNING, LOGGER):
+        accepted = core.set_transforms_raw([("w", f"f{i}", S, 0.0, 0.0, 0.0, *Q) for i in range(1000)], "/flood")
+    assert accepted == 99 and len(core.get_frames()) == 100  # 'w' + 99 children
+    assert len(caplog.records) == 1
+    assert "TF_TOO_MANY_FRAMES" in caplog.text and "max_frames 100" in caplog.text and "/flood" in caplog.text
+    # known frames keep working, new data on them too
+    assert core.set_transform_raw("w", "f5", 2 * S, 1.0, 0.0, 0.0, *Q, "/ok")
+    assert core.lookup_transform("w", "f5", 0).transform.translation.x == 1.0
+    # a sample naming two new frames is refused whole: no half-added frame
+    assert not core.set_transform_raw("new_parent", "new_child", S, 0.0, 0.0, 0.0, *Q, "/x")
+    assert not core.frame_exists("new_parent") and not core.frame_exists("new_child")
+
+
+def test_frame_cap_counts_parents_too_and_can_be_lifted() -> None:
+    core = BufferCore(max_frames=3)
+    assert core.set_transform_raw("a", "b", S, 0.0, 0.0, 0.0, *Q, "/x")
+    assert not core.set_transform_raw("c", "d", S, 0.0, 0.0, 0.0, *Q, "/x")  # 2 + 2 > 3
+    assert core.set_transform_raw("b", "c", S, 0.0, 0.0, 0.0, *Q, "/x")      # 2 + 1 = 3
+    core.max_frames = None
+    assert core.set_transforms_raw([("w", f"f{i}", S, 0.0, 0.0, 0.0, *Q) for i in range(20_000)], "/x") == 20_000
+
+
+@pytest.mark.parametrize("name", ["x" * 257, "é" * 129, "x" * 10_000_000])
+def test_frame_ids_longer_than_the_limit_are_refused(name: str, caplog) -> None:
+    core = BufferCore()
+    with caplog.at_level(logging.WARNING, LOGGER):
+        assert not core.set_transform_raw("w", name, S, 0.0, 0.0, 0.0, *Q, "/x")
+        assert not core.set_transform_raw(name, "c", S, 0.0, 0.0, 0.0, *Q, "/x")
+    assert not core.frame_exists(name) and core.get_frames() == []
+    assert "TF_FRAME_ID_TOO_LONG" in caplog.text and "max_frame_id_length 256" in caplog.text
+    assert len(caplog.text) < 2000  # the name is cut in the log line too
+    assert core.set_transform_raw("w", "x" * 256, S, 0.0, 0.0, 0.0, *Q, "/x")  # exactly the limit
+    assert core.set_transform_raw("w", "é" * 128, S, 0.0, 0.0, 0.0, *Q, "/x")
+
+
+def test_buffer_takes_the_bounds_too() -> None:
+    from zentf.buffer import Buffer
+
+    buf = Buffer(max_frames=5, max_frame_id_length=8)
+    assert (buf.max_frames, buf.max_frame_id_length) == (5, 8)
+    assert not buf.set_transform_raw("w", "123456789", S, 0.0, 0.0, 0.0, *Q, "/x")

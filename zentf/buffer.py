@@ -3,9 +3,10 @@ from __future__ import annotations
 
 import threading
 import time as _time
-from typing import Any, Union
+from typing import Any, Optional, Union
 
 from .core.buffer_core import DEFAULT_CACHE_TIME, BufferCore, TimeArg
+from .core.constants import DEFAULT_MAX_FRAME_ID_LENGTH, DEFAULT_MAX_FRAMES
 from .core.messages import TransformStamped
 from .core.time import Duration, to_duration
 
@@ -21,14 +22,18 @@ def _timeout_s(timeout: TimeoutArg) -> float:
 
 
 class Buffer(BufferCore):
-    """Buffer(cache_time=None, node=None): timeouts are wall-clock seconds (or Duration).
+    """Buffer(cache_time=None, node=None, *, max_frames=10000, max_frame_id_length=256): timeouts are
+    wall-clock seconds (or Duration); the bounds are BufferCore's (None lifts one).
 
     A listener (or anything calling set_transform*) fills it from another thread; waiters wake on
     every insert through BufferCore's insert callbacks.
     """
 
-    def __init__(self, cache_time: Union[Duration, float, int, None] = None, node: Any = None) -> None:
-        super().__init__(DEFAULT_CACHE_TIME if cache_time is None else cache_time)
+    def __init__(self, cache_time: Union[Duration, float, int, None] = None, node: Any = None, *,
+                 max_frames: Optional[int] = DEFAULT_MAX_FRAMES,
+                 max_frame_id_length: Optional[int] = DEFAULT_MAX_FRAME_ID_LENGTH) -> None:
+        super().__init__(DEFAULT_CACHE_TIME if cache_time is None else cache_time, max_frames=max_frames,
+                         max_frame_id_length=max_frame_id_length)
         self.node = node
         self._cond = threading.Condition()
         self._generation = 0

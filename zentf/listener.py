@@ -2,30 +2,107 @@
 from __future__ import annotations
 
 import logging
+import math
 import threading
 import uuid
 from functools import partial
 from typing import Any
 
 from .core.messages import TFMessage
-from .node import Node, RateLimitedLog
+from .core.ratelimit import RateLimitedLogger
+from .core.time import Duration
+from .node import Node
 
-__all__ = ["TransformListener", "StaticTransformListener"]
+__all__ = ["TransformListener", "StaticTransformListener", "DEFAULT_FUTURE_TOLERANCE"]
 
 log = logging.getLogger("zentf.listener")
 
+#: Seconds a ``tf`` sample may be stamped ahead of the listener's clock before it is refused
+#: (a deliberate difference from tf2, which takes any stamp: one sample stamped years ahead would
+#: otherwise own the edge's latest value and push every honest sample out as TF_OLD_DATA).
+DEFAULT_FUTURE_TOLERANCE = 5.0
+
+
+def _tolerance_ns(value: Any) -> int | None:
+    """Seconds (or Duration) -> ns; None (or a negative number) turns the guard off."""
+    if value is None:
+        return None
+    if isinstance(value, Duration):
+        return value.nanoseconds
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise TypeError(f"future_tolerance must be seconds or None, got {type(value).__name__}")
+    if math.isnan(value):
+        raise ValueError("future_tolerance must be a number of seconds, got nan")
+    if value < 0 or math.isinf(value):
+        return None
+    return round(value * 1e9)
+
+
+class _FutureGuard:
+    """What ``wire.ingest_tf`` inserts into: drops samples stamped too far ahead, passes the rest on."""
+
+    __slots__ = ("core", "clock", "tolerance_ns", "refused", "limiter")
+
+    def __init__(self, core: Any, clock: Any, tolerance_ns: int, limiter: RateLimitedLogger) -> None:
+        self.core = core
+        self.clock = clock
+        self.tolerance_ns = tolerance_ns
+        self.refused = 0
+        self.limiter = limiter
+
+    def _split(self, samples: list, authority: str) -> list:
+        now = self.clock.now_ns()
+        if not now:  # sim time before the first /clock: nothing to compare with
+            return samples
+        limit = now + self.tolerance_ns
+        for s in samples:
+            if s[2] > limit:
+                break
+        else:
+            return samples
+        keep = [s for s in samples if s[2] <= limit]
+        bad = [s for s in samples if s[2] > limit]
+        self.refused += len(bad)
+        s = bad[0]
+        self.limiter.log(logging.WARNING, ("TF_FUTURE_DATA", authority),
+                         'TF_FUTURE_DATA ignoring transform for child_frame_id "%s" from authority "%s": '
+                         "stamp %.6f is %.3f s ahead of this listener's clock (tolerance %.3f s)",
+                         s[1], authority, s[2] / 1e9, (s[2] - now) / 1e9, self.tolerance_ns / 1e9)
+        return keep
+
+    def set_transforms_raw(self, samples: list, authority: str, is_static: bool = False) -> int:
+        samples = self._split(samples, authority)
+        return self.core.set_transforms_raw(samples, authority, is_static) if samples else 0
+
+    def set_transform_raw(self, *args: Any) -> bool:
+        sample, (authority, is_static) = args[:10], args[10:12]
+        if not self._split([sample], authority):
+            return False
+        return self.core.set_transform_raw(*args)
+
 
 class TransformListener:
-    """TransformListener(buffer, node=None, *, static_only=False): subscribes and inserts; never raises.
+    """TransformListener(buffer, node=None, *, static_only=False, future_tolerance=5.0): subscribes and
+    inserts; never raises.
 
     Each message is msgpack-decoded and inserted with ``set_transforms_raw`` (no dataclasses); a
     malformed element is counted, logged (rate-limited, naming the sender) and skipped. The sender's
     node name (sample attachment) is the authority. A backwards jump of the node's clock clears the
-    buffer (statics survive), as tf2 does. Without a node, a hidden one is created from the env.
+    buffer (statics survive), as tf2 does.
+
+    Beyond tf2: ``tf`` samples stamped more than ``future_tolerance`` seconds ahead of the node's clock
+    (wall or sim; node parameter ``tf_future_tolerance``; None turns it off) are refused and logged.
+    ``max_frames`` and ``max_frame_id_length`` (node parameters ``tf_max_frames``,
+    ``tf_max_frame_id_length``), when given, set the buffer's bounds. Log lines are rate-limited per
+    reason and sender, names escaped. Without a node, a hidden one is created from the env.
     """
 
+    _UNSET: Any = object()
+
     def __init__(self, buffer: Any, node: Node | None = None, *, static_only: bool = False,
-                 tf_topic: str = "tf", tf_static_topic: str = "tf_static", spin_thread: bool = True) -> None:
+                 tf_topic: str = "tf", tf_static_topic: str = "tf_static", spin_thread: bool = True,
+                 future_tolerance: Any = _UNSET, max_frames: Any = _UNSET,
+                 max_frame_id_length: Any = _UNSET) -> None:
         import zenoh.ext as zx
 
         self.buffer = buffer
@@ -34,13 +111,22 @@ class TransformListener:
                                                        check_unique=False)
         if getattr(buffer, "node", "missing") is None:
             buffer.node = self.node
-        self._log = RateLimitedLog(log)
+        self._limiter = RateLimitedLogger(log)
         self._lock = threading.Lock()
         self.messages = 0          # TFMessages applied (fully or partly)
         self.transforms = 0        # transforms accepted by the buffer
         self.rejected = 0          # well-formed transforms the buffer refused (NaN, bad quaternion, old data...)
         self.malformed = 0         # transform elements with a bad shape
         self.bad_messages = 0      # payloads that were not a TFMessage at all
+        for name, value in (("max_frames", max_frames), ("max_frame_id_length", max_frame_id_length)):
+            if value is self._UNSET:
+                value = self.node.get_parameter_value(f"tf_{name}", self._UNSET)
+            if value is not self._UNSET and hasattr(buffer, name):
+                setattr(buffer, name, None if value is None or value == "" else int(value))
+        if future_tolerance is self._UNSET:
+            future_tolerance = self.node.get_parameter_value("tf_future_tolerance", DEFAULT_FUTURE_TOLERANCE)
+        tol = _tolerance_ns(future_tolerance)
+        self._guard = _FutureGuard(buffer, self.node.get_clock(), tol, self._limiter) if tol is not None else None
         self._subs: list[Any] = []
         self._tokens: list[Any] = []
         profile = self.node.wire  # zentf or ros2 (zentf.profile): key layout, payload format, authority
@@ -73,7 +159,7 @@ class TransformListener:
                                                           topic=self.node.wire.topic_of_key(key)[0]))
 
     def _on_sample(self, sample: Any, is_static: bool = False) -> None:
-        """Zenoh thread: decode and insert; every failure is contained here."""
+        """Decode and insert one message; every failure is contained here."""
         try:
             enc = sample.encoding
             if enc != self._tf_encoding:  # cheap Rust-side compare for the common case
@@ -86,7 +172,8 @@ class TransformListener:
                     authority = self._authority(att, str(sample.key_expr))
                     if att is not None and len(self._authorities) < 1024:
                         self._authorities[att.to_bytes()] = authority
-            accepted, rejected, malformed, problem = self._ingest(sample.payload.to_bytes(), self.buffer,
+            target = self.buffer if is_static or self._guard is None else self._guard
+            accepted, rejected, malformed, problem = self._ingest(sample.payload.to_bytes(), target,
                                                                   authority, is_static)
         except Exception as e:
             self.bad_messages += 1
@@ -95,7 +182,8 @@ class TransformListener:
                 sender = self._authority(sample.attachment, "unknown sender")
             except Exception:
                 key, sender = "?", "unknown sender"
-            self._log(f"bad:{key}:{sender}", f"dropped bad message on '{key}' from {sender}: {e}")
+            self._limiter.log(logging.WARNING, ("bad", key, sender), "dropped bad message on '%s' from %s: %s",
+                              key, sender, str(e))
             return
         # plain counters (statistics only; no lock on the hot path)
         self.messages += 1
@@ -105,8 +193,9 @@ class TransformListener:
         if malformed:
             self.malformed += malformed
             key = str(sample.key_expr)
-            self._log(f"malformed:{key}:{authority}",
-                      f"skipped {malformed} malformed transform(s) on '{key}' from {authority}: {problem}")
+            self._limiter.log(logging.WARNING, ("malformed", key, authority),
+                              "skipped %d malformed transform(s) on '%s' from %s: %s",
+                              malformed, key, authority, problem or "")
 
     def _on_jump(self, old: Any, new: Any) -> None:
         log.warning("Detected jump back in time of %.6fs. Clearing TF buffer.", (old - new).to_sec())
@@ -115,7 +204,8 @@ class TransformListener:
     def stats(self) -> dict[str, int]:
         with self._lock:
             return {"messages": self.messages, "transforms": self.transforms, "rejected": self.rejected,
-                    "malformed": self.malformed, "bad_messages": self.bad_messages}
+                    "malformed": self.malformed, "bad_messages": self.bad_messages,
+                    "future": self._guard.refused if self._guard is not None else 0}
 
     def unregister(self) -> None:
         """Stop listening (the buffer keeps its data)."""

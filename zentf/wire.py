@@ -209,6 +209,8 @@ def _frame(b: Any) -> str:
         if type(b) is not bytes:
             raise TypeError("frame ids must be strings")
         name = b.decode("utf-8")
+        if len(b) > 256:  # (a forged huge name is not kept: the buffer refuses it anyway)
+            return name
         if len(_FRAME_CACHE) > 100_000:
             _FRAME_CACHE.clear()
         _FRAME_CACHE[b] = name

@@ -25,7 +25,8 @@ from enum import IntEnum
 from typing import Any, Callable, Iterable, Optional, Sequence, Union
 
 from .cache import StaticCache, TimeCache
-from .constants import DEFAULT_CACHE_TIME, MAX_GRAPH_DEPTH
+from .constants import (DEFAULT_CACHE_TIME, DEFAULT_MAX_FRAME_ID_LENGTH, DEFAULT_MAX_FRAMES, MAX_GRAPH_DEPTH,
+                        MAX_STAMP_NS)
 from .constants import INSERT_OK as _OK
 from .constants import INSERT_OLD as _OLD
 from .exceptions import (ConnectivityException, ExtrapolationException, InvalidArgumentException,
@@ -75,9 +76,12 @@ def _ns(t: Any) -> int:
     else:
         if not math.isfinite(t):
             raise ValueError(f"time must be finite, got {t!r}")
-        ns = round(t * NSEC_PER_SEC)
+        ns = t * NSEC_PER_SEC
+        ns = round(ns) if -1e19 < ns < 1e19 else MAX_STAMP_NS + 1  # (1e300 s: no OverflowError)
     if ns < 0:
         raise ValueError(f"time cannot be negative ({t!r})")
+    if ns > MAX_STAMP_NS:
+        raise ValueError(f"time {t!r} s is beyond the latest a buffer holds ({MAX_STAMP_NS} ns, int64)")
     return ns
 
 
@@ -120,9 +124,18 @@ class BufferCore:
     ``add_insert_callback`` (wake waiters), ``add_transformable_request`` (MessageFilter),
     ``frame_info``/``chain_as_vector``/``get_parent``/``frame_exists`` (tools), and the numpy
     batches ``lookup_transforms``/``transform_points`` (see zentf.core.geometry).
+
+    Bounds tf2 does not have (deliberate, for memory under hostile input): at most ``max_frames``
+    distinct frame names (default 10,000) and frame ids of at most ``max_frame_id_length`` UTF-8
+    bytes (default 256); a sample that would pass either is refused with a logged line
+    (TF_TOO_MANY_FRAMES, TF_FRAME_ID_TOO_LONG). None lifts a bound; both are plain attributes.
     """
 
-    def __init__(self, cache_time: Union[Duration, float, int] = DEFAULT_CACHE_TIME) -> None:
+    def __init__(self, cache_time: Union[Duration, float, int] = DEFAULT_CACHE_TIME, *,
+                 max_frames: Optional[int] = DEFAULT_MAX_FRAMES,
+                 max_frame_id_length: Optional[int] = DEFAULT_MAX_FRAME_ID_LENGTH) -> None:
+        self.max_frames = max_frames
+        self.max_frame_id_length = max_frame_id_length
         if isinstance(cache_time, Duration):
             self._cache_ns = cache_time.nanoseconds
         else:
@@ -162,7 +175,8 @@ class BufferCore:
         tx, ty, tz, qx, qy, qz, qw = v.x, v.y, v.z, q.x, q.y, q.z, q.w
         # hot path, the same as _store's (inlined: a call with 12 arguments costs ~7% of an insert)
         if (-0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
-                and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0):
+                and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0
+                and stamp <= 9223372036854775807):
             self._lock.acquire()  # (not `with`: 0.12 µs less per call, measured)
             try:
                 clean = self._clean
@@ -224,7 +238,8 @@ class BufferCore:
         try:
             for parent, child, stamp, tx, ty, tz, qx, qy, qz, qw in samples:
                 if (-0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
-                        and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0):
+                        and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0
+                        and stamp <= 9223372036854775807):
                     cid = clean.get(child)
                     pid = clean.get(parent)
                     if cid is not None and pid is not None and cid != pid:
@@ -271,9 +286,11 @@ class BufferCore:
         # frames are known by clean names (non-empty, no leading '/'). Anything else - new frames,
         # statics, out-of-order stamps, bad input - takes _store_checked, tf2's full path.
         # (tx + ty + tz) * 0.0 == 0.0: a finite translation (NaN or ±inf anywhere makes it NaN; a
-        # finite sum that overflows only sends the sample down the full path, which accepts it)
+        # finite sum that overflows only sends the sample down the full path, which accepts it);
+        # 9223372036854775807 is MAX_STAMP_NS as a literal (a constant load, not a global one)
         if (-0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
-                and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0):
+                and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0
+                and stamp <= 9223372036854775807):
             self._lock.acquire()  # (not `with`: 0.12 µs less per call, measured)
             try:
                 clean = self._clean
@@ -353,26 +370,50 @@ class BufferCore:
                            'Ignoring transform for child_frame_id "%s" from authority "%s" because its '
                            'stamp is negative (%d ns)', child, authority, stamp)
             return False
+        if stamp > MAX_STAMP_NS:
+            self._warn.log(_ERROR, ("TF_BAD_STAMP", authority),
+                           'Ignoring transform for child_frame_id "%s" from authority "%s" because its '
+                           'stamp (%d ns) is beyond the largest the buffer holds (%d ns, int64)',
+                           child, authority, stamp, MAX_STAMP_NS)
+            return False
         values = tuple(float(x) for x in (tx, ty, tz, qx, qy, qz, qw))
         with self._lock:
             ids = self._ids
             cid = ids.get(child)
-            if cid is None:
-                cid = self._add_frame(child)
             pid = ids.get(parent)
-            if pid is None:
-                pid = self._add_frame(parent)
-            if not cid:
-                return True
-            cache = self._caches[cid]
-            if cache is None:
-                cache = StaticCache() if is_static else TimeCache(self._cache_ns)
-                self._caches[cid] = cache
-            res = cache.insert(stamp, pid, values)
-            if res == _OK:
-                self._version += 1
-                cache.authority = authority
-                return True
+            refused = None
+            if cid is None or pid is None:
+                refused = self._bound_new_frames(child if cid is None else None, parent if pid is None else None)
+                if refused is None:
+                    if cid is None:
+                        cid = self._add_frame(child)
+                    if pid is None:
+                        pid = self._add_frame(parent)
+            if refused is None:
+                if not cid:
+                    return True
+                cache = self._caches[cid]
+                if cache is None:
+                    cache = StaticCache() if is_static else TimeCache(self._cache_ns)
+                    self._caches[cid] = cache
+                res = cache.insert(stamp, pid, values)
+                if res == _OK:
+                    self._version += 1
+                    cache.authority = authority
+                    return True
+        if refused is not None:
+            reason, name, size, limit = refused
+            if reason == "TF_FRAME_ID_TOO_LONG":
+                self._warn.log(_ERROR, (reason, authority),
+                               'TF_FRAME_ID_TOO_LONG: Ignoring transform for child_frame_id "%s" from authority '
+                               '"%s" because frame id "%s" is %d bytes long (max_frame_id_length %d)',
+                               child, authority, name, size, limit)
+            else:
+                self._warn.log(_ERROR, (reason, authority),
+                               'TF_TOO_MANY_FRAMES: Ignoring transform for child_frame_id "%s" from authority '
+                               '"%s" because the buffer already holds %d frames (max_frames %d)',
+                               child, authority, size, limit)
+            return False
         self._log_refused(res, child, stamp, authority)
         return False
 
@@ -386,6 +427,21 @@ class BufferCore:
             self._warn.log(_WARNING, ("TF_REPEATED_DATA", authority),
                            "TF_REPEATED_DATA ignoring data with redundant timestamp for frame %s at "
                            "time %.6f according to authority %s", child, stamp / 1e9, authority)
+
+    def _bound_new_frames(self, child: Optional[str], parent: Optional[str]) -> Optional[tuple]:
+        """(reason, name, size, limit) if adding these new names would pass a bound, else None."""
+        longest = self.max_frame_id_length
+        if longest is not None:
+            for name in (child, parent):
+                if name is not None and (len(name) > longest or (not name.isascii()
+                                                                 and len(name.encode("utf-8", "replace")) > longest)):
+                    return ("TF_FRAME_ID_TOO_LONG", name, len(name.encode("utf-8", "replace")), longest)
+        most = self.max_frames
+        if most is not None:
+            held = len(self._names) - 1
+            if held + (child is not None) + (parent is not None) > most:
+                return ("TF_TOO_MANY_FRAMES", "", held, most)
+        return None
 
     def _add_frame(self, name: str) -> int:
         fid = len(self._names)
@@ -734,7 +790,7 @@ class BufferCore:
         if source_id == target_id:
             cache = caches[source_id]
             return cache.newest_stamp() if cache is not None else 0
-        big = 1 << 62
+        big = MAX_STAMP_NS + 1  # 'no dynamic link yet': above every stamp a cache can hold
         # walk up from the source, recording (newest stamp, parent) per link; a cache's newest
         # stamp is -1 when empty (no parent: stop), 0 for statics (ignored in the minimum)
         stamps: list[int] = []

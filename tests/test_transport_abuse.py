@@ -1,0 +1,154 @@
+"""A listener under attack from other processes (issue 10): forged future stamps, floods of bad and foreign
+samples, forged frame names; the honest sender's edge stays fresh and the logs stay short."""
+from __future__ import annotations
+
+import logging
+import textwrap
+import time
+
+import pytest
+
+from zentf.buffer import Buffer
+from zentf.core.time import Time
+from zentf.listener import DEFAULT_FUTURE_TOLERANCE, TransformListener
+from zentf.node import Node
+from zentf.options import NodeOptions
+
+S = 1_000_000_000
+
+#: An honest node: world -> EDGE at 50 Hz, stamped with its clock, x = 1.0.
+HONEST = textwrap.dedent("""
+    import sys
+    from zentf.node import Node, init_logging
+    from zentf.broadcaster import TransformBroadcaster
+    from zentf.core.messages import TransformStamped, Header, Transform, Vector3, Quaternion
+    init_logging()
+    node = Node("honest")
+    br = TransformBroadcaster(node)
+    child = sys.argv[1]
+    def tick():
+        br.send_transform(TransformStamped(Header(node.get_clock().now(), "world"), child,
+                                           Transform(Vector3(1.0, 0.0, 0.0), Quaternion(0.0, 0.0, 0.0, 1.0))))
+    node.create_timer(0.02, tick)
+    print("ready", flush=True)
+    node.spin()
+""")
+
+#: A raw Zenoh session (no zentf node) putting hand-made TFMessages on <ns>/tf as '/attacker':
+#: argv = kind, count, per message; then a sentinel transform world -> done_<kind> (valid, stamped now),
+#: so a listener that has the sentinel has handled everything before it (one sender: order kept).
+ATTACKER = textwrap.dedent("""
+    import os, sys, time
+    import msgpack, zenoh
+    from zentf import wire
+    from zentf.options import ZenohOptions
+    kind, count, per = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+    NS = 1_000_000_000
+    s = ZenohOptions.from_env().open_session()
+    pub = s.declare_publisher(os.environ["ZENTF_NAMESPACE"] + "/tf",
+                              encoding=wire.encoding_for("tf2_msgs/msg/TFMessage"),
+                              congestion_control=zenoh.CongestionControl.BLOCK)
+    while not pub.matching_status.matching:
+        time.sleep(0.01)
+    def tf(parent, child, stamp, x=666.0):
+        return {"header": {"stamp": {"sec": stamp // NS, "nanosec": stamp % NS}, "frame_id": parent},
+                "child_frame_id": child, "transform": {"translation": {"x": x, "y": 0.0, "z": 0.0},
+                                                        "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}
+    now = time.time_ns()
+    if kind == "future":   # one sample 100 years ahead for the honest edge
+        msgs = [[tf("world", "av1", now + 100 * 365 * 86400 * NS)]]
+    elif kind == "nan":    # NaN for the honest edge
+        one = msgpack.packb({"transforms": [tf("world", "av1", now, float("nan"))] * per})
+        msgs = None
+    elif kind == "frames": # valid samples of many other frames (foreign data, real inserts)
+        msgs = ([tf("world", f"other{(i * per + j) % 1000}", now + i * per + j) for j in range(per)]
+                for i in range(count // per))
+    elif kind == "distinct":  # a new frame name in every sample
+        msgs = ([tf("world", f"forged_{i * per + j}", now) for j in range(per)] for i in range(count // per))
+    elif kind == "evil":   # control characters in frame ids, a NaN so the buffer logs them
+        msgs = [[tf("world", "evil\\x1b[2J\\r\\nFAKE LINE", now, float("nan"))]]
+    att = b"/attacker"
+    t0 = time.perf_counter()
+    if msgs is None:
+        for _ in range(count // per):
+            pub.put(one, attachment=att)
+    else:
+        for m in msgs:
+            pub.put(msgpack.packb({"transforms": m}), attachment=att)
+    dt = time.perf_counter() - t0
+    pub.put(msgpack.packb({"transforms": [tf("world", "done_" + kind, time.time_ns(), 1.0)]}), attachment=att)
+    print(f"sent {count} in {dt:.3f}s", flush=True)
+    time.sleep(0.5)
+    s.close()
+""")
+
+
+def latest_stamp(buf: Buffer, child: str = "av1") -> int:
+    return buf.lookup_transform("world", child, Time()).header.stamp.nanoseconds
+
+
+def wait_fresh_sample(buf: Buffer, after_ns: int, child: str = "av1", timeout: float = 10.0) -> int:
+    """Block until the honest edge has a sample newer than after_ns; its stamp."""
+    assert buf.wait_for(lambda: latest_stamp(buf, child) > after_ns, timeout), "the honest edge went stale"
+    return latest_stamp(buf, child)
+
+
+# ------------------------------------------------------------------ point 3: future-stamp guard
+
+def test_one_sample_stamped_100_years_ahead_does_not_poison_the_edge(spawn, node_options, caplog) -> None:
+    with Node("victim", options=node_options) as node, caplog.at_level(logging.WARNING, "zentf.listener"):
+        buf = Buffer(node=node)
+        tl = TransformListener(buf, node)
+        spawn.python("-c", HONEST, "av1").wait_for_line("ready", timeout=30)
+        assert buf.can_transform("world", "av1", Time(), timeout=30)
+        attacker = spawn.python("-c", ATTACKER, "future", "1", "1")
+        attacker.wait_for_line("^sent", timeout=30)
+        assert buf.can_transform("world", "done_future", Time(), timeout=30)  # the forged sample was handled
+        assert tl.stats()["future"] == 1
+        before = latest_stamp(buf)
+        assert abs(before - time.time_ns()) < 5 * S  # the latest sample is an honest one
+        fresh = wait_fresh_sample(buf, before)        # and honest samples keep coming in
+        assert buf.lookup_transform("world", "av1", Time()).transform.translation.x == 1.0
+        assert fresh - time.time_ns() < S
+    lines = [r.getMessage() for r in caplog.records if "TF_FUTURE_DATA" in r.getMessage()]
+    assert len(lines) == 1 and "/attacker" in lines[0] and '"av1"' in lines[0], lines
+    assert "ahead of this listener's clock" in lines[0]
+
+
+def test_without_the_guard_the_forged_sample_wins_as_in_tf2(spawn, node_options) -> None:
+    with Node("victim", options=node_options) as node:
+        buf = Buffer(node=node)
+        TransformListener(buf, node, future_tolerance=None)
+        attacker = spawn.python("-c", ATTACKER, "future", "1", "1")
+        attacker.wait_for_line("^sent", timeout=30)
+        assert buf.can_transform("world", "done_future", Time(), timeout=30)
+        assert buf.lookup_transform("world", "av1", Time()).transform.translation.x == 666.0
+        assert latest_stamp(buf) > time.time_ns() + 50 * 365 * 86400 * S
+
+
+def test_tolerance_is_a_node_parameter_and_a_small_lead_is_accepted(spawn, node_options) -> None:
+    assert DEFAULT_FUTURE_TOLERANCE == 5.0
+    opts = NodeOptions(namespace=node_options.namespace, zenoh=node_options.zenoh,
+                       params={"tf_future_tolerance": 0.0})
+    with Node("strict", options=opts) as node:
+        buf = Buffer(node=node)
+        tl = TransformListener(buf, node)
+        assert tl._guard is not None and tl._guard.tolerance_ns == 0
+    with Node("victim", options=node_options) as node:
+        buf = Buffer(node=node)
+        tl = TransformListener(buf, node, future_tolerance=3600.0)  # a year ahead is still refused
+        attacker = spawn.python("-c", ATTACKER, "future", "1", "1")
+        attacker.wait_for_line("^sent", timeout=30)
+        assert buf.can_transform("world", "done_future", Time(), timeout=30)
+        assert tl.stats()["future"] == 1 and not buf.can_transform("world", "av1", Time())
+
+
+def test_bad_tolerance_values_are_refused() -> None:
+    from zentf.listener import _tolerance_ns
+
+    assert _tolerance_ns(None) is None and _tolerance_ns(-1) is None and _tolerance_ns(float("inf")) is None
+    assert _tolerance_ns(0.25) == 250_000_000
+    with pytest.raises(ValueError, match="nan"):
+        _tolerance_ns(float("nan"))
+    with pytest.raises(TypeError):
+        _tolerance_ns("5")
