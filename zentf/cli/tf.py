@@ -8,7 +8,7 @@ from typing import Any, Optional
 
 import click
 
-from .common import CONTEXT_SETTINGS, CliError, CliOptions, finite_float, status, with_options
+from .common import CONTEXT_SETTINGS, CliError, CliOptions, NumberArgsCommand, StampSeconds, finite_float, status, with_options
 
 __all__ = ["tf"]
 
@@ -45,7 +45,7 @@ def _close(node: Any, listener: Any = None) -> None:
                 pass
 
 
-@tf.command("echo", context_settings=CONTEXT_SETTINGS)
+@tf.command("echo", cls=NumberArgsCommand, context_settings=CONTEXT_SETTINGS)
 @click.argument("source")
 @click.argument("target")
 @click.argument("rate_arg", metavar="[RATE]", required=False, type=finite_float(min=0.001))
@@ -53,26 +53,29 @@ def _close(node: Any, listener: Any = None) -> None:
               help="Prints per second (tf2_echo's optional third argument does the same).")
 @click.option("--precision", "-p", type=click.IntRange(0, 17), default=3, show_default=True,
               help="Digits after the decimal point.")
-@click.option("--time", "-t", "at_time", type=finite_float(), default=None,
+@click.option("--time", "-t", "at_time", type=StampSeconds(), default=None,
               help="Look up at this fixed time (s) instead of the latest.")
-@click.option("--count", "-c", type=click.IntRange(min=0), default=0,
+@click.option("--count", "-c", type=click.IntRange(min=1), default=None,
               help="Exit after this many prints (default: run until Ctrl-C).")
 @click.option("--timeout", type=finite_float(min=0.0), default=None,
               help="Exit 1 if no transform arrives within this many seconds (default: wait).")
 @with_options
 def echo(source: str, target: str, rate_arg: Optional[float], rate: float, precision: int,
-         at_time: Optional[float], count: int, timeout: Optional[float], *, opts: CliOptions) -> None:
+         at_time: Optional[float], count: Optional[int], timeout: Optional[float], *, opts: CliOptions) -> None:
     """Print the pose of TARGET in SOURCE at a fixed rate, like tf2_echo.
 
     As in tf2_echo the first argument is the frame the result is expressed in
     (lookup_transform(SOURCE, TARGET)). While the frames are unavailable the reason is printed
     on stderr once a second and the tool keeps waiting.
     """
-    from zentf.core.exceptions import TransformException
+    from zentf.core.exceptions import InvalidArgumentException, TransformException
     from zentf.core.time import Duration, Time
 
     from .format import format_echo
 
+    for value, what in ((source, "SOURCE"), (target, "TARGET")):
+        if not value.strip():  # tf2 refuses it on every lookup: say so once, not every second
+            raise click.BadParameter("a frame id cannot be empty", param_hint=f"'{what}'")
     node, buffer, listener = _listen(opts, "tf_echo")
     try:
         when = Time() if at_time is None else Time.from_sec(at_time)
@@ -96,6 +99,8 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
                 step = 0.2 if deadline is None else max(0.0, min(0.2, deadline - time.monotonic()))
                 try:
                     first = buffer.lookup_transform(source, target, when, timeout=Duration.from_sec(step))
+                except InvalidArgumentException as exc:  # will never succeed: no point waiting
+                    raise CliError(" ".join(str(exc).split()), code=2) from exc
                 except TransformException as exc:
                     reason = " ".join(str(exc).split())
                     now = time.monotonic()

@@ -129,13 +129,14 @@ def _subscribe(session: Any, key: str, history: bool) -> tuple[Any, "queue.Queue
 @topic.command("echo", context_settings=CONTEXT_SETTINGS)
 @click.argument("name")
 @click.option("--once", is_flag=True, help="Print one message and exit.")
-@click.option("--count", "-c", type=click.IntRange(min=0), default=0, help="Exit after this many messages.")
+@click.option("--count", "-c", type=click.IntRange(min=1), default=None,
+              help="Exit after this many messages (default: run until Ctrl-C).")
 @click.option("--json", "as_json", is_flag=True, help="One JSON object per line instead of YAML.")
 @click.option("--timeout", type=finite_float(min=0.0), default=None,
               help="Exit 1 if nothing arrives within this many seconds (default: wait).")
 @click.option("--no-history", is_flag=True, help="Do not fetch latched samples (e.g. of tf_static).")
 @with_options
-def topic_echo(name: str, once: bool, count: int, as_json: bool, timeout: Optional[float], no_history: bool,
+def topic_echo(name: str, once: bool, count: Optional[int], as_json: bool, timeout: Optional[float], no_history: bool,
                *, opts: CliOptions) -> None:
     """Print messages on a topic, decoded by their carried type (raw bytes when unknown)."""
     from .common import open_node
@@ -263,9 +264,31 @@ def parse_message(type_name: str, data: str) -> Any:
     if plain is None:
         plain = {}
     try:
-        return message_type(type_name).from_dict(plain)
+        msg = message_type(type_name).from_dict(plain)
     except (ValueError, TypeError) as exc:
         raise CliError(f"bad DATA for {type_name}: {exc}", code=2) from exc
+    where = _out_of_range(msg.to_dict() if hasattr(msg, "to_dict") else plain)
+    if where:  # msgpack would raise a bare OverflowError at the first publish
+        raise CliError(f"bad DATA for {type_name}: {where[0]}: {where[1]} is out of range "
+                       f"(at most 64-bit integers)", code=2)
+    return msg
+
+
+def _out_of_range(value: Any, path: str = "") -> Optional[tuple[str, int]]:
+    """(field path, value) of the first integer that no 64-bit field can hold, else None."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            hit = _out_of_range(v, f"{path}.{k}" if path else str(k))
+            if hit:
+                return hit
+    elif isinstance(value, (list, tuple)):
+        for i, v in enumerate(value):
+            hit = _out_of_range(v, f"{path}[{i}]")
+            if hit:
+                return hit
+    elif isinstance(value, int) and not isinstance(value, bool) and not -2 ** 63 <= value < 2 ** 64:
+        return path, value
+    return None
 
 
 @topic.command("pub", context_settings=CONTEXT_SETTINGS)
@@ -275,11 +298,12 @@ def parse_message(type_name: str, data: str) -> Any:
 @click.option("--rate", "-r", type=finite_float(min=0.001), default=1.0, show_default=True,
               help="Messages per second.")
 @click.option("--once", "-1", is_flag=True, help="Publish one message and exit.")
-@click.option("--times", "-t", type=click.IntRange(min=0), default=0, help="Publish this many messages and exit.")
+@click.option("--times", "-t", type=click.IntRange(min=1), default=None,
+              help="Publish this many messages and exit (default: until Ctrl-C; ROS 2's 0 is refused).")
 @click.option("--wait-matching", type=finite_float(min=0.0), default=1.0, show_default=True,
               help="Before the first message, wait up to this long for a subscriber.")
 @with_options
-def topic_pub(name: str, type_name: str, data: str, rate: float, once: bool, times: int, wait_matching: float,
+def topic_pub(name: str, type_name: str, data: str, rate: float, once: bool, times: Optional[int], wait_matching: float,
               *, opts: CliOptions) -> None:
     """Publish DATA (YAML or JSON, e.g. '{x: 1.0}') as a TYPE message on a topic."""
     from zentf.names import topic_to_key
