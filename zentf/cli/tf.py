@@ -71,7 +71,7 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
     from zentf.core.exceptions import InvalidArgumentException, TransformException
     from zentf.core.time import Duration, Time
 
-    from .format import format_echo
+    from .format import format_echo, printable
 
     for value, what in ((source, "SOURCE"), (target, "TARGET")):
         if not value.strip():  # tf2 refuses it on every lookup: say so once, not every second
@@ -107,11 +107,11 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
                     if deadline is not None and now >= deadline:
                         raise CliError(f"no transform {source} -> {target} after {timeout:g} s: {reason}") from exc
                     if reason != last_reason or now - last_reason_at >= 1.0:
-                        sys.stderr.write(f"Waiting for transform {source} -> {target}: {reason}\n")
+                        sys.stderr.write(printable(f"Waiting for transform {source} -> {target}: {reason}") + "\n")
                         sys.stderr.flush()
                         last_reason, last_reason_at = reason, now
                     left = "" if deadline is None else f" ({max(0.0, deadline - now):.1f} s left)"
-                    st.update(f"Waiting for transform {source} -> {target}{left}: {reason}")
+                    st.update(printable(f"Waiting for transform {source} -> {target}{left}: {reason}"))
         if first is None:  # Ctrl-C / SIGTERM while waiting
             return
         show(first)
@@ -128,7 +128,7 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
                 show(buffer.lookup_transform(source, target, when))
                 printed += 1
             except TransformException as exc:
-                sys.stderr.write(f"Failure at {time.time():.6f}: {' '.join(str(exc).split())}\n")
+                sys.stderr.write(printable(f"Failure at {time.time():.6f}: {' '.join(str(exc).split())}") + "\n")
                 sys.stderr.flush()
     finally:
         _close(node, listener)
@@ -351,16 +351,19 @@ def _fmt_rate(rate: Optional[float], static: bool) -> str:
 def format_monitor_text(stats: MonitorStats, title: str, chain: Optional[list[str]] = None,
                         net: Optional[tuple[float, float]] = None) -> str:
     """The plain-text tf2_monitor report (used when stdout is not a terminal)."""
-    lines = [f"RESULTS: {title}"]
+    from .format import printable
+
+    lines = [f"RESULTS: {printable(title)}"]
     if chain is not None:
-        lines.append("Chain is: " + " -> ".join(chain))
+        lines.append("Chain is: " + " -> ".join(printable(f) for f in chain))
         if net is not None:
             lines.append(f"Net delay     avg = {net[0] * 1e3:.3f} ms: max = {net[1] * 1e3:.3f} ms")
         else:
             lines.append("Net delay     n/a (static chain)")
     rows = stats.rows(chain)
     table = [("frame", "parent", "broadcaster", "rate_hz", "avg_delay_ms", "max_delay_ms")]
-    table += [(r[0], r[1], r[2], _fmt_rate(r[3], r[6]), f"{r[4] * 1e3:.3f}", f"{r[5] * 1e3:.3f}") for r in rows]
+    table += [(printable(r[0]), printable(r[1]), printable(r[2]), _fmt_rate(r[3], r[6]), f"{r[4] * 1e3:.3f}",
+               f"{r[5] * 1e3:.3f}") for r in rows]
     widths = [max(len(row[i]) for row in table) for i in range(6)]
     lines.append("")
     lines.append("Frames:")
@@ -370,26 +373,31 @@ def format_monitor_text(stats: MonitorStats, title: str, chain: Optional[list[st
     lines.append("All Broadcasters:")
     for name, rate, avg, mx, static in stats.node_rows():
         freq = "static" if static else f"{_fmt_rate(rate, static)} Hz"
-        lines.append(f"Node: {name} {freq}, Average Delay: {avg * 1e3:.3f} ms, Max Delay: {mx * 1e3:.3f} ms")
+        lines.append(f"Node: {printable(name)} {freq}, Average Delay: {avg * 1e3:.3f} ms, Max Delay: {mx * 1e3:.3f} ms")
     return "\n".join(lines)
 
 
 def _monitor_table(stats: MonitorStats, title: str, chain: Optional[list[str]],
                    net: Optional[tuple[float, float]]) -> Any:
     """The live rich view: frames table (+ chain/net delay caption)."""
+    from rich.markup import escape
     from rich.table import Table
+    from rich.text import Text
+
+    from .format import printable
 
     caption = None
     if chain is not None:
-        caption = "Chain: " + " -> ".join(chain)
+        caption = escape("Chain: " + " -> ".join(printable(f) for f in chain))
         caption += (f"   net delay avg {net[0] * 1e3:.3f} ms, max {net[1] * 1e3:.3f} ms" if net
                     else "   net delay n/a (static chain)")
-    table = Table(title=f"zentf tf monitor: {title}", caption=caption, expand=False)
+    table = Table(title=escape(f"zentf tf monitor: {printable(title)}"), caption=caption, expand=False)
     for col, justify in (("Frame", "left"), ("Parent", "left"), ("Broadcaster", "left"), ("Rate (Hz)", "right"),
                          ("Avg delay (ms)", "right"), ("Max delay (ms)", "right")):
         table.add_column(col, justify=justify)  # type: ignore[arg-type]
     for r in stats.rows(chain):
-        table.add_row(r[0], r[1], r[2], _fmt_rate(r[3], r[6]), f"{r[4] * 1e3:.3f}", f"{r[5] * 1e3:.3f}")
+        table.add_row(Text(printable(r[0])), Text(printable(r[1])), Text(printable(r[2])),  # no markup from names
+                      _fmt_rate(r[3], r[6]), f"{r[4] * 1e3:.3f}", f"{r[5] * 1e3:.3f}")
     return table
 
 
@@ -465,7 +473,11 @@ def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str
                  period: float, ok: Any = lambda: True) -> None:
     from collections import deque
 
+    from rich.markup import escape
+
     from zentf.core.exceptions import TransformException
+
+    from .format import printable
 
     title = f"for {pair[0]} to {pair[1]}" if pair else "for all Frames"
     started = time.monotonic()
@@ -501,7 +513,8 @@ def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str
             while (end is None or time.monotonic() < end) and ok():
                 sample_chain()
                 if pair and chain is None:
-                    live.update(f"Waiting for transform {pair[0]} -> {pair[1]}: {reason or 'no data yet'}")
+                    live.update(escape(printable(f"Waiting for transform {pair[0]} -> {pair[1]}: "
+                                                 f"{reason or 'no data yet'}")))
                 elif not stats.frames:
                     live.update("Waiting for tf data...")
                 else:
@@ -514,7 +527,7 @@ def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str
             sample_chain()
             now = time.monotonic()
             if pair and chain is None and reason and now - last_wait_msg >= 1.0:
-                sys.stderr.write(f"Waiting for transform {pair[0]} -> {pair[1]}: {reason}\n")
+                sys.stderr.write(printable(f"Waiting for transform {pair[0]} -> {pair[1]}: {reason}") + "\n")
                 sys.stderr.flush()
                 last_wait_msg = now
             if end is None and now >= next_report:

@@ -40,17 +40,19 @@ def topic_list(verbose: bool, show_types: bool, wait: float, *, opts: CliOptions
     """List the topics that live nodes publish or subscribe (from liveliness; no master)."""
     from .introspect import graph_namespace, graph_snapshot
 
+    from .format import printable as p
+
     _, topics = graph_snapshot(opts, wait, graph_namespace(opts))
     for _, t in sorted(topics.items()):
-        types = ", ".join(t.types) or "?"
+        types = p(", ".join(t.types) or "?")
         if verbose:
-            print(f"{t.name} [{types}]")
-            print(f"  publishers ({len(t.publishers)}): {', '.join(t.publishers)}")
-            print(f"  subscribers ({len(t.subscribers)}): {', '.join(t.subscribers)}")
+            print(f"{p(t.name)} [{types}]")
+            print(f"  publishers ({len(t.publishers)}): {p(', '.join(t.publishers))}")
+            print(f"  subscribers ({len(t.subscribers)}): {p(', '.join(t.subscribers))}")
         elif show_types:
-            print(f"{t.name} [{types}]")
+            print(f"{p(t.name)} [{types}]")
         else:
-            print(t.name)
+            print(p(t.name))
 
 
 @topic.command("info", context_settings=CONTEXT_SETTINGS)
@@ -66,14 +68,16 @@ def topic_info(name: str, wait: float, *, opts: CliOptions) -> None:
     t = topics.get(fq)
     if t is None:
         raise CliError(f"unknown topic {fq}: no live node publishes or subscribes it")
-    print(f"Topic: {t.name}")
-    print(f"Type: {', '.join(t.types) or '?'}")
+    from .format import printable as p
+
+    print(f"Topic: {p(t.name)}")
+    print(f"Type: {p(', '.join(t.types) or '?')}")
     print(f"Publisher count: {len(t.publishers)}")
     for n in t.publishers:
-        print(f"  {n}")
+        print(f"  {p(n)}")
     print(f"Subscription count: {len(t.subscribers)}")
     for n in t.subscribers:
-        print(f"  {n}")
+        print(f"  {p(n)}")
 
 
 def render_sample(payload: bytes, encoding: str, as_json: bool) -> str:
