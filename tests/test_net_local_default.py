@@ -78,6 +78,16 @@ def test_lan_is_the_explicit_choice_and_says_so(net: Topology, run_in) -> None:
     echo.wait_for_line(r"- Translation: \[666\.000, ", 30)  # what the issue reported, now only with --lan
 
 
+
+@pytest.mark.parametrize("net", LAN, indirect=True)
+def test_launch_lan_passes_the_choice_to_every_node(net: Topology, run_in) -> None:
+    launch = run_in("a", *ZENTF, "launch", "laser", "--lan")
+    intruder = _intruder(run_in)
+    state = _state(intruder)
+    while state["tokens"] < 5:  # the five nodes of configs/laser.yaml, seen from host b
+        state = _state(intruder)
+    launch.wait_for_line(r"beyond this machine without authentication", 30)
+
 # ------------------------------------------------------------------ zero configuration on one machine
 
 @pytest.fixture
