@@ -264,7 +264,11 @@ class _Status:
 
     def update(self, text: str) -> None:
         if self._live is not None:
-            self._live.update(text)
+            from rich.markup import escape
+
+            from .format import printable
+
+            self._live.update(escape(printable(text)))  # names are text: no escape codes, no rich markup
 
 
 @contextmanager
@@ -274,6 +278,9 @@ def status(text: str) -> Iterator[_Status]:
         yield _Status(None)
         return
     from rich.console import Console
+    from rich.markup import escape
 
-    with Console(stderr=True).status(text) as live:
+    from .format import printable
+
+    with Console(stderr=True).status(escape(printable(text))) as live:
         yield _Status(live)
