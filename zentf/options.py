@@ -196,7 +196,7 @@ class ZenohOptions:
         if mode != "client":
             here = self.local_endpoint if hold else "tcp/127.0.0.1:0"
             cfg.insert_json5("listen/endpoints", json.dumps([here]))
-        if not hold and mode != "router":
+        if not hold and mode != "router" and not self.listen:  # given endpoints: the user draws the map
             cfg.insert_json5("connect/endpoints", json.dumps([self.local_endpoint]))
             cfg.insert_json5("connect/retry", _RETRY)
 
