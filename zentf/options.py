@@ -21,7 +21,7 @@ from .names import normalize_namespace, validate_node_name
 
 __all__ = [
     "OptionsError", "ZenohOptions", "NodeOptions", "add_zenoh_arguments", "add_node_arguments",
-    "parse_param_assignment", "parse_remap", "load_params_file", "ENV_VARS", "LOCAL_PORT",
+    "parse_param_assignment", "parse_remap", "load_params_file", "ENV_VARS", "LOCAL_PORT", "exposure",
 ]
 
 ENV_VARS = ("ZENTF_NODE_NAME", "ZENTF_NAMESPACE", "ZENTF_PARAMS", "ZENTF_PARAMS_FILE", "ZENTF_REMAP",
