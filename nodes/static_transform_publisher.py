@@ -7,7 +7,8 @@
 The shared node options (--connect, --name, -p, ...) are accepted too. Differences from ROS 2, all
 stricter: a number must be the whole argument ("1.5m" is refused, ROS reads 1.5), it must be finite,
 and a quaternion whose squared norm is not within 0.01 of 1 is refused here instead of being
-published and then dropped by every receiver.
+published and then dropped by every receiver. Bad arguments exit with status 2, like every zentf
+command.
 """
 from __future__ import annotations
 
@@ -207,14 +208,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         parsed = parse_args(rest)
     except (UsageError, _common.OptionsError) as e:
         print(f"{PROG}: error parsing command line arguments: {e}", file=sys.stderr, flush=True)
-        return 1
+        return 2  # a usage error, like every zentf command (docs/cli.md)
     if parsed is None:
         print(USAGE, flush=True)
         return 0
     if parsed.frame_id == parsed.child_frame_id:
         print(f"{PROG}: cannot publish static transform from '{parsed.frame_id}' to "
               f"'{parsed.child_frame_id}', exiting", file=sys.stderr, flush=True)
-        return 1
+        return 2
     return _common.run(lambda: _publish(opts, parsed), PROG, debug)
 
 

@@ -78,6 +78,16 @@ def test_lan_is_the_explicit_choice_and_says_so(net: Topology, run_in) -> None:
     echo.wait_for_line(r"- Translation: \[666\.000, ", 30)  # what the issue reported, now only with --lan
 
 
+
+@pytest.mark.parametrize("net", LAN, indirect=True)
+def test_launch_lan_passes_the_choice_to_every_node(net: Topology, run_in) -> None:
+    launch = run_in("a", *ZENTF, "launch", "laser", "--lan")
+    intruder = _intruder(run_in)
+    state = _state(intruder)
+    while state["tokens"] < 5:  # the five nodes of configs/laser.yaml, seen from host b
+        state = _state(intruder)
+    launch.wait_for_line(r"beyond this machine without authentication", 30)
+
 # ------------------------------------------------------------------ zero configuration on one machine
 
 @pytest.fixture
@@ -122,3 +132,31 @@ def test_the_rendezvous_is_taken_over_when_its_holder_exits(spawn, local_env) ->
     echo = spawn([*ZENTF, "tf", "echo", "c", "d", "--count", "1", "--timeout", "30"], env=local_env)
     assert echo.wait(60) == 0, echo.output()
     assert "- Translation: [2.000, 0.000, 0.000]" in echo.output()
+
+
+@pytest.mark.parametrize("kwargs,exposed", [
+    ({}, []),                                                                      # local profile
+    ({"connect": ["tcp/127.0.0.1:7447"], "mode": "client"}, []),
+    ({"lan": True}, ["tcp/[::]:0", "multicast scouting on"]),
+    ({"connect": ["tcp/10.0.0.2:7447"], "mode": "client"}, ["tcp/10.0.0.2:7447"]),
+    ({"config_file": str(REPO / "configs/zenoh/router.json5")}, ["tcp/0.0.0.0:7447"]),
+    ({"config_file": str(REPO / "configs/zenoh/peer-lan.json5")}, ["tcp/0.0.0.0:0", "multicast scouting on"]),
+    ({"config_file": str(REPO / "configs/zenoh/client.json5"), "connect": ["tcp/10.0.0.2:7447"]},
+     ["tcp/10.0.0.2:7447"]),
+])
+def test_what_the_start_up_warning_names(kwargs, exposed) -> None:
+    """The one-line warning's content for each profile and shipped config (mutual TLS: none, below)."""
+    from zentf.options import ZenohOptions, exposure
+
+    assert exposure(ZenohOptions(**kwargs).config()) == exposed
+
+
+def test_mutual_tls_is_not_warned_about(tmp_path, monkeypatch) -> None:
+    from zentf.options import ZenohOptions, exposure
+
+    (tmp_path / "certs").mkdir()
+    for name in ("ca.pem", "client.pem", "client.key"):  # client-tls.json5 names certs/... from the cwd
+        (tmp_path / "certs" / name).write_text("x")
+    monkeypatch.chdir(tmp_path)
+    opts = ZenohOptions(config_file=str(REPO / "configs/zenoh/client-tls.json5"), connect=["tls/10.0.0.2:7447"])
+    assert exposure(opts.config()) == []

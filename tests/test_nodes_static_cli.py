@@ -1,4 +1,4 @@
-"""static_transform_publisher as a process: bad arguments are one-line usage errors with exit 1."""
+"""static_transform_publisher as a process: bad arguments are one-line usage errors with exit 2 (docs/cli.md)."""
 from __future__ import annotations
 
 import pytest
@@ -13,14 +13,14 @@ import pytest
 ])
 def test_static_transform_publisher_bad_arguments(spawn, args, error):
     p = spawn.python("-m", "nodes.static_transform_publisher", *args)
-    assert p.wait(20) == 1
+    assert p.wait(20) == 2
     out = [line for line in p.lines if line.strip()]
     assert out == [f"static_transform_publisher: error parsing command line arguments: {error}"]
 
 
 def test_static_transform_publisher_same_frames_and_help(spawn):
     p = spawn.python("-m", "nodes.static_transform_publisher", "0", "0", "0", "0", "0", "0", "a", "a")
-    assert p.wait(20) == 1
+    assert p.wait(20) == 2
     assert p.lines == ["static_transform_publisher: cannot publish static transform from 'a' to 'a', exiting"]
     h = spawn.python("-m", "nodes.static_transform_publisher", "--help")
     assert h.wait(20) == 0

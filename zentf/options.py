@@ -21,7 +21,7 @@ from .names import normalize_namespace, validate_node_name
 
 __all__ = [
     "OptionsError", "ZenohOptions", "NodeOptions", "add_zenoh_arguments", "add_node_arguments",
-    "parse_param_assignment", "parse_remap", "load_params_file", "ENV_VARS", "LOCAL_PORT",
+    "parse_param_assignment", "parse_remap", "load_params_file", "ENV_VARS", "LOCAL_PORT", "exposure",
 ]
 
 ENV_VARS = ("ZENTF_NODE_NAME", "ZENTF_NAMESPACE", "ZENTF_PARAMS", "ZENTF_PARAMS_FILE", "ZENTF_REMAP",
@@ -34,9 +34,9 @@ _ENDPOINT = re.compile(r"[a-z0-9]+/\S+\Z")
 #: Loopback port of the local profile's rendezvous: the first zentf process of this machine listens
 #: there, every later one connects to it and gossip links them all (zentf's rmw_zenohd, in-process).
 LOCAL_PORT = 7448
-#: How a peer of the local profile retries the rendezvous (its holder may exit; a later process
-#: takes the port over and everyone is linked again within ~1 s).
-_LOCAL_RETRY = "{period_init_ms: 250, period_max_ms: 1000, period_increase_factor: 2}"
+#: How sessions retry their connect endpoints (a restarted router, the local rendezvous taken over by
+#: a later process): every 0.25 s growing to 1 s, as configs/zenoh/client.json5 does.
+_RETRY = "{period_init_ms: 250, period_max_ms: 1000, period_increase_factor: 2}"
 log = logging.getLogger("zentf.network")
 _warned_exposed = False
 
@@ -49,11 +49,17 @@ def _split_list(value: str | None) -> list[str]:
     return [v.strip() for v in (value or "").split(",") if v.strip()]
 
 
+_PORT = re.compile(r"(?:tcp|udp|tls|quic|ws)/.*:(\d+)(?:[?#].*)?\Z")
+
+
 def _check_endpoints(eps: Sequence[str], what: str) -> list[str]:
     out = []
     for ep in eps:
         if not isinstance(ep, str) or not _ENDPOINT.match(ep.strip()):
             raise OptionsError(f"{what}: bad endpoint {ep!r} (expected like tcp/127.0.0.1:7447)")
+        m = _PORT.match(ep.strip())
+        if m and int(m.group(1)) > 65535:  # zenoh would accept it and retry forever
+            raise OptionsError(f"{what}: bad endpoint {ep!r} (port {m.group(1)} is not in 0-65535)")
         out.append(ep.strip())
     return out
 
@@ -140,6 +146,8 @@ class ZenohOptions:
     def _check(self) -> None:
         if self.mode is not None and self.mode not in MODES:
             raise OptionsError(f"bad Zenoh mode {self.mode!r} (choose peer, client or router)")
+        if self.config_file is not None and os.path.isdir(self.config_file):
+            raise OptionsError(f"Zenoh config file is a directory: {self.config_file}")
         if self.config_file is not None and not os.path.isfile(self.config_file):
             raise OptionsError(f"Zenoh config file not found: {self.config_file}")
 
@@ -169,6 +177,8 @@ class ZenohOptions:
                 cfg.insert_json5("mode", json.dumps(self.mode))
             if self.connect:
                 cfg.insert_json5("connect/endpoints", json.dumps(self.connect))
+                if self.profile != "file":  # Zenoh's default backs off to 4 s; docs promise data within 3 s
+                    cfg.insert_json5("connect/retry", _RETRY)
             if self.listen:
                 cfg.insert_json5("listen/endpoints", json.dumps(self.listen))
             if self.no_multicast:
@@ -188,9 +198,9 @@ class ZenohOptions:
         if mode != "client":
             here = self.local_endpoint if hold else "tcp/127.0.0.1:0"
             cfg.insert_json5("listen/endpoints", json.dumps([here]))
-        if not hold and mode != "router":
+        if not hold and mode != "router" and not self.listen:  # given endpoints: the user draws the map
             cfg.insert_json5("connect/endpoints", json.dumps([self.local_endpoint]))
-            cfg.insert_json5("connect/retry", _LOCAL_RETRY)
+            cfg.insert_json5("connect/retry", _RETRY)
 
     def open_session(self) -> Any:
         """zenoh.open(self.config()) with a one-line error on failure (e.g. port already in use).

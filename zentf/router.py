@@ -7,7 +7,7 @@ import signal
 import sys
 import threading
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NoReturn
 
 from .options import OptionsError, ZenohOptions, add_zenoh_arguments
 
@@ -25,9 +25,21 @@ def open_router(listen: Sequence[str] = (DEFAULT_ENDPOINT,), *, no_multicast: bo
     return opts.open_session()
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """Bad arguments are one line and exit 2, as every other zentf command says them (not usage + error)."""
+
+    def error(self, message: str) -> "NoReturn":  # type: ignore[override]
+        if message.startswith("unrecognized arguments: "):  # click's wording, as the other commands
+            message = f"No such option '{message.split(': ', 1)[1].split()[0]}'."
+        self.exit(2, f"{_who(self.prog)}: error: {message} (see '{self.prog} --help')\n")
+
+
+def _who(prog: str) -> str:
+    return "zentf" if prog.startswith("zentf") else prog
+
+
 def main(argv: Sequence[str] | None = None, prog: str = "python -m zentf.router") -> int:
-    parser = argparse.ArgumentParser(prog=prog,
-                                     description="Run a Zenoh router for zentf nodes.")
+    parser = _OneLineParser(prog=prog, description="Run a Zenoh router for zentf nodes.")
     add_zenoh_arguments(parser)
     parser.add_argument("--config", dest="zenoh_config", metavar="FILE", help="same as --zenoh-config")
     args = parser.parse_args(argv)
@@ -38,9 +50,13 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m zentf.router"
                                         env={}, lan=args.lan)
         cfg = opts.config()
         endpoints = opts.listen or _listen_endpoints(cfg) or [DEFAULT_ENDPOINT]
+    except OptionsError as e:  # a bad flag or config file: a usage error
+        print(f"{_who(prog)}: error: {e}", file=sys.stderr)
+        return 2
+    try:
         session = opts.open_session()
-    except OptionsError as e:
-        print(f"error: {e}", file=sys.stderr)
+    except OptionsError as e:  # e.g. the port is taken
+        print(f"{_who(prog)}: error: {e}", file=sys.stderr)
         return 1
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):

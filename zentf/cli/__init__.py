@@ -98,7 +98,9 @@ def _debug_requested(argv: Sequence[str]) -> bool:
 
 
 def _error(msg: str) -> None:
-    sys.stderr.write(f"zentf: error: {msg}\n")
+    from .format import printable  # a frame or node name in the message must not drive the terminal
+
+    sys.stderr.write(f"zentf: error: {printable(msg)}\n")
     sys.stderr.flush()
 
 

@@ -13,9 +13,9 @@ from typing import Any, Callable, Iterator, Optional
 
 import click
 
-__all__ = ["CliError", "CliOptions", "CONTEXT_SETTINGS", "FiniteFloat", "FiniteFloatRange", "finite_float",
-           "liveliness_wait_option", "with_options", "open_node", "open_session", "node_options", "status",
-           "cli_node_name", "clean_error", "wire_profile"]
+__all__ = ["CliError", "CliOptions", "CONTEXT_SETTINGS", "FiniteFloat", "FiniteFloatRange", "StampSeconds",
+           "NumberArgsCommand", "finite_float", "liveliness_wait_option", "with_options", "open_node", "open_session",
+           "node_options", "status", "cli_node_name", "clean_error", "wire_profile"]
 
 
 class CliError(Exception):
@@ -48,6 +48,47 @@ class FiniteFloatRange(click.FloatRange):
     def convert(self, value: Any, param: Any, ctx: Any) -> Any:
         rv = click.types.FloatParamType.convert(self, value, param, ctx)
         return super().convert(_refuse_non_finite(rv, self, param, ctx), param, ctx)
+
+
+class StampSeconds(FiniteFloat):
+    """A time stamp in seconds: finite and representable (0 to 2^63-1 ns), else one line naming the option."""
+
+    name = "seconds"
+    MAX = (2 ** 63 - 1) / 1e9
+
+    def convert(self, value: Any, param: Any, ctx: Any) -> Any:
+        rv = super().convert(value, param, ctx)
+        if not 0.0 <= rv <= self.MAX:
+            self.fail(f"{rv:g} is not a time stamp (0 to {int(self.MAX)} s)", param, ctx)
+        return rv
+
+
+_NEGATIVE_NUMBER = re.compile(r"-(?:(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|inf|infinity|nan)\Z", re.I)
+
+
+class NumberArgsCommand(click.Command):
+    """A command whose arguments may be negative numbers (`zentf clock rate -1`), as argparse allows;
+    click alone reads '-1' as an unknown option."""
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        if "--" not in args and any(_NEGATIVE_NUMBER.match(a) for a in args):
+            with_value = {o for p in self.get_params(ctx) if isinstance(p, click.Option)
+                          and not p.is_flag and not p.count for o in p.opts}
+            options: list[str] = []
+            positional: list[str] = []
+            i = 0
+            while i < len(args):
+                a = args[i]
+                if a.startswith("-") and not _NEGATIVE_NUMBER.match(a):
+                    options.append(a)
+                    if a in with_value and i + 1 < len(args):  # its value, even if it looks negative
+                        i += 1
+                        options.append(args[i])
+                else:
+                    positional.append(a)
+                i += 1
+            args = [*options, "--", *positional]
+        return super().parse_args(ctx, args)
 
 
 def finite_float(min: Optional[float] = None, max: Optional[float] = None, *, min_open: bool = False,
@@ -240,7 +281,11 @@ class _Status:
 
     def update(self, text: str) -> None:
         if self._live is not None:
-            self._live.update(text)
+            from rich.markup import escape
+
+            from .format import printable
+
+            self._live.update(escape(printable(text)))  # names are text: no escape codes, no rich markup
 
 
 @contextmanager
@@ -250,6 +295,9 @@ def status(text: str) -> Iterator[_Status]:
         yield _Status(None)
         return
     from rich.console import Console
+    from rich.markup import escape
 
-    with Console(stderr=True).status(text) as live:
+    from .format import printable
+
+    with Console(stderr=True).status(escape(printable(text))) as live:
         yield _Status(live)

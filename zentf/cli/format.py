@@ -2,15 +2,38 @@
 from __future__ import annotations
 
 import math
+import re
 import statistics
 from dataclasses import dataclass, field
 from typing import Iterable, Mapping, Sequence
 
 __all__ = [
-    "FrameStat", "NodeDesc", "rpy_from_quaternion", "matrix_from_quaternion", "format_echo",
+    "printable", "FrameStat", "NodeDesc", "rpy_from_quaternion", "matrix_from_quaternion", "format_echo",
     "parse_frames_yaml", "frame_trees", "format_frame_tree", "frames_dot", "node_graph_dot",
     "format_node_graph", "format_hz", "format_stamp", "stats_from_frame_info",
 ]
+
+
+# --------------------------------------------------------------------------------------------
+# Names from the network on a terminal.
+# --------------------------------------------------------------------------------------------
+
+# C0 and C1 controls (ESC, CR, LF, BEL, ...), DEL, line/paragraph separators and bidi overrides.
+_UNSAFE = re.compile("[\x00-\x1f\x7f-\x9f\u2028\u2029\u202a-\u202e\u2066-\u2069]")
+_NAMED = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
+
+
+def _escape_char(m: "re.Match[str]") -> str:
+    c = m.group()
+    return _NAMED.get(c) or (f"\\x{ord(c):02x}" if ord(c) < 0x100 else f"\\u{ord(c):04x}")
+
+
+def printable(text: object) -> str:
+    """A frame id, topic or node name as it may be printed: control characters written as Python
+    escapes (ESC -> \\x1b, LF -> \\n), so a name sent by anyone cannot move the cursor, recolour the
+    terminal or forge output lines (what `topic echo`'s YAML does for message strings)."""
+    text = str(text)
+    return _UNSAFE.sub(_escape_char, text) if _UNSAFE.search(text) else text
 
 
 # --------------------------------------------------------------------------------------------
@@ -163,8 +186,8 @@ def frame_trees(stats: Sequence[FrameStat]) -> list[tuple[str, list[FrameStat]]]
 
 def _edge_summary(s: FrameStat) -> str:
     if s.is_static:
-        return f"static, {s.broadcaster}"
-    return f"{s.rate:.1f} Hz, {s.broadcaster}"
+        return f"static, {printable(s.broadcaster)}"
+    return f"{s.rate:.1f} Hz, {printable(s.broadcaster)}"
 
 
 def format_frame_tree(stats: Sequence[FrameStat]) -> str:
@@ -181,7 +204,7 @@ def format_frame_tree(stats: Sequence[FrameStat]) -> str:
     for i, (root, _) in enumerate(trees):
         if i:
             lines.append("")
-        lines.append(root)
+        lines.append(printable(root))
         visited = {root}
 
         def walk(frame: str, prefix: str) -> None:
@@ -189,7 +212,7 @@ def format_frame_tree(stats: Sequence[FrameStat]) -> str:
             for k, s in enumerate(kids):
                 last = k == len(kids) - 1
                 visited.add(s.child)
-                lines.append(f"{prefix}{'└── ' if last else '├── '}{s.child}  ({_edge_summary(s)})")
+                lines.append(f"{prefix}{'└── ' if last else '├── '}{printable(s.child)}  ({_edge_summary(s)})")
                 walk(s.child, prefix + ("    " if last else "│   "))
 
         walk(root, "")
@@ -197,7 +220,7 @@ def format_frame_tree(stats: Sequence[FrameStat]) -> str:
 
 
 def _esc(text: str) -> str:
-    return text.replace("\\", "\\\\").replace('"', '\\"')
+    return printable(text).replace("\\", "\\\\").replace('"', '\\"')
 
 
 def _q(name: str) -> str:
@@ -280,12 +303,13 @@ def format_node_graph(nodes: Sequence[NodeDesc]) -> str:
     if not nodes:
         return "No nodes found"
     lines = []
+    p = printable
     for n in sorted(nodes, key=lambda n: n.name):
-        lines.append(n.name)
+        lines.append(p(n.name))
         for t in sorted(n.publications):
-            lines.append(f"  -> {t} [{n.publications[t]}]" if n.publications[t] else f"  -> {t}")
+            lines.append(f"  -> {p(t)} [{p(n.publications[t])}]" if n.publications[t] else f"  -> {p(t)}")
         for t in sorted(n.subscriptions):
-            lines.append(f"  <- {t} [{n.subscriptions[t]}]" if n.subscriptions[t] else f"  <- {t}")
+            lines.append(f"  <- {p(t)} [{p(n.subscriptions[t])}]" if n.subscriptions[t] else f"  <- {p(t)}")
     return "\n".join(lines)
 
 

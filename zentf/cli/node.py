@@ -27,13 +27,15 @@ def node_list(show_all: bool, count_only: bool, wait: float, *, opts: CliOptions
     """List the live nodes (fully qualified names), one per line."""
     from .introspect import graph_namespace, graph_snapshot
 
+    from .format import printable
+
     nodes, _ = graph_snapshot(opts, wait, graph_namespace(opts))
     names = [fq for fq in sorted(nodes) if show_all or not is_hidden(fq)]
     if count_only:
         print(len(names))
         return
     for name in names:
-        print(name)
+        print(printable(name))
 
 
 @node.command("info", context_settings=CONTEXT_SETTINGS)
@@ -53,14 +55,16 @@ def node_info(name: str, wait: float, *, opts: CliOptions) -> None:
             fq = fully_qualified_node_name(graph_namespace(opts) or "", name)
         except ValueError as exc:
             raise CliError(str(exc), code=2) from exc
+    from .format import printable
+
     nodes, _ = graph_snapshot(opts, wait, None)
     info = nodes.get(fq)
     if info is None:
         raise CliError(f"unknown node {fq}: no live node has that name (see 'zentf node list')")
-    print(info.fq_name)
+    print(printable(info.fq_name))
     print("  Subscribers:")
     for topic, type_name in info.subscriptions:
-        print(f"    {topic}: {type_name}")
+        print(f"    {printable(topic)}: {printable(type_name)}")
     print("  Publishers:")
     for topic, type_name in info.publishers:
-        print(f"    {topic}: {type_name}")
+        print(f"    {printable(topic)}: {printable(type_name)}")

@@ -8,7 +8,7 @@ from typing import Any, Optional
 
 import click
 
-from .common import CONTEXT_SETTINGS, CliError, CliOptions, finite_float, status, with_options
+from .common import CONTEXT_SETTINGS, CliError, CliOptions, NumberArgsCommand, StampSeconds, finite_float, status, with_options
 
 __all__ = ["tf"]
 
@@ -45,7 +45,7 @@ def _close(node: Any, listener: Any = None) -> None:
                 pass
 
 
-@tf.command("echo", context_settings=CONTEXT_SETTINGS)
+@tf.command("echo", cls=NumberArgsCommand, context_settings=CONTEXT_SETTINGS)
 @click.argument("source")
 @click.argument("target")
 @click.argument("rate_arg", metavar="[RATE]", required=False, type=finite_float(min=0.001))
@@ -53,9 +53,9 @@ def _close(node: Any, listener: Any = None) -> None:
               help="Prints per second (tf2_echo's optional third argument does the same).")
 @click.option("--precision", "-p", type=click.IntRange(0, 17), default=3, show_default=True,
               help="Digits after the decimal point.")
-@click.option("--time", "-t", "at_time", type=finite_float(), default=None,
+@click.option("--time", "-t", "at_time", type=StampSeconds(), default=None,
               help="Look up at this fixed time (s) instead of the latest.")
-@click.option("--count", "-c", type=click.IntRange(min=0), default=0,
+@click.option("--count", "-c", type=click.IntRange(min=1), default=None,
               help="Exit after this many prints (default: run until Ctrl-C).")
 @click.option("--timeout", type=finite_float(min=0.0), default=None,
               help="Exit 1 if no transform arrives within this many seconds (default: wait).")
@@ -63,7 +63,7 @@ def _close(node: Any, listener: Any = None) -> None:
               help="Answer from this recording (any bag format zentf reads), no network: print once and exit.")
 @with_options
 def echo(source: str, target: str, rate_arg: Optional[float], rate: float, precision: int,
-         at_time: Optional[float], count: int, timeout: Optional[float], bag_file: Optional[str],
+         at_time: Optional[float], count: Optional[int], timeout: Optional[float], bag_file: Optional[str],
          *, opts: CliOptions) -> None:
     """Print the pose of TARGET in SOURCE at a fixed rate, like tf2_echo.
 
@@ -71,11 +71,14 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
     (lookup_transform(SOURCE, TARGET)). While the frames are unavailable the reason is printed
     on stderr once a second and the tool keeps waiting.
     """
-    from zentf.core.exceptions import TransformException
+    from zentf.core.exceptions import InvalidArgumentException, TransformException
     from zentf.core.time import Duration, Time
 
-    from .format import format_echo
+    from .format import format_echo, printable
 
+    for value, what in ((source, "SOURCE"), (target, "TARGET")):
+        if not value.strip():  # tf2 refuses it on every lookup: say so once, not every second
+            raise click.BadParameter("a frame id cannot be empty", param_hint=f"'{what}'")
     if bag_file is not None:
         _echo_bag(bag_file, source, target, at_time, precision)
         return
@@ -102,17 +105,19 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
                 step = 0.2 if deadline is None else max(0.0, min(0.2, deadline - time.monotonic()))
                 try:
                     first = buffer.lookup_transform(source, target, when, timeout=Duration.from_sec(step))
+                except InvalidArgumentException as exc:  # will never succeed: no point waiting
+                    raise CliError(" ".join(str(exc).split()), code=2) from exc
                 except TransformException as exc:
                     reason = " ".join(str(exc).split())
                     now = time.monotonic()
                     if deadline is not None and now >= deadline:
                         raise CliError(f"no transform {source} -> {target} after {timeout:g} s: {reason}") from exc
                     if reason != last_reason or now - last_reason_at >= 1.0:
-                        sys.stderr.write(f"Waiting for transform {source} -> {target}: {reason}\n")
+                        sys.stderr.write(printable(f"Waiting for transform {source} -> {target}: {reason}") + "\n")
                         sys.stderr.flush()
                         last_reason, last_reason_at = reason, now
                     left = "" if deadline is None else f" ({max(0.0, deadline - now):.1f} s left)"
-                    st.update(f"Waiting for transform {source} -> {target}{left}: {reason}")
+                    st.update(printable(f"Waiting for transform {source} -> {target}{left}: {reason}"))
         if first is None:  # Ctrl-C / SIGTERM while waiting
             return
         show(first)
@@ -129,7 +134,7 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
                 show(buffer.lookup_transform(source, target, when))
                 printed += 1
             except TransformException as exc:
-                sys.stderr.write(f"Failure at {time.time():.6f}: {' '.join(str(exc).split())}\n")
+                sys.stderr.write(printable(f"Failure at {time.time():.6f}: {' '.join(str(exc).split())}") + "\n")
                 sys.stderr.flush()
     finally:
         _close(node, listener)
@@ -372,16 +377,19 @@ def _fmt_rate(rate: Optional[float], static: bool) -> str:
 def format_monitor_text(stats: MonitorStats, title: str, chain: Optional[list[str]] = None,
                         net: Optional[tuple[float, float]] = None) -> str:
     """The plain-text tf2_monitor report (used when stdout is not a terminal)."""
-    lines = [f"RESULTS: {title}"]
+    from .format import printable
+
+    lines = [f"RESULTS: {printable(title)}"]
     if chain is not None:
-        lines.append("Chain is: " + " -> ".join(chain))
+        lines.append("Chain is: " + " -> ".join(printable(f) for f in chain))
         if net is not None:
             lines.append(f"Net delay     avg = {net[0] * 1e3:.3f} ms: max = {net[1] * 1e3:.3f} ms")
         else:
             lines.append("Net delay     n/a (static chain)")
     rows = stats.rows(chain)
     table = [("frame", "parent", "broadcaster", "rate_hz", "avg_delay_ms", "max_delay_ms")]
-    table += [(r[0], r[1], r[2], _fmt_rate(r[3], r[6]), f"{r[4] * 1e3:.3f}", f"{r[5] * 1e3:.3f}") for r in rows]
+    table += [(printable(r[0]), printable(r[1]), printable(r[2]), _fmt_rate(r[3], r[6]), f"{r[4] * 1e3:.3f}",
+               f"{r[5] * 1e3:.3f}") for r in rows]
     widths = [max(len(row[i]) for row in table) for i in range(6)]
     lines.append("")
     lines.append("Frames:")
@@ -391,26 +399,31 @@ def format_monitor_text(stats: MonitorStats, title: str, chain: Optional[list[st
     lines.append("All Broadcasters:")
     for name, rate, avg, mx, static in stats.node_rows():
         freq = "static" if static else f"{_fmt_rate(rate, static)} Hz"
-        lines.append(f"Node: {name} {freq}, Average Delay: {avg * 1e3:.3f} ms, Max Delay: {mx * 1e3:.3f} ms")
+        lines.append(f"Node: {printable(name)} {freq}, Average Delay: {avg * 1e3:.3f} ms, Max Delay: {mx * 1e3:.3f} ms")
     return "\n".join(lines)
 
 
 def _monitor_table(stats: MonitorStats, title: str, chain: Optional[list[str]],
                    net: Optional[tuple[float, float]]) -> Any:
     """The live rich view: frames table (+ chain/net delay caption)."""
+    from rich.markup import escape
     from rich.table import Table
+    from rich.text import Text
+
+    from .format import printable
 
     caption = None
     if chain is not None:
-        caption = "Chain: " + " -> ".join(chain)
+        caption = escape("Chain: " + " -> ".join(printable(f) for f in chain))
         caption += (f"   net delay avg {net[0] * 1e3:.3f} ms, max {net[1] * 1e3:.3f} ms" if net
                     else "   net delay n/a (static chain)")
-    table = Table(title=f"zentf tf monitor: {title}", caption=caption, expand=False)
+    table = Table(title=escape(f"zentf tf monitor: {printable(title)}"), caption=caption, expand=False)
     for col, justify in (("Frame", "left"), ("Parent", "left"), ("Broadcaster", "left"), ("Rate (Hz)", "right"),
                          ("Avg delay (ms)", "right"), ("Max delay (ms)", "right")):
         table.add_column(col, justify=justify)  # type: ignore[arg-type]
     for r in stats.rows(chain):
-        table.add_row(r[0], r[1], r[2], _fmt_rate(r[3], r[6]), f"{r[4] * 1e3:.3f}", f"{r[5] * 1e3:.3f}")
+        table.add_row(Text(printable(r[0])), Text(printable(r[1])), Text(printable(r[2])),  # no markup from names
+                      _fmt_rate(r[3], r[6]), f"{r[4] * 1e3:.3f}", f"{r[5] * 1e3:.3f}")
     return table
 
 
@@ -486,7 +499,11 @@ def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str
                  period: float, ok: Any = lambda: True) -> None:
     from collections import deque
 
+    from rich.markup import escape
+
     from zentf.core.exceptions import TransformException
+
+    from .format import printable
 
     title = f"for {pair[0]} to {pair[1]}" if pair else "for all Frames"
     started = time.monotonic()
@@ -522,7 +539,8 @@ def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str
             while (end is None or time.monotonic() < end) and ok():
                 sample_chain()
                 if pair and chain is None:
-                    live.update(f"Waiting for transform {pair[0]} -> {pair[1]}: {reason or 'no data yet'}")
+                    live.update(escape(printable(f"Waiting for transform {pair[0]} -> {pair[1]}: "
+                                                 f"{reason or 'no data yet'}")))
                 elif not stats.frames:
                     live.update("Waiting for tf data...")
                 else:
@@ -535,7 +553,7 @@ def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str
             sample_chain()
             now = time.monotonic()
             if pair and chain is None and reason and now - last_wait_msg >= 1.0:
-                sys.stderr.write(f"Waiting for transform {pair[0]} -> {pair[1]}: {reason}\n")
+                sys.stderr.write(printable(f"Waiting for transform {pair[0]} -> {pair[1]}: {reason}") + "\n")
                 sys.stderr.flush()
                 last_wait_msg = now
             if end is None and now >= next_report:

@@ -41,17 +41,19 @@ def topic_list(verbose: bool, show_types: bool, wait: float, *, opts: CliOptions
     """List the topics that live nodes publish or subscribe (from liveliness; no master)."""
     from .introspect import graph_namespace, graph_snapshot
 
+    from .format import printable as p
+
     _, topics = graph_snapshot(opts, wait, graph_namespace(opts))
     for _, t in sorted(topics.items()):
-        types = ", ".join(t.types) or "?"
+        types = p(", ".join(t.types) or "?")
         if verbose:
-            print(f"{t.name} [{types}]")
-            print(f"  publishers ({len(t.publishers)}): {', '.join(t.publishers)}")
-            print(f"  subscribers ({len(t.subscribers)}): {', '.join(t.subscribers)}")
+            print(f"{p(t.name)} [{types}]")
+            print(f"  publishers ({len(t.publishers)}): {p(', '.join(t.publishers))}")
+            print(f"  subscribers ({len(t.subscribers)}): {p(', '.join(t.subscribers))}")
         elif show_types:
-            print(f"{t.name} [{types}]")
+            print(f"{p(t.name)} [{types}]")
         else:
-            print(t.name)
+            print(p(t.name))
 
 
 @topic.command("info", context_settings=CONTEXT_SETTINGS)
@@ -67,14 +69,16 @@ def topic_info(name: str, wait: float, *, opts: CliOptions) -> None:
     t = topics.get(fq)
     if t is None:
         raise CliError(f"unknown topic {fq}: no live node publishes or subscribes it")
-    print(f"Topic: {t.name}")
-    print(f"Type: {', '.join(t.types) or '?'}")
+    from .format import printable as p
+
+    print(f"Topic: {p(t.name)}")
+    print(f"Type: {p(', '.join(t.types) or '?')}")
     print(f"Publisher count: {len(t.publishers)}")
     for n in t.publishers:
-        print(f"  {n}")
+        print(f"  {p(n)}")
     print(f"Subscription count: {len(t.subscribers)}")
     for n in t.subscribers:
-        print(f"  {n}")
+        print(f"  {p(n)}")
 
 
 def render_sample(payload: bytes, encoding: str, as_json: bool, key: str = "", profile: Any = None) -> str:
@@ -131,13 +135,14 @@ def _subscribe(session: Any, key: str, history: bool) -> tuple[Any, "queue.Queue
 @topic.command("echo", context_settings=CONTEXT_SETTINGS)
 @click.argument("name")
 @click.option("--once", is_flag=True, help="Print one message and exit.")
-@click.option("--count", "-c", type=click.IntRange(min=0), default=0, help="Exit after this many messages.")
+@click.option("--count", "-c", type=click.IntRange(min=1), default=None,
+              help="Exit after this many messages (default: run until Ctrl-C).")
 @click.option("--json", "as_json", is_flag=True, help="One JSON object per line instead of YAML.")
 @click.option("--timeout", type=finite_float(min=0.0), default=None,
               help="Exit 1 if nothing arrives within this many seconds (default: wait).")
 @click.option("--no-history", is_flag=True, help="Do not fetch latched samples (e.g. of tf_static).")
 @with_options
-def topic_echo(name: str, once: bool, count: int, as_json: bool, timeout: Optional[float], no_history: bool,
+def topic_echo(name: str, once: bool, count: Optional[int], as_json: bool, timeout: Optional[float], no_history: bool,
                *, opts: CliOptions) -> None:
     """Print messages on a topic, decoded by their carried type (raw bytes when unknown)."""
     from .common import open_node
@@ -265,9 +270,31 @@ def parse_message(type_name: str, data: str) -> Any:
     if plain is None:
         plain = {}
     try:
-        return message_type(type_name).from_dict(plain)
+        msg = message_type(type_name).from_dict(plain)
     except (ValueError, TypeError) as exc:
         raise CliError(f"bad DATA for {type_name}: {exc}", code=2) from exc
+    where = _out_of_range(msg.to_dict() if hasattr(msg, "to_dict") else plain)
+    if where:  # msgpack would raise a bare OverflowError at the first publish
+        raise CliError(f"bad DATA for {type_name}: {where[0]}: {where[1]} is out of range "
+                       f"(at most 64-bit integers)", code=2)
+    return msg
+
+
+def _out_of_range(value: Any, path: str = "") -> Optional[tuple[str, int]]:
+    """(field path, value) of the first integer that no 64-bit field can hold, else None."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            hit = _out_of_range(v, f"{path}.{k}" if path else str(k))
+            if hit:
+                return hit
+    elif isinstance(value, (list, tuple)):
+        for i, v in enumerate(value):
+            hit = _out_of_range(v, f"{path}[{i}]")
+            if hit:
+                return hit
+    elif isinstance(value, int) and not isinstance(value, bool) and not -2 ** 63 <= value < 2 ** 64:
+        return path, value
+    return None
 
 
 @topic.command("pub", context_settings=CONTEXT_SETTINGS)
@@ -277,11 +304,12 @@ def parse_message(type_name: str, data: str) -> Any:
 @click.option("--rate", "-r", type=finite_float(min=0.001), default=1.0, show_default=True,
               help="Messages per second.")
 @click.option("--once", "-1", is_flag=True, help="Publish one message and exit.")
-@click.option("--times", "-t", type=click.IntRange(min=0), default=0, help="Publish this many messages and exit.")
+@click.option("--times", "-t", type=click.IntRange(min=1), default=None,
+              help="Publish this many messages and exit (default: until Ctrl-C; ROS 2's 0 is refused).")
 @click.option("--wait-matching", type=finite_float(min=0.0), default=1.0, show_default=True,
               help="Before the first message, wait up to this long for a subscriber.")
 @with_options
-def topic_pub(name: str, type_name: str, data: str, rate: float, once: bool, times: int, wait_matching: float,
+def topic_pub(name: str, type_name: str, data: str, rate: float, once: bool, times: Optional[int], wait_matching: float,
               *, opts: CliOptions) -> None:
     """Publish DATA (YAML or JSON, e.g. '{x: 1.0}') as a TYPE message on a topic."""
     from .common import open_node

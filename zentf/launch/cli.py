@@ -10,7 +10,7 @@ from typing import Any, Optional, Sequence
 
 import click
 
-from zentf.cli.common import CONTEXT_SETTINGS, CliError, CliOptions, clean_error, finite_float, node_options, with_options
+from zentf.cli.common import CONTEXT_SETTINGS, CliError, CliOptions, NumberArgsCommand, clean_error, finite_float, node_options, with_options
 
 from .errors import LaunchError
 
@@ -189,7 +189,7 @@ def _run(desc: Any, zopts: Any, log_dir: Optional[Path], color: bool, stop_timeo
             clock.close()
 
 
-@click.command("clock", context_settings=CONTEXT_SETTINGS)
+@click.command("clock", cls=NumberArgsCommand, context_settings=CONTEXT_SETTINGS)
 @click.argument("command", type=click.Choice(["status", "pause", "resume", "rate"]), default="status")
 @click.argument("factor", required=False, type=finite_float())
 @click.option("--timeout", type=finite_float(0.1, 60.0), default=3.0, show_default=True,
