@@ -253,3 +253,18 @@ def test_batch_fk_shape_checks() -> None:
     out = kin.link_poses_batch(np.zeros((5, 8)))
     assert out.shape == (5, 16, 4, 4)
     assert re.match(r"^\w+$", kin.link_names[0])
+
+
+def test_joint_transforms_equal_the_kinematics_joint_matrices() -> None:
+    from zentf.core.math3d import matrix_from_transform
+    from zentf.urdf.kinematics import JointTransforms
+
+    robot = parse_urdf(MIMIC_URDF)
+    kin = Kinematics(robot)
+    movable = robot.movable_joints()
+    jt = JointTransforms(robot, movable)
+    values = np.array([0.7, -0.3, 1.9, -2.5])
+    t, q = jt.compute(np.arange(len(movable)), values)
+    for k, j in enumerate(movable):
+        m = np.asarray(matrix_from_transform(t[k], q[k]))
+        assert np.abs(m - kin.joint_transform(j.name, values[k])).max() < 1e-12, j.name

@@ -174,3 +174,47 @@ def test_urdf_check_and_graph(tmp_path) -> None:
         assert (tmp_path / "my_robot.pdf").read_bytes().startswith(b"%PDF")
     else:  # graphviz missing: the .gv alone, with the reason on stderr
         assert "dot" in proc.stderr
+
+
+def test_rsp_plans_mimics_throttle_and_bad_values(node_options) -> None:
+    """In process (the payloads captured before they leave): what one JointState turns into."""
+    from zentf import wire
+    from zentf.node import Node
+    from zentf.tools.robot_state_publisher import RobotStatePublisher
+
+    with Node("rsp_unit", options=node_options) as node:
+        rsp = RobotStatePublisher(node, load_urdf(MY_ROBOT), publish_frequency=10.0)
+        sent: list[dict] = []
+        rsp._tf.publish_bytes = lambda p: sent.append(wire.unpack(p))
+
+        def children(i: int = -1) -> dict[str, dict]:
+            return {t["child_frame_id"]: t for t in sent[i]["transforms"]}
+
+        assert rsp.process(["left_gripper_joint"], [0.25], 100, 0)
+        got = children()
+        assert set(got) == {"left_gripper", "right_gripper"}        # the mimic follows its master
+        assert got["right_gripper"]["header"]["stamp"] == {"sec": 100, "nanosec": 0}
+        assert got["right_gripper"]["transform"]["rotation"]["z"] == pytest.approx(-math.sin(0.125))
+        # a message that names the mimic joint itself: its own value, published once (no duplicate)
+        assert rsp.process(["left_gripper_joint", "right_gripper_joint"], [0.25, 0.1], 101, 0)
+        assert [t["child_frame_id"] for t in sent[-1]["transforms"]] == ["left_gripper", "right_gripper"]
+        assert children()["right_gripper"]["transform"]["rotation"]["z"] == pytest.approx(-math.sin(0.05))
+        # publish_frequency 10 Hz: a stamp 50 ms later is throttled, 100 ms later is not (by stamp)
+        assert not rsp.process(["left_gripper_joint"], [0.3], 101, 50_000_000)
+        assert rsp.process(["left_gripper_joint"], [0.3], 101, 100_000_000)
+        # bad input: nothing published, counted
+        n = len(sent)
+        assert not rsp.process(["left_gripper_joint"], [float("nan")], 200, 0)
+        assert not rsp.process(["left_gripper_joint", "head_swivel"], [0.1], 201, 0)
+        assert not rsp.process(["bogus"], [1.0], 202, 0)
+        assert len(sent) == n and rsp.ignored >= 3
+        # frame ids and values equal FK for a full joint vector
+        values = {"head_swivel": 0.4, "gripper_extension": -0.2, "left_front_wheel_joint": 2.0}
+        assert rsp.process(list(values), list(values.values()), 300, 0)
+        kin = Kinematics(rsp.robot)
+        for child, t in children().items():
+            j = rsp.robot.joints[rsp.robot.parent_joint[child]]
+            tr = t["transform"]
+            m = _matrix([tr["translation"][a] for a in "xyz"], [tr["rotation"][a] for a in "xyzw"])
+            assert np.abs(m - kin.joint_transform(j.name, values[j.name])).max() < 1e-12
+            assert t["header"]["frame_id"] == j.parent
