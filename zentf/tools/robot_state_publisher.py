@@ -96,16 +96,23 @@ class _Plan:
             val_pos.append([range(base + o, base + o + 8) for o in self._VALUE_OFFSETS])
             out += zero
         self.template = np.frombuffer(bytes(out), dtype=np.uint8)
-        self.sec_pos = np.asarray(sec_pos, dtype=np.intp).reshape(k, 4)
-        self.nsec_pos = np.asarray(nsec_pos, dtype=np.intp).reshape(k, 4)
-        self.val_pos = np.asarray(val_pos, dtype=np.intp).reshape(k, 7, 8)
+        # per item, the 64 bytes to fill: sec (4), nanosec (4), then the 7 doubles (8 each)
+        self.holes = np.concatenate((np.asarray(sec_pos, dtype=np.intp).reshape(k, 4),
+                                     np.asarray(nsec_pos, dtype=np.intp).reshape(k, 4),
+                                     np.asarray(val_pos, dtype=np.intp).reshape(k, 56)), axis=1)
+        self._fill = np.empty((k, 64), dtype=np.uint8)
+        self._vals = np.empty((k, 7), dtype=">f8")
 
     def payload(self, sec: int, nsec: int, t: np.ndarray, q: np.ndarray) -> bytes:
+        """The TFMessage bytes: the template with this message's stamp and values written in."""
+        fill = self._fill
+        fill[:, :8] = np.frombuffer(sec.to_bytes(4, "big") + nsec.to_bytes(4, "big"), dtype=np.uint8)
+        vals = self._vals
+        vals[:, :3] = t
+        vals[:, 3:] = q
+        fill[:, 8:] = vals.view(np.uint8)
         buf = self.template.copy()
-        buf[self.sec_pos] = np.frombuffer(sec.to_bytes(4, "big"), dtype=np.uint8)
-        buf[self.nsec_pos] = np.frombuffer(nsec.to_bytes(4, "big"), dtype=np.uint8)
-        vals = np.concatenate((t, q), axis=1).astype(">f8")
-        buf[self.val_pos] = vals.view(np.uint8).reshape(-1, 7, 8)
+        buf[self.holes] = fill
         return buf.tobytes()
 
 
