@@ -218,3 +218,26 @@ def test_rsp_plans_mimics_throttle_and_bad_values(node_options) -> None:
             m = _matrix([tr["translation"][a] for a in "xyz"], [tr["rotation"][a] for a in "xyzw"])
             assert np.abs(m - kin.joint_transform(j.name, values[j.name])).max() < 1e-12
             assert t["header"]["frame_id"] == j.parent
+
+
+@pytest.mark.parametrize("case", ["unknown parent", "parent is child", "loop", "two parents", "missing attribute",
+                                  "bad number"])
+def test_each_kind_of_malformed_urdf_is_one_line_from_the_cli(case, tmp_path) -> None:
+    from test_urdf_model import MALFORMED, _write
+
+    body, line, needle = MALFORMED[case]
+    path = _write(tmp_path, body)
+    for command in (["urdf", "check"], ["robot-state-publisher"], ["joint-state-publisher"]):
+        proc = zentf([*command, str(path)], None)
+        err = assert_one_line_error(proc, f"{path}:{line}: ", needle, code=2)
+        assert err == f"zentf: error: {path}:{line}: " + err.split(f"{path}:{line}: ", 1)[1]
+        assert proc.stdout == ""
+
+
+def test_robot_description_parameter_instead_of_a_file(spawn, zenoh_env) -> None:
+    env = {**zenoh_env, "ZENTF_PARAMS": json.dumps({"robot_description": MY_ROBOT.read_text(),
+                                                    "frame_prefix": "p/"})}
+    rsp = spawn.python("-m", "nodes.robot_state_publisher", env=env)
+    rsp.wait_for_line(r"publishing robot 'my_robot' \(16 links\)", timeout=30)
+    probe = spawn.python(PROBE, "--static-only", "p/head:p/box")
+    assert _wait_pairs(probe, {"p/head:p/box"})["p/head:p/box"]["t"] == pytest.approx([0.1814, 0, 0.1414])
