@@ -152,6 +152,8 @@ class RobotStatePublisher:
         self._last_names: list[str] | None = None
         self._last_plan: _Plan | None = None
         self._last_publish = np.zeros(len(movable), dtype=np.int64)  # stamp of each joint's last publish
+        self._clock = node.get_clock()
+        self._last_callback = 0
         self._decoder = _joint_state_decoder()
 
         self._description = node.create_publisher("robot_description", String, latched=True)
@@ -219,6 +221,11 @@ class RobotStatePublisher:
                 self._log("stamp", f"ignored a JointState with an out-of-range stamp ({sec}, {nsec})")
                 return False
             stamp = sec * _NS + nsec
+            now = self._clock.now_ns()
+            if now < self._last_callback:  # e.g. a bag played in a loop with --clock (ROS 2 does the same)
+                log.warning("Moved backwards in time, re-publishing joint transforms!")
+                self._last_publish[:] = 0
+            self._last_callback = now
             plan = self._plan(names)
             if plan.unknown:
                 self._log(f"unknown:{plan.unknown[0]}", f"joint state names unknown joint '{plan.unknown[0]}' (not a "
