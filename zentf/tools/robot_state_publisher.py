@@ -1,7 +1,8 @@
 """robot_state_publisher: a URDF model plus ``joint_states`` -> ``tf`` and ``tf_static``.
 
 ROS 2 semantics (robot_state_publisher 3.x): fixed joints (and floating/planar ones, which KDL
-treats as fixed) go once on ``tf_static``, latched, stamped at start; each JointState publishes its
+treats as fixed) go once on ``tf_static``, latched, stamped at start (ROS 1 re-sent them every
+``1/publish_frequency``); each JointState publishes its
 movable joints on ``tf`` stamped with the JointState's own stamp, unless every joint in it was
 published less than ``1/publish_frequency`` ago (by stamp; ``ignore_timestamp`` turns that off).
 Mimic joints follow their master. ``frame_prefix`` is prepended to every frame id as is (ROS 2;
