@@ -202,6 +202,10 @@ def test_rsp_plans_mimics_throttle_and_bad_values(node_options) -> None:
         # publish_frequency 10 Hz: a stamp 50 ms later is throttled, 100 ms later is not (by stamp)
         assert not rsp.process(["left_gripper_joint"], [0.3], 101, 50_000_000)
         assert rsp.process(["left_gripper_joint"], [0.3], 101, 100_000_000)
+        # a name given twice: once, its first value
+        assert rsp.process(["head_swivel", "head_swivel"], [0.5, 0.9], 102, 0)
+        assert [t["child_frame_id"] for t in sent[-1]["transforms"]] == ["head"]
+        assert children()["head"]["transform"]["rotation"]["z"] == pytest.approx(math.sin(0.25))
         # bad input: nothing published, counted
         n = len(sent)
         assert not rsp.process(["left_gripper_joint"], [float("nan")], 200, 0)

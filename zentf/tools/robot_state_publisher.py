@@ -2,9 +2,8 @@
 
 ROS 2 semantics (robot_state_publisher 3.x): fixed joints (and floating/planar ones, which KDL
 treats as fixed) go once on ``tf_static``, latched, stamped at start (ROS 1 re-sent them every
-``1/publish_frequency``); each JointState publishes its
-movable joints on ``tf`` stamped with the JointState's own stamp, unless every joint in it was
-published less than ``1/publish_frequency`` ago (by stamp; ``ignore_timestamp`` turns that off).
+``1/publish_frequency``); each JointState publishes its movable joints on ``tf`` stamped with the
+JointState's own stamp, unless every joint in it was published less than ``1/publish_frequency`` ago (by stamp; ``ignore_timestamp`` turns that off).
 Mimic joints follow their master. ``frame_prefix`` is prepended to every frame id as is (ROS 2;
 ROS 1 used tf_prefix with a '/'). The URDF text is published latched on ``robot_description``
 (std_msgs/String). Joint states are decoded and turned into one TFMessage in Zenoh's callback
@@ -63,9 +62,13 @@ class _Plan:
 
     def __init__(self, rsp: "RobotStatePublisher", names: list[str]) -> None:
         index = rsp._index
-        self.sel = [k for k, n in enumerate(names) if n in index]
+        first = {}
+        for k, n in enumerate(names):
+            first.setdefault(n, k)
+        # a name given twice counts once, its first value (ROS builds a map with insert)
+        self.sel = [k for k, n in enumerate(names) if n in index and first[n] == k]
         self.unknown = [n for n in names if n not in index]
-        given = {n: k for k, n in enumerate(names)}
+        given = first
         # a mimic joint follows its master unless the message names it itself (ROS keeps the given value)
         self.mimics = [(i, given[master], mult, off) for i, master, mult, off in rsp._mimics
                        if master in given and rsp._movable.names[i] not in given]
@@ -73,7 +76,7 @@ class _Plan:
         self.idx = np.asarray(idx, dtype=int)
         self.known = np.asarray([index[names[k]] for k in self.sel], dtype=int)
         self.sel_arr = np.asarray(self.sel, dtype=int)
-        self.all_known = len(self.sel) == len(names)
+        self.all_known = len(self.sel) == len(names)  # every name known, none repeated: no selection needed
         self.mimic_src = np.asarray([m[1] for m in self.mimics], dtype=int)
         self.mimic_mult = np.asarray([m[2] for m in self.mimics], dtype=float)
         self.mimic_off = np.asarray([m[3] for m in self.mimics], dtype=float)
