@@ -253,3 +253,36 @@ def test_batch_fk_shape_checks() -> None:
     out = kin.link_poses_batch(np.zeros((5, 8)))
     assert out.shape == (5, 16, 4, 4)
     assert re.match(r"^\w+$", kin.link_names[0])
+
+
+def test_joint_transforms_equal_the_kinematics_joint_matrices() -> None:
+    from zentf.core.math3d import matrix_from_transform
+    from zentf.urdf.kinematics import JointTransforms
+
+    robot = parse_urdf(MIMIC_URDF)
+    kin = Kinematics(robot)
+    movable = robot.movable_joints()
+    jt = JointTransforms(robot, movable)
+    values = np.array([0.7, -0.3, 1.9, -2.5])
+    t, q = jt.compute(np.arange(len(movable)), values)
+    for k, j in enumerate(movable):
+        m = np.asarray(matrix_from_transform(t[k], q[k]))
+        assert np.abs(m - kin.joint_transform(j.name, values[k])).max() < 1e-12, j.name
+
+
+def test_xacro_arguments_reach_the_model(tmp_path: Path) -> None:
+    pytest.importorskip("xacro")
+    path = tmp_path / "arm.urdf.xacro"
+    path.write_text("""<?xml version="1.0"?>
+<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="arm">
+  <xacro:arg name="reach" default="0.5"/>
+  <xacro:macro name="seg" params="n parent"><link name="l${n}"/>
+    <joint name="j${n}" type="continuous"><parent link="${parent}"/><child link="l${n}"/>
+      <origin xyz="$(arg reach) 0 0"/><axis xyz="0 0 1"/></joint></xacro:macro>
+  <link name="base"/>
+  <xacro:seg n="1" parent="base"/><xacro:seg n="2" parent="l1"/>
+</robot>""")
+    assert load_urdf(path).joints["j2"].origin.xyz == (0.5, 0.0, 0.0)
+    robot = load_urdf(path, xacro_args={"reach": "0.25"})
+    assert robot.joints["j2"].origin.xyz == (0.25, 0.0, 0.0)
+    assert Kinematics(robot).link_poses()["l2"][0, 3] == pytest.approx(0.5)

@@ -174,3 +174,122 @@ def test_urdf_check_and_graph(tmp_path) -> None:
         assert (tmp_path / "my_robot.pdf").read_bytes().startswith(b"%PDF")
     else:  # graphviz missing: the .gv alone, with the reason on stderr
         assert "dot" in proc.stderr
+
+
+def test_rsp_plans_mimics_throttle_and_bad_values(node_options) -> None:
+    """In process (the payloads captured before they leave): what one JointState turns into."""
+    from zentf import wire
+    from zentf.node import Node
+    from zentf.tools.robot_state_publisher import RobotStatePublisher
+
+    with Node("rsp_unit", options=node_options) as node:
+        rsp = RobotStatePublisher(node, load_urdf(MY_ROBOT), publish_frequency=10.0)
+        sent: list[dict] = []
+        rsp._tf.publish_bytes = lambda p: sent.append(wire.unpack(p))
+
+        def children(i: int = -1) -> dict[str, dict]:
+            return {t["child_frame_id"]: t for t in sent[i]["transforms"]}
+
+        assert rsp.process(["left_gripper_joint"], [0.25], 100, 0)
+        got = children()
+        assert set(got) == {"left_gripper", "right_gripper"}        # the mimic follows its master
+        assert got["right_gripper"]["header"]["stamp"] == {"sec": 100, "nanosec": 0}
+        assert got["right_gripper"]["transform"]["rotation"]["z"] == pytest.approx(-math.sin(0.125))
+        # a message that names the mimic joint itself: its own value, published once (no duplicate)
+        assert rsp.process(["left_gripper_joint", "right_gripper_joint"], [0.25, 0.1], 101, 0)
+        assert [t["child_frame_id"] for t in sent[-1]["transforms"]] == ["left_gripper", "right_gripper"]
+        assert children()["right_gripper"]["transform"]["rotation"]["z"] == pytest.approx(-math.sin(0.05))
+        # publish_frequency 10 Hz: a stamp 50 ms later is throttled, 100 ms later is not (by stamp)
+        assert not rsp.process(["left_gripper_joint"], [0.3], 101, 50_000_000)
+        assert rsp.process(["left_gripper_joint"], [0.3], 101, 100_000_000)
+        # a name given twice: once, its first value
+        assert rsp.process(["head_swivel", "head_swivel"], [0.5, 0.9], 102, 0)
+        assert [t["child_frame_id"] for t in sent[-1]["transforms"]] == ["head"]
+        assert children()["head"]["transform"]["rotation"]["z"] == pytest.approx(math.sin(0.25))
+        # bad input: nothing published, counted
+        n = len(sent)
+        assert not rsp.process(["left_gripper_joint"], [float("nan")], 200, 0)
+        assert not rsp.process(["left_gripper_joint", "head_swivel"], [0.1], 201, 0)
+        assert not rsp.process(["bogus"], [1.0], 202, 0)
+        assert len(sent) == n and rsp.ignored >= 3
+        # frame ids and values equal FK for a full joint vector
+        values = {"head_swivel": 0.4, "gripper_extension": -0.2, "left_front_wheel_joint": 2.0}
+        assert rsp.process(list(values), list(values.values()), 300, 0)
+        kin = Kinematics(rsp.robot)
+        for child, t in children().items():
+            j = rsp.robot.joints[rsp.robot.parent_joint[child]]
+            tr = t["transform"]
+            m = _matrix([tr["translation"][a] for a in "xyz"], [tr["rotation"][a] for a in "xyzw"])
+            assert np.abs(m - kin.joint_transform(j.name, values[j.name])).max() < 1e-12
+            assert t["header"]["frame_id"] == j.parent
+
+
+@pytest.mark.parametrize("case", ["unknown parent", "parent is child", "loop", "two parents", "missing attribute",
+                                  "bad number"])
+def test_each_kind_of_malformed_urdf_is_one_line_from_the_cli(case, tmp_path) -> None:
+    from test_urdf_model import MALFORMED, _write
+
+    body, line, needle = MALFORMED[case]
+    path = _write(tmp_path, body)
+    for command in (["urdf", "check"], ["robot-state-publisher"], ["joint-state-publisher"]):
+        proc = zentf([*command, str(path)], None)
+        err = assert_one_line_error(proc, f"{path}:{line}: ", needle, code=2)
+        assert err == f"zentf: error: {path}:{line}: " + err.split(f"{path}:{line}: ", 1)[1]
+        assert proc.stdout == ""
+
+
+def test_robot_description_parameter_instead_of_a_file(spawn, zenoh_env) -> None:
+    env = {**zenoh_env, "ZENTF_PARAMS": json.dumps({"robot_description": MY_ROBOT.read_text(),
+                                                    "frame_prefix": "p/"})}
+    rsp = spawn.python("-m", "nodes.robot_state_publisher", env=env)
+    rsp.wait_for_line(r"publishing robot 'my_robot' \(16 links\)", timeout=30)
+    probe = spawn.python(PROBE, "--static-only", "p/head:p/box")
+    assert _wait_pairs(probe, {"p/head:p/box"})["p/head:p/box"]["t"] == pytest.approx([0.1814, 0, 0.1414])
+
+
+def test_time_moving_backwards_republishes(isolated_router, test_namespace) -> None:
+    """A bag played in a loop (sim time jumps back): the per-joint throttle starts over (ROS 2)."""
+    from zentf.node import Node
+    from zentf.options import NodeOptions, ZenohOptions
+    from zentf.tools.robot_state_publisher import RobotStatePublisher
+
+    opts = NodeOptions(namespace=test_namespace, zenoh=ZenohOptions(connect=[isolated_router], no_multicast=True,
+                                                                    mode="client"))
+    with Node("rsp_sim", params={"use_sim_time": True}, options=opts) as node:
+        clock = node.get_clock()
+        rsp = RobotStatePublisher(node, load_urdf(R2D2), publish_frequency=1.0)
+        rsp._tf.publish_bytes = lambda p: None
+        clock.set_sim_time(100 * 10**9)
+        assert rsp.process(["head_swivel"], [0.1], 100, 0)
+        assert not rsp.process(["head_swivel"], [0.2], 50, 0)      # older than the last publish + 1 s
+        clock.set_sim_time(50 * 10**9)                             # the bag starts over
+        assert rsp.process(["head_swivel"], [0.2], 50, 0)
+
+
+def test_joint_state_publisher_sweep_covers_each_range_and_publishes_mimics(spawn, node_options) -> None:
+    from zentf.core.messages import JointState
+    from zentf.node import Node
+
+    seen: dict[str, list[float]] = {}
+    mimic_ok: list[bool] = []
+    done = threading.Event()
+
+    def on_state(msg: JointState) -> None:
+        pos = dict(zip(msg.name, msg.position))
+        mimic_ok.append(pos["right_gripper_joint"] == pos["left_gripper_joint"])
+        for n, v in pos.items():
+            seen.setdefault(n, []).append(v)
+        ext = seen["gripper_extension"]
+        if min(ext) < -0.37 and max(ext) > -0.01 and max(seen["head_swivel"]) > 3.1:
+            done.set()
+
+    with Node("sweep_watcher", options=node_options) as node:
+        node.create_subscription("joint_states", JointState, on_state)
+        jsp = spawn.python("-m", "nodes.joint_state_publisher", str(MY_ROBOT), "--sweep", "--sweep-period", "1",
+                           "--rate", "100")
+        jsp.wait_for_line("publishing joint_states of robot 'my_robot': 8 movable joints at 100 Hz \\(sweeping\\)", 30)
+        assert done.wait(30), {n: (min(v), max(v)) for n, v in seen.items()}
+    assert all(mimic_ok)
+    assert all(-0.38 <= v <= 0.0 for v in seen["gripper_extension"])
+    assert all(0.0 <= v <= 0.548 for v in seen["left_gripper_joint"])
+    assert all(-math.pi <= v <= math.pi for v in seen["head_swivel"])

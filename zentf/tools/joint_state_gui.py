@@ -153,11 +153,25 @@ let version = -1, dragging = null, built = false;
 function fmt(v) { return Number(v).toFixed(2); }
 
 async function post(path, body) {
-  const r = await fetch(path, {method: "POST", headers: {"Content-Type": "application/json"},
-                               body: JSON.stringify(body || {})});
-  const data = await r.json();
-  if (!r.ok) { status.textContent = data.error || r.statusText; return; }
-  show(data);
+  try {
+    const r = await fetch(path, {method: "POST", headers: {"Content-Type": "application/json"},
+                                 body: JSON.stringify(body || {})});
+    const data = await r.json();
+    if (!r.ok) { status.textContent = data.error || r.statusText; return; }
+    show(data);
+  } catch (e) { status.textContent = "publisher gone (" + e + ")"; }
+}
+
+// slider moves: one request in flight at a time, the latest values queued behind it (a fast drag
+// does not pile up requests; the last position always arrives)
+let inflight = false, queued = null;
+function setJoints(values) {
+  if (inflight) { queued = Object.assign(queued || {}, values); return; }
+  inflight = true;
+  post("/set", values).finally(() => {
+    inflight = false;
+    if (queued) { const q = queued; queued = null; setJoints(q); }
+  });
 }
 
 function build(state) {
@@ -176,9 +190,9 @@ function build(state) {
     const lim = box.querySelectorAll(".limits span");
     lim[0].textContent = fmt(j.lower); lim[1].textContent = fmt(j.upper);
     slider.addEventListener("input", () => { dragging = j.name; value.value = fmt(slider.value);
-                                             post("/set", {[j.name]: Number(slider.value)}); });
+                                             setJoints({[j.name]: Number(slider.value)}); });
     slider.addEventListener("change", () => { dragging = null; });
-    value.addEventListener("change", () => post("/set", {[j.name]: Number(value.value)}));
+    value.addEventListener("change", () => setJoints({[j.name]: Number(value.value)}));
     joints.appendChild(box);
   }
   built = true;

@@ -1,9 +1,9 @@
 """robot_state_publisher: a URDF model plus ``joint_states`` -> ``tf`` and ``tf_static``.
 
 ROS 2 semantics (robot_state_publisher 3.x): fixed joints (and floating/planar ones, which KDL
-treats as fixed) go once on ``tf_static``, latched, stamped at start; each JointState publishes its
-movable joints on ``tf`` stamped with the JointState's own stamp, unless every joint in it was
-published less than ``1/publish_frequency`` ago (by stamp; ``ignore_timestamp`` turns that off).
+treats as fixed) go once on ``tf_static``, latched, stamped at start (ROS 1 re-sent them every
+``1/publish_frequency``); each JointState publishes its movable joints on ``tf`` stamped with the
+JointState's own stamp, unless every joint in it was published less than ``1/publish_frequency`` ago (by stamp; ``ignore_timestamp`` turns that off).
 Mimic joints follow their master. ``frame_prefix`` is prepended to every frame id as is (ROS 2;
 ROS 1 used tf_prefix with a '/'). The URDF text is published latched on ``robot_description``
 (std_msgs/String). Joint states are decoded and turned into one TFMessage in Zenoh's callback
@@ -52,28 +52,72 @@ def _joint_state_decoder() -> Any:
         ("velocity", list[float], []), ("effort", list[float], [])]))
 
 
-class _TFEncoder:
-    """TFMessage bytes for the movable joints, from per-joint byte templates (same map as wire.encode_tf)."""
+class _Plan:
+    """What one joint-name list means, worked out once per distinct list (publishers resend the same):
+    the joints it sets, where their values are in the message, its mimic joints, its unknown names,
+    the joints' constants, and the TFMessage bytes with holes where stamps and values go."""
 
-    _VALUES = struct.Struct(">d3sd3sd13sd3sd3sd3sd")
+    _ITEM_VALUES = struct.Struct(">d3sd3sd13sd3sd3sd3sd")
+    _VALUE_OFFSETS = (0, 11, 22, 43, 54, 65, 76)  # of the 7 doubles inside _ITEM_VALUES
 
-    def __init__(self, parents: list[str], children: list[str]) -> None:
+    def __init__(self, rsp: "RobotStatePublisher", names: list[str]) -> None:
+        index = rsp._index
+        first = {}
+        for k, n in enumerate(names):
+            first.setdefault(n, k)
+        # a name given twice counts once, its first value (ROS builds a map with insert)
+        self.sel = [k for k, n in enumerate(names) if n in index and first[n] == k]
+        self.unknown = [n for n in names if n not in index]
+        given = first
+        # a mimic joint follows its master unless the message names it itself (ROS keeps the given value)
+        self.mimics = [(i, given[master], mult, off) for i, master, mult, off in rsp._mimics
+                       if master in given and rsp._movable.names[i] not in given]
+        idx = [index[names[k]] for k in self.sel] + [m[0] for m in self.mimics]
+        self.idx = np.asarray(idx, dtype=int)
+        self.known = np.asarray([index[names[k]] for k in self.sel], dtype=int)
+        self.sel_arr = np.asarray(self.sel, dtype=int)
+        self.all_known = len(self.sel) == len(names)  # every name known, none repeated: no selection needed
+        self.mimic_src = np.asarray([m[1] for m in self.mimics], dtype=int)
+        self.mimic_mult = np.asarray([m[2] for m in self.mimics], dtype=float)
+        self.mimic_off = np.asarray([m[3] for m in self.mimics], dtype=float)
+        self.joints = rsp._movable.subset(self.idx)
+        # the payload template: TFMessage{transforms: [TransformStamped x k]} with zeroed stamps/values
         p = msgpack.packb
-        self._head = b"\x83" + p("header") + b"\x82" + p("stamp") + b"\x82" + p("sec") + b"\xce"
-        self._frames = [b"".join((p("frame_id"), p(par), p("child_frame_id"), p(ch), p("transform"), b"\x82",
-                                  p("translation"), b"\x83", p("x"), b"\xcb"))
-                        for par, ch in zip(parents, children)]
+        head = b"\x83" + p("header") + b"\x82" + p("stamp") + b"\x82" + p("sec") + b"\xce"
+        nsec_key = b"\xa7nanosec\xce"
+        k = len(idx)
+        out = bytearray(b"\x81\xaatransforms" + (bytes((0x90 | k,)) if k < 16 else b"\xdc" + k.to_bytes(2, "big")))
+        sec_pos, nsec_pos, val_pos = [], [], []
+        zero = self._ITEM_VALUES.pack(0.0, b"\xa1y\xcb", 0.0, b"\xa1z\xcb", 0.0, b"\xa8rotation\x84\xa1x\xcb", 0.0,
+                                      b"\xa1y\xcb", 0.0, b"\xa1z\xcb", 0.0, b"\xa1w\xcb", 0.0)
+        for j in idx:
+            out += head
+            sec_pos.append(range(len(out), len(out) + 4))
+            out += b"\0\0\0\0" + nsec_key
+            nsec_pos.append(range(len(out), len(out) + 4))
+            out += b"\0\0\0\0" + rsp._frames[j]
+            base = len(out)
+            val_pos.append([range(base + o, base + o + 8) for o in self._VALUE_OFFSETS])
+            out += zero
+        self.template = np.frombuffer(bytes(out), dtype=np.uint8)
+        # per item, the 64 bytes to fill: sec (4), nanosec (4), then the 7 doubles (8 each)
+        self.holes = np.concatenate((np.asarray(sec_pos, dtype=np.intp).reshape(k, 4),
+                                     np.asarray(nsec_pos, dtype=np.intp).reshape(k, 4),
+                                     np.asarray(val_pos, dtype=np.intp).reshape(k, 56)), axis=1)
+        self._fill = np.empty((k, 64), dtype=np.uint8)
+        self._vals = np.empty((k, 7), dtype=">f8")
 
-    def encode(self, sec: int, nsec: int, idx: list[int], t: np.ndarray, q: np.ndarray) -> bytes:
-        stamp = b"".join((self._head, sec.to_bytes(4, "big"), b"\xa7nanosec\xce", nsec.to_bytes(4, "big")))
-        pack = self._VALUES.pack
-        frames = self._frames
-        y, z, w, rot = b"\xa1y\xcb", b"\xa1z\xcb", b"\xa1w\xcb", b"\xa8rotation\x84\xa1x\xcb"
-        items = [b"".join((stamp, frames[j], pack(tx, y, ty, z, tz, rot, qx, y, qy, z, qz, w, qw)))
-                 for j, (tx, ty, tz), (qx, qy, qz, qw) in zip(idx, t.tolist(), q.tolist())]
-        n = len(items)
-        head = (b"\x81\xaatransforms" + (bytes((0x90 | n,)) if n < 16 else b"\xdc" + n.to_bytes(2, "big")))
-        return head + b"".join(items)
+    def payload(self, sec: int, nsec: int, t: np.ndarray, q: np.ndarray) -> bytes:
+        """The TFMessage bytes: the template with this message's stamp and values written in."""
+        fill = self._fill
+        fill[:, :8] = np.frombuffer(sec.to_bytes(4, "big") + nsec.to_bytes(4, "big"), dtype=np.uint8)
+        vals = self._vals
+        vals[:, :3] = t
+        vals[:, 3:] = q
+        fill[:, 8:] = vals.view(np.uint8)
+        buf = self.template.copy()
+        buf[self.holes] = fill
+        return buf.tobytes()
 
 
 class RobotStatePublisher:
@@ -104,9 +148,16 @@ class RobotStatePublisher:
                 src, mult, off = self.kin._source(j)
                 if src >= 0:
                     self._mimics.append((i, self.kin.joint_names[src], mult, off))
-        self._encoder = _TFEncoder([frame_prefix + p for p in self._movable.parents],
-                                   [frame_prefix + c for c in self._movable.children])
-        self._last_publish: dict[str, int] = {}
+        pk = msgpack.packb
+        self._frames = [b"".join((pk("frame_id"), pk(frame_prefix + par), pk("child_frame_id"), pk(frame_prefix + ch),
+                                  pk("transform"), b"\x82", pk("translation"), b"\x83", pk("x"), b"\xcb"))
+                        for par, ch in zip(self._movable.parents, self._movable.children)]
+        self._plans: dict[tuple[str, ...], _Plan] = {}
+        self._last_names: list[str] | None = None
+        self._last_plan: _Plan | None = None
+        self._last_publish = np.zeros(len(movable), dtype=np.int64)  # stamp of each joint's last publish
+        self._clock = node.get_clock()
+        self._last_callback = 0
         self._decoder = _joint_state_decoder()
 
         self._description = node.create_publisher("robot_description", String, latched=True)
@@ -174,50 +225,50 @@ class RobotStatePublisher:
                 self._log("stamp", f"ignored a JointState with an out-of-range stamp ({sec}, {nsec})")
                 return False
             stamp = sec * _NS + nsec
+            now = self._clock.now_ns()
+            if now < self._last_callback:  # e.g. a bag played in a loop with --clock (ROS 2 does the same)
+                log.warning("Moved backwards in time, re-publishing joint transforms!")
+                self._last_publish[:] = 0
+            self._last_callback = now
+            plan = self._plan(names)
+            if plan.unknown:
+                self._log(f"unknown:{plan.unknown[0]}", f"joint state names unknown joint '{plan.unknown[0]}' (not a "
+                          f"movable joint of robot '{self.robot.name}'); ignored")
             last = self._last_publish
-            if not self.ignore_timestamp:
-                oldest = min((last.get(n, 0) for n in names), default=0)
-                if stamp < oldest + self.publish_interval_ns:
+            if not self.ignore_timestamp and len(plan.known):
+                if stamp < int(last[plan.known].min()) + self.publish_interval_ns:
                     self.ignored += 1
                     return False
-            index = self._index
-            idx: list[int] = []
-            values: list[float] = []
-            unknown = None
-            for n, v in zip(names, position):
-                i = index.get(n)
-                if i is None:
-                    unknown = n
-                    continue
-                idx.append(i)
-                values.append(v)
-            if unknown is not None:
-                self._log(f"unknown:{unknown}", f"joint state names unknown joint '{unknown}' (not a movable "
-                          f"joint of robot '{self.robot.name}'); ignored")
-            if self._mimics:
-                given = dict(zip(names, position))
-                for i, master, mult, off in self._mimics:
-                    v = given.get(master)
-                    if v is not None:
-                        idx.append(i)
-                        values.append(mult * v + off)
-            for n in names:
-                last[n] = stamp
-            if not idx:
+            if not len(plan.idx):
                 return False
-            vals = np.asarray(values, dtype=float)
-            if not np.isfinite(vals).all():
-                bad = names[int(np.flatnonzero(~np.isfinite(np.asarray(position, dtype=float)))[0])] \
-                    if not np.isfinite(np.asarray(position, dtype=float)).all() else "?"
+            given = np.asarray(position, dtype=float)
+            values = given if plan.all_known else given[plan.sel_arr]
+            if plan.mimics:
+                values = np.concatenate((values, given[plan.mimic_src] * plan.mimic_mult + plan.mimic_off))
+            if not np.isfinite(values).all():
                 self.ignored += 1
+                bad = names[int(np.flatnonzero(~np.isfinite(given))[0])] if not np.isfinite(given).all() else "?"
                 self._log("nonfinite", f"ignored a JointState with a non-finite position (joint '{bad}')")
                 return False
-            ia = np.asarray(idx)
-            t, q = self._movable.compute(ia, vals)
-            payload = self._encoder.encode(sec, nsec, idx, t, q)
+            last[plan.known] = stamp
+            t, q = plan.joints.compute(values)
+            payload = plan.payload(sec, nsec, t, q)
             self.published += 1
         self._tf.publish_bytes(payload)
         return True
+
+    def _plan(self, names: list[str]) -> _Plan:
+        """The cached plan of a joint-name list (the same list as last time: one list comparison)."""
+        if names == self._last_names and self._last_plan is not None:
+            return self._last_plan
+        key = tuple(names)
+        plan = self._plans.get(key)
+        if plan is None:
+            if len(self._plans) > 64:  # a publisher that changes its list every time: stay bounded
+                self._plans.clear()
+            plan = self._plans[key] = _Plan(self, list(names))
+        self._last_names, self._last_plan = list(names), plan
+        return plan
 
     def close(self) -> None:
         for obj in (self._sub, self._token):

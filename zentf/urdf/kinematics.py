@@ -140,29 +140,44 @@ class Kinematics:
 
     # ------------------------------------------------------------------ many vectors
     def link_poses_batch(self, q: np.ndarray) -> np.ndarray:
-        """``(N, len(link_names), 4, 4)`` poses for ``q`` of shape ``(N, len(joint_names))``."""
+        """``(N, len(link_names), 4, 4)`` poses for ``q`` of shape ``(N, len(joint_names))``.
+
+        Rotations (N, 3, 3) and translations (N, 3) are carried apart; a product with a joint's
+        constant matrix is one (3N x 3) @ (3 x 3) BLAS call, the joint motion is Rodrigues' formula
+        R·(I + sin q K + (1 - cos q) K²) applied as two such products.
+        """
         q = np.asarray(q, dtype=float)
         if q.ndim != 2 or q.shape[1] != len(self.joint_names):
             raise ValueError(f"expected an (N, {len(self.joint_names)}) array of joint vectors, got {q.shape}")
         n = q.shape[0]
-        out = np.empty((n, len(self.link_names), 4, 4))
-        out[:, 0] = np.eye(4)
+        nl = len(self.link_names)
+        rot = np.empty((nl, n, 3, 3))
+        pos = np.empty((nl, n, 3))
+        rot[0] = np.eye(3)
+        pos[0] = 0.0
         for jd in self._joints:
-            parent = out[:, jd.parent]
+            rp, tp = rot[jd.parent], pos[jd.parent]
+            flat = rp.reshape(3 * n, 3)
+            ro = (flat @ jd.origin[:3, :3]).reshape(n, 3, 3)          # parent · origin rotation
+            t = tp + (flat @ jd.origin[:3, 3]).reshape(n, 3)
             if jd.kind == _FIXED:
-                np.matmul(parent, jd.origin, out=out[:, jd.child])
+                rot[jd.child] = ro
+                pos[jd.child] = t
                 continue
             v = q[:, jd.source] * jd.multiplier + jd.offset if jd.source >= 0 else np.full(n, jd.offset)
-            motion = np.zeros((n, 4, 4))
-            motion[:, 3, 3] = 1.0
+            flat_o = ro.reshape(3 * n, 3)
             if jd.kind == _REVOLUTE:
-                k = jd.cross
-                motion[:, :3, :3] = (np.eye(3) + np.sin(v)[:, None, None] * k
-                                     + (1.0 - np.cos(v))[:, None, None] * (k @ k))
+                k1 = (flat_o @ jd.cross).reshape(n, 3, 3)
+                k2 = (flat_o @ (jd.cross @ jd.cross)).reshape(n, 3, 3)
+                rot[jd.child] = ro + np.sin(v)[:, None, None] * k1 + (1.0 - np.cos(v))[:, None, None] * k2
+                pos[jd.child] = t
             else:
-                motion[:, :3, :3] = np.eye(3)
-                motion[:, :3, 3] = v[:, None] * jd.axis
-            np.matmul(parent @ jd.origin, motion, out=out[:, jd.child])
+                rot[jd.child] = ro
+                pos[jd.child] = t + v[:, None] * (flat_o @ jd.axis).reshape(n, 3)
+        out = np.zeros((n, nl, 4, 4))
+        out[..., :3, :3] = rot.transpose(1, 0, 2, 3)
+        out[..., :3, 3] = pos.transpose(1, 0, 2)
+        out[..., 3, 3] = 1.0
         return out
 
 
@@ -185,12 +200,31 @@ class JointTransforms:
         self.revolute = np.array([j.type in ("revolute", "continuous") for j in joints], dtype=bool)
         self.prismatic = np.array([j.type == "prismatic" for j in joints], dtype=bool)
 
+    def subset(self, idx: np.ndarray) -> "JointTransforms.Subset":
+        """The constants of joints ``idx``, ready for ``compute`` (robot_state_publisher caches one per
+        joint-name list it receives)."""
+        return JointTransforms.Subset(self, np.asarray(idx, dtype=int))
+
+    class Subset:
+        """q = q0 ⊗ (axis sin(v/2), cos(v/2)) = cos(v/2) q0 + sin(v/2) (q0 ⊗ (axis, 0)); t = t0 + v slide."""
+
+        def __init__(self, jt: "JointTransforms", idx: np.ndarray) -> None:
+            rev = jt.revolute[idx]
+            self.t0 = jt.t0[idx]
+            self.q0 = jt.q0[idx]
+            pure = np.zeros((len(idx), 4))
+            pure[:, :3] = jt.axis[idx]
+            self.q0a = quaternion_multiply_batch(self.q0, pure) * rev[:, None]
+            self.half = np.where(rev, 0.5, 0.0)
+            self.slide = jt.slide[idx] * jt.prismatic[idx][:, None]
+
+        def compute(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            """(translations (k,3), quaternions (k,4)) at ``values`` (k,)."""
+            h = values * self.half
+            q = self.q0 * np.cos(h)[:, None] + self.q0a * np.sin(h)[:, None]
+            t = self.t0 + self.slide * values[:, None]
+            return t, q
+
     def compute(self, idx: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(translations (k,3), quaternions (k,4)) of joints ``idx`` at ``values``."""
-        half = np.where(self.revolute[idx], values * 0.5, 0.0)
-        qm = np.empty((len(idx), 4))
-        qm[:, :3] = self.axis[idx] * np.sin(half)[:, None]
-        qm[:, 3] = np.cos(half)
-        q = quaternion_multiply_batch(self.q0[idx], qm)
-        t = self.t0[idx] + self.slide[idx] * np.where(self.prismatic[idx], values, 0.0)[:, None]
-        return t, q
+        return self.subset(idx).compute(np.asarray(values, dtype=float))

@@ -1,0 +1,297 @@
+"""Robot-model benchmark: robot_state_publisher on a 100-joint chain, and batched forward kinematics.
+
+    python bench/urdf.py [--seconds 10] [--joints 100] [--rate 100] [--vectors 10000]
+
+1. robot_state_publisher (its own process, `python -m nodes.robot_state_publisher`) for a chain of
+   ``--joints`` revolute joints, fed JointStates of all joints at ``--rate`` Hz by this process; a
+   listener process (TransformListener + Buffer) times each message from the JointState's stamp (the
+   send time, CLOCK_REALTIME) to the moment its transforms were inserted in the listener's Buffer
+   (lookup-able; a lookup root -> tip proves it, untimed). CPU share of one core: the rsp process's
+   user+system time over the run / wall time. Reference in the same run: a bare zenoh-python relay
+   process (subscribe joint_states, put the same bytes on tf; no decoding, no FK) with a bare
+   callback as receiver: the floor of the same two hops. Peer to peer on loopback, no router.
+   Targets (issue 12): rsp CPU <= 5 % of one core; p50 joint_states -> lookup-able <= 0.5 ms.
+2. Forward kinematics of ``--vectors`` joint vectors at once (``Kinematics.link_poses_batch``, numpy)
+   against a Python loop over the vectors calling ``Kinematics.link_poses`` (a per-joint loop of 4x4
+   products): r2d2 (urdf_tutorial 06-flexible, 8 joints, 16 links) and the chain. Target: >= 20x.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+REPO = Path(__file__).resolve().parent.parent
+R2D2 = REPO / "tests" / "data" / "urdf" / "urdf_tutorial" / "urdf" / "06-flexible.urdf"
+NS = 1_000_000_000
+WARMUP = 50
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def chain_urdf(n: int) -> str:
+    """n revolute joints in a chain, axes cycling z, y, x, each link 0.1 m along x with a small twist."""
+    parts = ['<robot name="chain">', '<link name="l0"/>']
+    axes = ("0 0 1", "0 1 0", "1 0 0")
+    for i in range(1, n + 1):
+        parts.append(f'<link name="l{i}"/>')
+        parts.append(f'<joint name="j{i}" type="revolute"><parent link="l{i - 1}"/><child link="l{i}"/>'
+                     f'<origin xyz="0.1 0 0.01" rpy="0.01 0 0.02"/><axis xyz="{axes[i % 3]}"/>'
+                     f'<limit lower="-3" upper="3" effort="1" velocity="1"/></joint>')
+    parts.append("</robot>")
+    return "\n".join(parts)
+
+
+def zopts(listen: str | None = None, connect: str | None = None):
+    from zentf.options import ZenohOptions
+
+    return ZenohOptions(listen=[listen] if listen else [], connect=[connect] if connect else [],
+                        mode="peer", no_multicast=True)
+
+
+def cpu_seconds(pid: int) -> float:
+    """user + system CPU seconds of a process (Linux /proc)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+# ------------------------------------------------------------------ child roles
+
+def role_listen(args: argparse.Namespace) -> None:
+    """zentf listener: time from the JointState stamp to the insert of its transforms."""
+    from zentf.buffer import Buffer
+    from zentf.core.time import Time
+    from zentf.listener import TransformListener
+    from zentf.node import Node
+    from zentf.options import NodeOptions
+
+    node = Node("bench_listener", options=NodeOptions(namespace="bench", zenoh=zopts(connect=args.endpoint)),
+                check_unique=False)
+    buf = Buffer(node=node)
+    lat: list[int] = []
+    done = threading.Event()
+    tip = f"l{args.joints}"
+
+    def on_insert() -> None:
+        now = time.time_ns()
+        try:
+            t = buf.lookup_transform("l0", tip, Time())  # proves it (not timed)
+        except Exception:  # the static part may not be there yet
+            return
+        lat.append(now - t.header.stamp.nanoseconds)
+        if len(lat) >= args.count + WARMUP:
+            done.set()
+
+    buf.add_insert_callback(on_insert)
+    TransformListener(buf, node)
+    print("ready", flush=True)
+    done.wait(args.count / 50 + 60)
+    print("RESULT " + json.dumps({"lat_ns": lat[WARMUP:]}), flush=True)
+    node.shutdown()
+
+
+def role_raw_relay(args: argparse.Namespace) -> None:
+    """Reference publisher process: joint_states bytes forwarded unchanged on tf."""
+    import zenoh
+
+    session = zopts(listen=args.endpoint).open_session()
+    pub = session.declare_publisher("bench/tf", congestion_control=zenoh.CongestionControl.BLOCK)
+    session.declare_subscriber("bench/joint_states", lambda s: pub.put(s.payload.to_bytes()))
+    print("publishing robot (raw relay)", flush=True)
+    threading.Event().wait(args.count / 50 + 120)
+
+
+def role_raw_listen(args: argparse.Namespace) -> None:
+    session = zopts(connect=args.endpoint).open_session()
+    lat: list[int] = []
+    done = threading.Event()
+
+    def on_sample(sample) -> None:
+        now = time.time_ns()
+        lat.append(now - int.from_bytes(sample.payload.to_bytes()[:8], "little"))
+        if len(lat) >= args.count + WARMUP:
+            done.set()
+
+    session.declare_subscriber("bench/tf", on_sample)
+    print("ready", flush=True)
+    done.wait(args.count / 50 + 60)
+    print("RESULT " + json.dumps({"lat_ns": lat[WARMUP:]}), flush=True)
+    session.close()
+
+
+# ------------------------------------------------------------------ one run
+
+def run_publisher_case(impl: str, urdf: Path, joints: int, rate: float, seconds: float) -> dict:
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    count = int(seconds * rate)
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    for var in ("ZENTF_CONNECT", "ZENTF_LISTEN", "ZENTF_NAMESPACE", "ZENTF_MODE"):
+        env.pop(var, None)
+    if impl == "zentf":
+        pub_cmd = [sys.executable, "-m", "nodes.robot_state_publisher", str(urdf), "--listen", ep, "--mode", "peer",
+                   "--no-multicast", "--namespace", "bench", "-p", "publish_frequency:=10000"]
+    else:
+        pub_cmd = [sys.executable, __file__, "--role", "raw_relay", "--endpoint", ep, "--count", str(count)]
+    rsp = subprocess.Popen(pub_cmd, env=env, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    listener = None
+    node = session = None
+    try:
+        assert rsp.stdout is not None
+        line = rsp.stdout.readline()
+        if "publishing robot" not in line:
+            raise RuntimeError(f"{impl} publisher failed to start: {line!r}{rsp.stdout.read()[:2000]}")
+        threading.Thread(target=rsp.stdout.read, daemon=True).start()  # keep draining its output
+        listener = subprocess.Popen([sys.executable, __file__, "--role", "listen" if impl == "zentf" else "raw_listen",
+                                     "--endpoint", ep, "--count", str(count - 2 * WARMUP), "--joints", str(joints)],
+                                    env=env, cwd=REPO, stdout=subprocess.PIPE, text=True)
+        assert listener.stdout is not None
+        if not listener.stdout.readline().startswith("ready"):
+            raise RuntimeError("listener failed to start")
+        names = [f"j{i}" for i in range(1, joints + 1)]
+        positions = [0.1] * joints
+        if impl == "zentf":
+            from zentf.core.messages import Header, JointState
+            from zentf.core.time import Time
+            from zentf.node import Node
+            from zentf.options import NodeOptions
+
+            node = Node("bench_joint_states", options=NodeOptions(namespace="bench", zenoh=zopts(connect=ep)),
+                        check_unique=False)
+            pub = node.create_publisher("joint_states", JointState)
+            if not pub.wait_for_subscribers(20):
+                raise RuntimeError("robot_state_publisher never matched")
+
+            def send(i: int) -> None:
+                msg = JointState(Header(Time()), names, [p + 1e-4 * i for p in positions], [], [])
+                msg.header.stamp = Time(nanoseconds=time.time_ns())
+                pub.publish(msg)
+        else:
+            import zenoh
+
+            from zentf import wire
+            from zentf.core.messages import Header, JointState
+
+            session = zopts(connect=ep).open_session()
+            raw = session.declare_publisher("bench/joint_states", congestion_control=zenoh.CongestionControl.BLOCK)
+            while not raw.matching_status.matching:
+                time.sleep(0.005)
+            pad = wire.encode(JointState(Header(), names, positions, [], []))[8:]
+
+            def send(i: int) -> None:
+                raw.put(time.time_ns().to_bytes(8, "little") + pad)
+        time.sleep(0.5)
+        period = 1.0 / rate
+        cpu0, wall0 = cpu_seconds(rsp.pid), time.monotonic()
+        next_t = time.monotonic()
+        for i in range(count):
+            send(i)
+            next_t += period
+            time.sleep(max(0.0, next_t - time.monotonic()))
+        cpu = cpu_seconds(rsp.pid) - cpu0
+        wall = time.monotonic() - wall0
+        out = listener.stdout.readline()
+        while out and not out.startswith("RESULT "):
+            out = listener.stdout.readline()
+        if not out:
+            raise RuntimeError(f"{impl}: the listener gave no result")
+        lat = json.loads(out[len("RESULT "):])["lat_ns"]
+        return {"cpu": cpu / wall, "lat_us": sorted(v / 1000 for v in lat), "n": len(lat)}
+    finally:
+        if node is not None:
+            node.shutdown()
+        if session is not None:
+            session.close()
+        for p in (listener, rsp):
+            if p is not None:
+                p.terminate()
+                try:
+                    p.wait(5)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+                    p.wait()
+
+
+def pct(sorted_values: list[float], q: float) -> float:
+    return sorted_values[min(len(sorted_values) - 1, int(q * len(sorted_values)))] if sorted_values else float("nan")
+
+
+def fk_case(name: str, kin, n_batch: int, n_loop: int) -> tuple[float, float]:
+    """(batch seconds for n_batch vectors, loop seconds scaled to n_batch)."""
+    import numpy as np
+
+    rng = np.random.default_rng(1)
+    q = rng.uniform(-1, 1, size=(n_batch, len(kin.joint_names)))
+    tb = float("inf")
+    for _ in range(3):  # best of 3 (the loop below runs long enough to average itself)
+        t0 = time.perf_counter()
+        batch = kin.link_poses_batch(q)
+        tb = min(tb, time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    for row in q[:n_loop]:
+        kin.link_poses(row)
+    tl = (time.perf_counter() - t0) * n_batch / n_loop
+    last = kin.link_poses(q[n_loop - 1])
+    assert all(np.abs(batch[n_loop - 1, k] - last[ln]).max() < 1e-9 for k, ln in enumerate(kin.link_names))
+    return tb, tl
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--role", default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--endpoint", default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--count", type=int, default=0, help=argparse.SUPPRESS)
+    parser.add_argument("--joints", type=int, default=100)
+    parser.add_argument("--seconds", type=float, default=10.0)
+    parser.add_argument("--rate", type=float, default=100.0)
+    parser.add_argument("--vectors", type=int, default=10_000)
+    args = parser.parse_args()
+    if args.role:
+        {"listen": role_listen, "raw_relay": role_raw_relay, "raw_listen": role_raw_listen}[args.role](args)
+        return
+
+    from zentf.urdf import Kinematics, load_urdf, parse_urdf
+
+    print(f"# zentf urdf bench  (python {sys.version.split()[0]}, {os.cpu_count()} cpus, "
+          f"load {os.getloadavg()[0]:.2f}; loopback, peer to peer)")
+    with tempfile.TemporaryDirectory() as tmp:
+        urdf = Path(tmp) / "chain.urdf"
+        urdf.write_text(chain_urdf(args.joints))
+        rows = {impl: run_publisher_case(impl, urdf, args.joints, args.rate, args.seconds) for impl in ("raw", "zentf")}
+    print(f"\n## robot_state_publisher: {args.joints}-joint chain, joint_states at {args.rate:g} Hz for "
+          f"{args.seconds:g} s")
+    print(f"{'':28}{'zentf rsp':>12}{'raw relay':>12}{'ratio':>8}")
+    z, r = rows["zentf"], rows["raw"]
+    print(f"{'CPU, % of one core':28}{100 * z['cpu']:>12.2f}{100 * r['cpu']:>12.2f}{z['cpu'] / max(r['cpu'], 1e-9):>8.1f}"
+          f"   target <= 5 %")
+    for label, q in (("p50", 0.5), ("p90", 0.9), ("p99", 0.99)):
+        zv, rv = pct(z["lat_us"], q), pct(r["lat_us"], q)
+        print(f"{'latency ' + label + ', us':28}{zv:>12.0f}{rv:>12.0f}{zv / rv:>8.2f}"
+              + ("   target p50 <= 500 us" if q == 0.5 else ""))
+    print(f"{'samples':28}{z['n']:>12}{r['n']:>12}")
+
+    print(f"\n## forward kinematics of {args.vectors} joint vectors")
+    print(f"{'model':28}{'batch, ms':>12}{'loop, ms':>12}{'speed-up':>10}")
+    chain = Kinematics(parse_urdf(chain_urdf(args.joints)))
+    for name, kin, n_loop in (("r2d2 (8 joints, 16 links)", Kinematics(load_urdf(R2D2)), args.vectors),
+                              (f"chain ({args.joints} joints)", chain, max(100, args.vectors // 10))):
+        tb, tl = fk_case(name, kin, args.vectors, n_loop)
+        note = "" if n_loop == args.vectors else f"   (loop timed on {n_loop}, scaled)"
+        print(f"{name:28}{1000 * tb:>12.1f}{1000 * tl:>12.1f}{tl / tb:>9.0f}x{note}   target >= 20x")
+
+
+if __name__ == "__main__":
+    main()
