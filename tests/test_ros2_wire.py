@@ -183,6 +183,10 @@ def test_zentf_nodes_speak_ros2_on_the_wire(ros2_options) -> None:
                               + "/::,100:,:,:,,") for k in tokens), tokens
         assert any("/MP/%/%/tf_pub/%tf_static/" in k and k.endswith("/:1:,1:,:,:,,") for k in tokens), tokens
         assert any(k.endswith("/NN/%/%/tf_sub") for k in tokens)
+        # the GID in the attachments is rmw_zenoh's: XXH3-128 of the publisher's token, low then high 64 bits
+        xxhash = pytest.importorskip("xxhash")
+        (tf_token,) = [k for k in tokens if "/MP/%/%/tf_pub/%tf/" in k]
+        assert atts[0][2] == xxhash.xxh3_128_intdigest(tf_token.encode()).to_bytes(16, "little")
     finally:
         watcher.close()
         spy.undeclare()
