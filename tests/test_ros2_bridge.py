@@ -11,7 +11,7 @@ import uuid
 
 import pytest
 
-from conftest import REPO, Proc, child_env
+from conftest import Proc, child_env
 from test_ros2_live import BROADCASTER, LISTENER, SDK_NODE
 
 pytest.importorskip("zenoh_ros2_sdk")
