@@ -11,7 +11,7 @@ import uuid
 
 import pytest
 
-from conftest import REPO, Proc, child_env
+from conftest import Proc, child_env
 from test_ros2_live import BROADCASTER, LISTENER, SDK_NODE
 
 pytest.importorskip("zenoh_ros2_sdk")
@@ -96,3 +96,46 @@ def test_bridge_relays_both_ways_latched_and_loop_free(graphs) -> None:
     summary = bridge.wait_for_line(r"relayed to ROS 2: (\d+), to zentf: (\d+), echoes dropped: (\d+)", timeout=5)
     to_ros2, to_zentf, echoes = (int(x) for x in summary.groups())
     assert to_ros2 > 0 and to_zentf > 0 and echoes > 0
+
+
+def test_bridge_relays_clock_and_named_topics_in_process(isolated_router: str, test_namespace: str) -> None:
+    """Ros2Bridge itself (no CLI): /clock from ROS 2 to zentf, a named topic from zentf to ROS 2."""
+    import threading
+
+    from zentf.core.messages import Clock, Header, Point, PointStamped
+    from zentf.core.time import Time
+    from zentf.graph import GraphWatcher
+    from zentf.node import Node
+    from zentf.options import NodeOptions, ZenohOptions
+    from zentf.tools.bridge import Ros2Bridge
+
+    z = ZenohOptions(connect=[isolated_router], mode="client", no_multicast=True)
+    domain = 1 + uuid.uuid4().int % 200
+    znode = Node("zentf_side", options=NodeOptions(namespace=test_namespace, zenoh=z))
+    rnode = Node("ros2_side", options=NodeOptions(wire="ros2", domain_id=domain, zenoh=z))
+    bz = Node("bridge", options=NodeOptions(namespace=test_namespace, zenoh=z))
+    br = Node("bridge", options=NodeOptions(wire="ros2", domain_id=domain, zenoh=z))
+    bridge = Ros2Bridge(bz, br, ("points",))
+    try:
+        clocks: list = []
+        points: list = []
+        got_clock, got_points = threading.Event(), threading.Event()
+        znode.create_subscription("/clock", Clock, lambda m: (clocks.append(m), got_clock.set()))
+        rnode.create_subscription("/points", PointStamped, lambda m: (points.append(m), got_points.set()))
+        watcher = GraphWatcher(br.session, profile=br.wire)
+        assert watcher.wait_for(lambda es: any(e.kind == "sub" and e.topic == "/points" for e in es), 10)
+        watcher.close()
+        clock_pub = rnode.create_publisher("/clock", Clock)
+        pts_pub = znode.create_publisher("points", PointStamped)
+        deadline = time.monotonic() + 20
+        while not (got_clock.is_set() and got_points.is_set()) and time.monotonic() < deadline:
+            clock_pub.publish(Clock(Time(sec=42, nanosec=7)))
+            pts_pub.publish(PointStamped(Header(Time(sec=3), "base"), Point(1.0, 2.0, 3.0)))
+            time.sleep(0.05)
+        assert clocks and clocks[0].clock == Time(sec=42, nanosec=7)
+        assert points and points[0].point == Point(1.0, 2.0, 3.0) and points[0].header.frame_id == "base"
+        assert bridge.stats.to_zentf["/clock"] > 0 and bridge.stats.to_ros2[f"/{test_namespace}/points"] > 0
+    finally:
+        bridge.close()
+        for n in (znode, rnode, bz, br):
+            n.shutdown()

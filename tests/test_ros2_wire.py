@@ -10,7 +10,7 @@ import uuid
 import pytest
 
 from zentf.options import NodeOptions, OptionsError
-from zentf.profile import (ROS2_AUTHORITY, Ros2Profile, WireProfile, make_profile, parse_ros2_attachment,
+from zentf.profile import (Ros2Profile, WireProfile, make_profile, parse_ros2_attachment,
                            parse_ros2_token, qos_string, ros2_attachment)
 
 TF = "tf2_msgs/msg/TFMessage"
@@ -59,7 +59,7 @@ def test_tokens_of_rmw_zenoh_parse_into_the_graph() -> None:
     node = "@ros2_lv/0/aac3178e146ba6f1fc6e6a4085e77f21/0/0/NN/%/%/listener"
     sub = ("@ros2_lv/0/aac3178e146ba6f1fc6e6a4085e77f21/0/10/MS/%/%/listener/%chatter/std_msgs::msg::dds_::String_/"
            "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18/::,10:,:,:,,")
-    pub = (f"@ros2_lv/0/8b20917502ee955ac4476e0266340d5c/0/10/MP/%/%robot1/talker/%robot1%chatter/"
+    pub = ("@ros2_lv/0/8b20917502ee955ac4476e0266340d5c/0/10/MP/%/%robot1/talker/%robot1%chatter/"
            "std_msgs::msg::dds_::String_/RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18/"
            "::,7:,:,:,,")
     e = parse_ros2_token(node)
@@ -124,8 +124,6 @@ def _wait(pred, timeout: float = 10.0) -> bool:
 
 
 def test_zentf_nodes_speak_ros2_on_the_wire(ros2_options) -> None:
-    import zenoh
-
     from zentf.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
     from zentf.buffer import Buffer
     from zentf.core.messages import Header, PointStamped, Point, Transform, TransformStamped, Vector3
@@ -183,6 +181,10 @@ def test_zentf_nodes_speak_ros2_on_the_wire(ros2_options) -> None:
                               + "/::,100:,:,:,,") for k in tokens), tokens
         assert any("/MP/%/%/tf_pub/%tf_static/" in k and k.endswith("/:1:,1:,:,:,,") for k in tokens), tokens
         assert any(k.endswith("/NN/%/%/tf_sub") for k in tokens)
+        # the GID in the attachments is rmw_zenoh's: XXH3-128 of the publisher's token, low then high 64 bits
+        xxhash = pytest.importorskip("xxhash")
+        (tf_token,) = [k for k in tokens if "/MP/%/%/tf_pub/%tf/" in k]
+        assert atts[0][2] == xxhash.xxh3_128_intdigest(tf_token.encode()).to_bytes(16, "little")
     finally:
         watcher.close()
         spy.undeclare()

@@ -239,7 +239,6 @@ class StaticTransformListener(TransformListener):
 def wire_key(node: Node, topic: str) -> str:
     """Key of a tf topic; '*' / '**' parts make it a pattern ('*/tf' = the tf of every robot namespace)."""
     from .core.messages import TFMessage as _TF
-    from .names import topic_to_key
 
     if "*" not in topic:
         return node.wire.data_key(node.resolve_topic_name(topic), _TF.TYPE_NAME)

@@ -189,14 +189,11 @@ class _Ros2Attacher(Attacher):
     """Per publisher: sequence number from 1, source timestamp, GID (XXH3-128 of the token, as
     rmw_zenoh computes it when the xxhash module is there, else random)."""
 
-    __slots__ = ("gid", "seq", "lock")
+    __slots__ = ("gid", "seq")
 
     def __init__(self, token_key: str) -> None:
-        import threading
-
         self.gid = _gid_of(token_key)
-        self.seq = itertools.count(1)
-        self.lock = threading.Lock()
+        self.seq = itertools.count(1)  # next() on a count is atomic under the GIL: no lock needed
 
     def __call__(self) -> bytes:
         return _ATT.pack(next(self.seq), time.time_ns(), 16, self.gid)

@@ -116,20 +116,22 @@ def tf_samples(payload: bytes) -> tuple[list[tuple], int, str | None]:
         raise CdrError(f"not little-endian CDR (encapsulation {header[:2].hex()}, expected 0001)")
     if n * 72 > end - 8:  # no element is smaller than 72 bytes
         raise CdrError(f"TFMessage claims {n} transforms but has only {end - 8} bytes")
-    # the layout is found by the size and the first transform's frame names (never by numbers)
-    try:
-        (ln,) = _U32.unpack_from(payload, 16)
-        o2 = (20 + ln + 3) & ~3
-        (ln2,) = _U32.unpack_from(payload, o2)
-        sig = (end, payload[16:o2 + 4 + ln2]) if n else None
-    except struct.error:
-        sig = None
+    # many transforms: the layout is found by the size and the first transform's frame names
+    sig = None
+    if n >= 8:
+        try:
+            (ln,) = _U32.unpack_from(payload, 16)
+            o2 = (20 + ln + 3) & ~3
+            (ln2,) = _U32.unpack_from(payload, o2)
+            sig = (end, payload[16:o2 + 4 + ln2])
+        except struct.error:
+            sig = None
     layout = _LAYOUTS.get(sig) if sig is not None else None
     if layout is not None:
         fast = _with_layout(payload, n, layout)
         if fast is not None:
             return fast
-    elif sig is not None and n >= 8 and len(_LAYOUTS) < 256:  # worth learning: many transforms per message
+    elif sig is not None and len(_LAYOUTS) < 256:  # worth learning: many transforms per message
         layout = _learn(payload, n)
         if layout is not None:
             _LAYOUTS[sig] = layout
@@ -250,37 +252,47 @@ def _fields(t: Any) -> tuple:
     return sec, nsec, h.frame_id, t.child_frame_id, p.x, p.y, p.z, q.x, q.y, q.z, q.w
 
 
+_MIDS: dict[tuple[Any, Any, int], bytes] = {}
+
+
+def _middle(parent: Any, child: Any, off: int) -> bytes:
+    """frame_id, padding to 4, child_frame_id, padding to 8: the bytes between a stamp (ending at
+    ``off``) and the 7 doubles; they depend only on the names and on off % 8 (cached)."""
+    key = (parent, child, off & 7)
+    mid = _MIDS.get(key)
+    if mid is None:
+        pb = _frame_bytes(parent)
+        cb = _frame_bytes(child)
+        at = off + len(pb)
+        pad1 = -at & 3
+        at += pad1 + len(cb)
+        mid = pb + _PAD[pad1] + cb + _PAD[-at & 7]
+        if len(_MIDS) > 100_000:
+            _MIDS.clear()
+        _MIDS[key] = mid
+    return mid
+
+
 def encode_tf(transforms: Iterable[Any]) -> bytes:
     """A CDR TFMessage (with encapsulation header) from TransformStamped objects or plain dicts."""
     items = transforms if isinstance(transforms, (list, tuple)) else list(transforms)
     parts = [b"\x00\x01\x00\x00", _U32.pack(len(items))]
     append = parts.append
-    off = 4  # bytes written after the encapsulation header
+    off = 4  # bytes written after the encapsulation header; 4-aligned at each element
     pack_stamp = _STAMP.pack
     pack_seven = _SEVEN.pack
-    fb = _frame_bytes
     for t in items:
         try:
             sec, nsec, parent, child, x, y, z, qx, qy, qz, qw = _fields(t)
-            pb = fb(parent)
-            cb = fb(child)
             stamp = pack_stamp(sec, nsec)
             values = pack_seven(x, y, z, qx, qy, qz, qw)
+            mid = _middle(parent, child, off + 8)
         except (KeyError, AttributeError, TypeError) as e:
             raise CdrError(f"not a TransformStamped: {type(e).__name__}: {e}"[:160]) from None
         except struct.error as e:
             raise CdrError(f"TransformStamped value out of range: {e}") from None
-        # off is 4-aligned here
         append(stamp)
-        append(pb)
-        off += 8 + len(pb)
-        pad = -off & 3
-        append(_PAD[pad])
-        off += pad
-        append(cb)
-        off += len(cb)
-        pad = -off & 7
-        append(_PAD[pad])
+        append(mid)
         append(values)
-        off += pad + 56
+        off += 64 + len(mid)
     return b"".join(parts)
