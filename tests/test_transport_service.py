@@ -120,7 +120,7 @@ def test_zentf_service_list_type_call(server, zenoh_env, test_namespace):
     assert_one_line_error(zentf(["service", "call", "fail", "std_srvs/srv/Trigger"], zenoh_env),
                           "service", "the disk is full", code=1)
     assert_one_line_error(zentf(["service", "call", "echo", "std_srvs/srv/SetBool", "{data: [1"], zenoh_env),
-                          "bad YAML request", code=2)
+                          "DATA is not valid YAML/JSON", code=2)
     assert_one_line_error(zentf(["service", "call", "echo", "std_srvs/srv/SetBool", "{dat: 1}"], zenoh_env),
                           "unknown field 'dat'", code=2)
     assert_one_line_error(zentf(["service", "call", "echo", "nope/srv/X", "{}"], zenoh_env),
