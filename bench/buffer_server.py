@@ -76,18 +76,23 @@ def run_publisher(a: argparse.Namespace) -> None:
     print("ready", flush=True)
     period = 1.0 / a.rate
     nxt = time.monotonic()
+    sent = 0
     while time.time() < a.stop_at:
         now = Time(nanoseconds=time.time_ns())
         for m in msgs:
             m.header.stamp = now
-        br.send_transform(msgs)
+        br.send_transform(msgs)  # blocks while the network is congested (tf is a BLOCK publisher)
+        if a.start_at <= time.time() < a.stop_at - 1:
+            sent += 1
         nxt += period
         time.sleep(max(0.0, nxt - time.monotonic()))
+    print("RESULT " + json.dumps({"sent": sent}), flush=True)
     node.shutdown()
 
 
-def _lookups(a: argparse.Namespace, lookup) -> None:
-    """Look up a random leaf in world at the lookup rate; latencies inside the measured window."""
+def _lookups(a: argparse.Namespace, lookup, received=lambda: 0) -> None:
+    """Look up a random leaf in world at the lookup rate; latencies (and tf messages received) inside
+    the measured window."""
     rng = random.Random(os.getpid())
     names = leaves(a.frames)
     lat: list[int] = []
@@ -95,7 +100,10 @@ def _lookups(a: argparse.Namespace, lookup) -> None:
     period = 1.0 / a.lookup_rate
     print("ready", flush=True)
     nxt = time.monotonic()
+    r0 = None
     while time.time() < a.stop_at:
+        if r0 is None and time.time() >= a.start_at:
+            r0 = received()
         frame = rng.choice(names)
         t0 = time.perf_counter_ns()
         try:
@@ -110,7 +118,8 @@ def _lookups(a: argparse.Namespace, lookup) -> None:
             failed += not good
         nxt += period
         time.sleep(max(0.0, nxt - time.monotonic()))
-    print("RESULT " + json.dumps({"lat": lat, "ok": ok, "failed": failed}), flush=True)
+    tf = received() - (r0 or 0)
+    print("RESULT " + json.dumps({"lat": lat, "ok": ok, "failed": failed, "tf": tf}), flush=True)
 
 
 def run_client(a: argparse.Namespace) -> None:
@@ -133,8 +142,8 @@ def run_listener(a: argparse.Namespace) -> None:
 
     node = Node(options=node_options(a.endpoint, f"bench_listener_{os.getpid()}"), start_parameter_services=False)
     buffer = Buffer()
-    TransformListener(buffer, node)
-    _lookups(a, lambda f: buffer.lookup_transform("world", f, Time()))
+    listener = TransformListener(buffer, node)
+    _lookups(a, lambda f: buffer.lookup_transform("world", f, Time()), lambda: listener.messages)
     node.shutdown()
 
 
@@ -146,12 +155,15 @@ def run_server(a: argparse.Namespace) -> None:
 
     node = Node(options=node_options(a.endpoint, "tf2_buffer_server"), start_parameter_services=False)
     buffer = Buffer(node=node)
-    TransformListener(buffer, node)
+    listener = TransformListener(buffer, node)
     server = BufferServer(buffer, node)
     print("ready", flush=True)
+    time.sleep(max(0.0, a.start_at - time.time()))
+    r0, q0 = listener.messages, server.requests
+    time.sleep(max(0.0, a.stop_at - 1 - time.time()))
+    print("RESULT " + json.dumps({"requests": server.requests - q0, "tf": listener.messages - r0}), flush=True)
     while time.time() < a.stop_at:
         time.sleep(0.2)
-    print("RESULT " + json.dumps({"requests": server.requests}), flush=True)
     node.shutdown()
 
 
@@ -208,12 +220,18 @@ def phase(a: argparse.Namespace, router_pid: int, mode: str) -> dict:
         cpu = {k: (c1[k] - c0[k]) / wall * 100 for k in c0}
         lat: list[int] = []
         ok = failed = 0
+        tf: list[int] = []
         for p in procs["lookup"]:
             r = json.loads(wait_line(p, "RESULT ", 60 + a.duration)[7:])
             lat += r["lat"]
             ok += r["ok"]
             failed += r["failed"]
-        return {"cpu": cpu, "router": router, "lat": sorted(lat), "ok": ok, "failed": failed}
+            tf.append(r["tf"])
+        if mode == "server":
+            tf = [json.loads(wait_line(procs["server"][0], "RESULT ", 60)[7:])["tf"]]
+        sent = json.loads(wait_line(procs["publisher"][0], "RESULT ", 60)[7:])["sent"]
+        return {"cpu": cpu, "router": router, "lat": sorted(lat), "ok": ok, "failed": failed,
+                "tf_in": statistics.mean(tf) / a.duration, "tf_out": sent / a.duration}
     finally:
         for group in procs.values():
             for p in group:
@@ -268,16 +286,19 @@ def main() -> None:
           f"{a.frames} frames at {a.rate:g} Hz on tf, {a.clients} processes looking up at {a.lookup_rate:g} Hz, "
           f"{a.duration:g} s measured)")
     print()
-    print(f"| set | CPU of the set (% of one core) | lookup p50 (µs) | lookup p99 (µs) | lookups ok / failed |")
-    print("|---|---|---|---|---|")
+    want = a.clients * a.lookup_rate * a.duration
+    print("| set | CPU of the set (% of one core) | lookup p50 (µs) | lookup p99 (µs) | lookups ok / failed "
+          f"(of {want:.0f} asked) | tf msgs/s sent / received per tf subscriber |")
+    print("|---|---|---|---|---|---|")
     print(f"| 1 buffer_server + {a.clients} BufferClients | {s_total:.0f} (server {s['cpu']['server']:.0f}, "
           f"clients {s['cpu']['lookup']:.0f}) | {pct(s['lat'], 0.5):.0f} | {pct(s['lat'], 0.99):.0f} | "
-          f"{s['ok']} / {s['failed']} |")
+          f"{s['ok']} / {s['failed']} | {s['tf_out']:.0f} / {s['tf_in']:.0f} |")
     print(f"| {a.clients} TransformListeners (reference: tf2_ros default) | {l_total:.0f} | "
-          f"{pct(li['lat'], 0.5):.0f} | {pct(li['lat'], 0.99):.0f} | {li['ok']} / {li['failed']} |")
+          f"{pct(li['lat'], 0.5):.0f} | {pct(li['lat'], 0.99):.0f} | {li['ok']} / {li['failed']} | "
+          f"{li['tf_out']:.0f} / {li['tf_in']:.0f} |")
     ratio = l_total / s_total if s_total > 0 else float("nan")
     print(f"| ratio listeners / server set | {ratio:.1f}x | "
-          f"{pct(li['lat'], 0.5) / pct(s['lat'], 0.5):.2f}x | | |")
+          f"{pct(li['lat'], 0.5) / pct(s['lat'], 0.5):.2f}x | | | |")
     print()
     print(f"Outside the sets: tf publisher {s['cpu']['publisher']:.0f}% / {li['cpu']['publisher']:.0f}%, "
           f"router {s['router']:.0f}% / {li['router']:.0f}% (server phase / listener phase).")

@@ -110,3 +110,17 @@ def test_a_client_whose_server_restarts_recovers(spawn, client_node):
             assert time.monotonic() - t0 < 30, "lookups kept succeeding after the server was killed"
     _server(spawn)
     assert client.lookup_transform("map", "odom", Time(), timeout=20).transform.translation.x == 1.0
+
+
+def test_a_garbage_request_is_answered_with_invalid_argument(spawn, zenoh_session, test_namespace, client_node):
+    import msgpack
+
+    _server(spawn)
+    client = BufferClient(client_node)
+    assert client.wait_for_server(20)
+    replies = list(zenoh_session.get(f"{test_namespace}/tf2_buffer_server", payload=b"\x93\x01\x02", timeout=10))
+    assert len(replies) == 1
+    err = msgpack.unpackb(replies[0].ok.payload.to_bytes())["error"]
+    assert err["error"] == 4 and err["error_string"].startswith("bad LookupTransform request")
+    with pytest.raises(LookupException):  # the server still answers
+        client.lookup_transform("a", "b", Time())

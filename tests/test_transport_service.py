@@ -120,7 +120,7 @@ def test_zentf_service_list_type_call(server, zenoh_env, test_namespace):
     assert_one_line_error(zentf(["service", "call", "fail", "std_srvs/srv/Trigger"], zenoh_env),
                           "service", "the disk is full", code=1)
     assert_one_line_error(zentf(["service", "call", "echo", "std_srvs/srv/SetBool", "{data: [1"], zenoh_env),
-                          "bad YAML request", code=2)
+                          "DATA is not valid YAML/JSON", code=2)
     assert_one_line_error(zentf(["service", "call", "echo", "std_srvs/srv/SetBool", "{dat: 1}"], zenoh_env),
                           "unknown field 'dat'", code=2)
     assert_one_line_error(zentf(["service", "call", "echo", "nope/srv/X", "{}"], zenoh_env),
@@ -178,3 +178,12 @@ def _gone(client) -> bool:
         assert time.monotonic() < deadline, "teleport_absolute of a killed turtle is still served"
         time.sleep(0.05)
     return True
+
+
+def test_garbage_requests_get_an_error_reply_and_the_server_carries_on(server, zenoh_session, test_namespace, node):
+    replies = list(zenoh_session.get(f"{test_namespace}/echo", payload=b"\xc1 not msgpack", timeout=10))
+    assert len(replies) == 1 and replies[0].ok is None
+    assert "bad request for std_srvs/srv/SetBool" in replies[0].err.payload.to_bytes().decode()
+    client = node.create_client("echo", SetBool)
+    assert client.wait_for_service(20)
+    assert client.call({"data": True}, timeout=10).success

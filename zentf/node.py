@@ -376,10 +376,10 @@ class Node:
             self._clock_jump = None
             if use_sim:
                 self._start_sim_clock()
-            if start_parameter_services if start_parameter_services is not None else not self._name.startswith("_"):
-                from .parameters import ParameterService
+            if not self._name.startswith("_") if start_parameter_services is None else start_parameter_services:
+                from .parameters import ParameterService  # ~/get_parameters, ~/set_parameters, ...
 
-                ParameterService(self)  # ~/get_parameters, ~/set_parameters, ... (hidden tool nodes skip them)
+                ParameterService(self)  # hidden (tool) nodes skip them unless asked
             self._executor = threading.Thread(target=self._run_executor, name=f"zentf-exec{self._fq_name}",
                                               daemon=True)
             self._executor.start()

@@ -60,12 +60,11 @@ def _check_srv_type(srv_type: Any) -> type[ServiceType]:
 def _takes_response(handler: Callable[..., Any]) -> bool:
     """rclpy handlers are ``handler(request, response)``; rospy's ``handler(request)`` works too."""
     try:
-        params = [p for p in inspect.signature(handler).parameters.values()
-                  if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
-        return len(params) >= 2 or any(p.kind == p.VAR_POSITIONAL for p in
-                                       inspect.signature(handler).parameters.values())
+        params = list(inspect.signature(handler).parameters.values())
     except (TypeError, ValueError):
         return True
+    positional = [p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    return len(positional) >= 2 or any(p.kind == p.VAR_POSITIONAL for p in params)
 
 
 class Service:

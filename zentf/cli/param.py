@@ -35,22 +35,33 @@ def _fq(opts: CliOptions, name: str) -> str:
 
 
 @contextmanager
-def _client(opts: CliOptions, node_name: str, timeout: float) -> Iterator[Any]:
-    """A ParameterClient of NODE, once its services answer; a clear line if the node is not there."""
-    from zentf.parameters import ParameterClient
-
+def _tool_node(opts: CliOptions) -> Iterator[Any]:
     from .common import open_node
 
-    fq = _fq(opts, node_name)
     node = open_node(opts, "param")
     try:
-        client = ParameterClient(node, fq)
-        if not client.wait(timeout):
-            raise CliError(f"node {fq} is not running (no parameter services within {timeout:g} s; "
-                           "see 'zentf node list')")
-        yield client
+        yield node
     finally:
         node.shutdown()
+
+
+def _reach(node: Any, fq: str, timeout: float) -> Any:
+    """A ParameterClient of node ``fq``, once its services answer; a clear line if it is not there."""
+    from zentf.parameters import ParameterClient
+
+    client = ParameterClient(node, fq)
+    if not client.wait(timeout):
+        raise CliError(f"node {fq} is not running (no parameter services within {timeout:g} s; "
+                       "see 'zentf node list')")
+    return client
+
+
+@contextmanager
+def _client(opts: CliOptions, node_name: str, timeout: float) -> Iterator[Any]:
+    """A ParameterClient of NODE (name in --namespace, or /ns/name)."""
+    fq = _fq(opts, node_name)
+    with _tool_node(opts) as node:
+        yield _reach(node, fq, timeout)
 
 
 def _call(fn: Any, *args: Any) -> Any:
@@ -84,14 +95,14 @@ def param_list(node_name: Optional[str], timeout: float, wait: float, *, opts: C
     from .node import is_hidden
 
     nodes, _ = graph_snapshot(opts, wait, graph_namespace(opts))
-    for fq in sorted(n for n in nodes if not is_hidden(n)):
-        if not any(s.endswith("/list_parameters") for s, _ in nodes[fq].services):
-            continue
-        with _client(opts, fq, timeout) as client:
-            names = _call(client.list, timeout)
-        print(f"{fq}:")
-        for name in names:
-            print(f"  {name}")
+    with _tool_node(opts) as tool:
+        for fq in sorted(n for n in nodes if not is_hidden(n)):
+            if not any(s.endswith("/list_parameters") for s, _ in nodes[fq].services):
+                continue
+            names = _call(_reach(tool, fq, timeout).list, timeout)
+            print(f"{fq}:")
+            for name in names:
+                print(f"  {name}")
 
 
 @param.command("get", context_settings=CONTEXT_SETTINGS)

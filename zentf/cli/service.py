@@ -1,8 +1,6 @@
 """`zentf service list | type | call`: the live services (ros2 service), from liveliness tokens."""
 from __future__ import annotations
 
-from typing import Any
-
 import click
 
 from .common import CONTEXT_SETTINGS, CliError, CliOptions, finite_float, liveliness_wait_option, with_options
@@ -74,24 +72,6 @@ def service_type_cmd(name: str, wait: float, *, opts: CliOptions) -> None:
         print(t)
 
 
-def _parse_request(text: str, srv: Any) -> Any:
-    import yaml
-
-    try:
-        data = yaml.safe_load(text) if text.strip() else {}
-    except yaml.YAMLError as exc:
-        raise CliError(f"bad YAML request: {' '.join(str(exc).split())[:160]}", code=2) from exc
-    if data is None:
-        data = {}
-    if not isinstance(data, dict):
-        raise CliError(f"bad request: expected a YAML mapping of {srv.Request.TYPE_NAME} fields, "
-                       f"got {type(data).__name__}", code=2)
-    try:
-        return srv.Request.from_dict(data)
-    except ValueError as exc:
-        raise CliError(f"bad request: {exc}", code=2) from exc
-
-
 @service.command("call", context_settings=CONTEXT_SETTINGS)
 @click.argument("name")
 @click.argument("type_name", metavar="TYPE")
@@ -112,7 +92,9 @@ def service_call(name: str, type_name: str, values: str, timeout: float, *, opts
         srv = service_type(type_name)
     except KeyError as exc:
         raise CliError(str(exc.args[0]), code=2) from exc
-    request = _parse_request(values, srv)
+    from .topic import parse_message
+
+    request = parse_message(srv.Request.TYPE_NAME, values)  # one CliError line (exit 2) naming what is wrong
     full = _full_name(opts, name)
     node = open_node(opts, "service")
     try:
