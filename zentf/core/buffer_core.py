@@ -31,7 +31,7 @@ from .constants import INSERT_OLD as _OLD
 from .exceptions import (ConnectivityException, ExtrapolationException, InvalidArgumentException,
                          LookupException, TransformException)
 from .messages import Header, Quaternion, Transform, TransformStamped, Vector3
-from .time import NSEC_PER_SEC, Duration, Time
+from .time import NSEC_PER_SEC, Duration, Time, ns_from_sec
 
 __all__ = ["BufferCore", "TransformableResult", "NEVER_TRANSFORMABLE", "DEFAULT_CACHE_TIME",
            "MAX_GRAPH_DEPTH"]
@@ -72,7 +72,7 @@ def _ns(t: Any) -> int:
     else:
         if not math.isfinite(t):
             raise ValueError(f"time must be finite, got {t!r}")
-        ns = round(t * NSEC_PER_SEC)
+        ns = ns_from_sec(t, "time")  # ROS's whole seconds + rounded fraction
     if ns < 0:
         raise ValueError(f"time cannot be negative ({t!r})")
     return ns

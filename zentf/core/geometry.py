@@ -18,7 +18,7 @@ from .exceptions import TransformException, TypeException
 from .math3d import matrix_from_quaternion, matrix_from_quaternion_batch, quaternion_multiply
 from .messages import (Header, Point, PointStamped, Pose, PoseStamped, Quaternion, TransformStamped,
                        Vector3, Vector3Stamped)
-from .time import NSEC_PER_SEC, Time
+from .time import Time, ns_from_sec_array
 
 __all__ = [
     "do_transform_point", "do_transform_vector3", "do_transform_vector", "do_transform_pose",
@@ -145,9 +145,7 @@ def _times_ns(times: Any) -> np.ndarray:
         if times.dtype.kind in "iu":
             out = times.astype(np.int64, copy=False)
         elif times.dtype.kind == "f":
-            if not np.all(np.isfinite(times)):
-                raise ValueError("times must be finite")
-            out = np.rint(times * NSEC_PER_SEC).astype(np.int64)
+            out = ns_from_sec_array(times)  # ROS's whole seconds + rounded fraction, per element
         else:
             out = np.array([_one_ns(t) for t in times.ravel()], dtype=np.int64)
     else:
