@@ -160,8 +160,8 @@ def do_transform_wrench(wrench: WrenchStamped | Wrench, transform: TransformStam
     """force' = R·f, torque' = R·τ + t × force' (tf2_geometry_msgs of ROS 2 and noetic's last release).
 
     geometry2 0.7.6 (the Debian tf2 the differential tests use) only rotated both vectors; the
-    torque of a force moved by t was added later (ros/geometry2#518, ros2/geometry2): zentf follows
-    the current tf2 of both ROS versions.
+    torque of a force moved by t was added later (ros/geometry2 noetic-devel and ros2/geometry2
+    both have it): zentf follows the current tf2 of both ROS versions.
     """
     stamped = isinstance(wrench, WrenchStamped)
     w = wrench.wrench if stamped else wrench
