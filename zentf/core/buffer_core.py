@@ -1057,6 +1057,22 @@ class BufferCore:
         from .geometry import lookup_transforms as _lt
         return _lt(self, target_frame, source_frame, times)
 
+    # ------------------------------------------------------------------------ velocity (ROS 2 tf2)
+
+    def lookup_velocity(self, tracking_frame: str, observation_frame: str, time: TimeArg,
+                        averaging_interval: Union[Duration, float, int]) -> Any:
+        """ROS 2 tf2 ``lookupVelocity``: a VelocityStamped of tracking_frame seen from observation_frame."""
+        from .velocity import lookup_velocity as _lv
+        return _lv(self, tracking_frame, observation_frame, time, averaging_interval)
+
+    def lookup_velocity_full(self, tracking_frame: str, observation_frame: str, reference_frame: str,
+                             reference_point: Any, reference_point_frame: str, time: TimeArg,
+                             averaging_interval: Union[Duration, float, int]) -> Any:
+        """ROS 2 tf2 ``lookupVelocity`` with a reference frame and a reference point (zentf.core.velocity)."""
+        from .velocity import lookup_velocity_full as _lvf
+        return _lvf(self, tracking_frame, observation_frame, reference_frame, reference_point,
+                    reference_point_frame, time, averaging_interval)
+
 
 def _inverse(tx: float, ty: float, tz: float, x: float, y: float, z: float, w: float) -> tuple:
     """Inverse of (t, q) as tf2 computes it: q⁻¹ = conjugate, t' = quatRotate(q⁻¹, −t)."""

@@ -261,8 +261,20 @@ class TwistStamped(Message):
     twist: "Twist" = field(default_factory=lambda: Twist())  # Twist is defined with the demo messages below
 
 
+@register
+@dataclass(slots=True)
+class VelocityStamped(Message):
+    """What ROS 2 tf2's lookupVelocity returns: the twist of body_frame_id, in header.frame_id."""
+
+    TYPE_NAME: ClassVar[str] = "geometry_msgs/msg/VelocityStamped"
+    header: Header = field(default_factory=Header)
+    body_frame_id: str = ""
+    reference_frame_id: str = ""
+    velocity: "Twist" = field(default_factory=lambda: Twist())
+
+
 __all__ += ["QuaternionStamped", "PoseWithCovariance", "PoseWithCovarianceStamped", "Wrench", "WrenchStamped",
-            "TwistStamped"]
+            "TwistStamped", "VelocityStamped"]
 
 
 @register
