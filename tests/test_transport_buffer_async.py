@@ -162,8 +162,7 @@ def test_async_waits_across_processes(spawn, node_options) -> None:
             p = spawn.python("-c", BROADCASTER, "drone_bcast")
             t = await task
             assert t.transform.translation.x == 7.0, p.output()
-            assert fut.result(30).transform.translation.x == 7.0
-            p.stop()
+            assert fut.result(30).transform.translation.x == 7.0  # the spawn fixture stops p
 
         asyncio.run(main())
         assert pending(buf) == 0

@@ -25,7 +25,7 @@ from typing import Any, Sequence
 from .exceptions import InvalidArgumentException
 from .math3d import matrix_from_quaternion, quaternion_from_matrix
 from .messages import Header, Twist, Vector3, VelocityStamped
-from .time import Duration, Time, to_duration
+from .time import Duration, Time, ns_from_sec, to_duration
 
 __all__ = ["lookup_velocity", "lookup_velocity_full"]
 
@@ -67,14 +67,14 @@ def lookup_velocity_full(core: Any, tracking_frame: str, observation_frame: str,
                          reference_point: Any, reference_point_frame: str, time: Any,
                          averaging_interval: Any) -> VelocityStamped:
     """ROS 2 tf2 lookupVelocity, full form (reference frame and reference point given)."""
-    from .buffer_core import _ns  # the one float/Time -> ns conversion BufferCore uses
-
     interval = (averaging_interval.nanoseconds if isinstance(averaging_interval, Duration)
                 else to_duration(averaging_interval).nanoseconds)
     if interval <= 0:
         raise InvalidArgumentException(f"averaging_interval must be positive, got {interval} ns")
     rp = _point(reference_point)
-    t = _ns(time)
+    t = time.nanoseconds if isinstance(time, Time) else ns_from_sec(time, "time")
+    if t < 0:
+        raise InvalidArgumentException(f"time cannot be negative ({time!r})")
     latest = core.get_latest_common_time(observation_frame, tracking_frame).nanoseconds
     if t == 0:
         t = latest
