@@ -383,7 +383,7 @@ class Buffer(BufferCore):
 
     def transform(self, object_stamped: Any, target_frame: str, timeout: TimeoutArg = None,
                   new_type: Any = None) -> Any:
-        """A PointStamped/Vector3Stamped/PoseStamped expressed in target_frame (tf2_ros order of args)."""
+        """A stamped message (any geometry.registered_types()) expressed in target_frame (tf2_ros order of args)."""
         from .core import geometry  # numpy loads only when transform helpers are used (CLI start-up)
 
         return geometry.transform(self, object_stamped, target_frame, new_type,
