@@ -160,6 +160,15 @@ def do_transform_transform(data: TransformStamped | Transform, transform: Transf
     return out
 
 
+def _screw(transform: TransformStamped, axis: Vector3, moment: Vector3) -> tuple[Vector3, Vector3]:
+    """The rigid-body (adjoint) map shared by wrenches and twists: (R·a, R·m + t × R·a)."""
+    r, t = _rot_trans(transform)
+    a = _apply(r, axis.x, axis.y, axis.z)
+    m = _apply(r, moment.x, moment.y, moment.z)
+    extra = _cross(t, a)
+    return Vector3(*a), Vector3(m[0] + extra[0], m[1] + extra[1], m[2] + extra[2])
+
+
 def do_transform_wrench(wrench: WrenchStamped | Wrench, transform: TransformStamped) -> WrenchStamped | Wrench:
     """force' = R·f, torque' = R·τ + t × force' (tf2_geometry_msgs of ROS 2 and noetic's last release).
 
@@ -169,11 +178,8 @@ def do_transform_wrench(wrench: WrenchStamped | Wrench, transform: TransformStam
     """
     stamped = isinstance(wrench, WrenchStamped)
     w = wrench.wrench if stamped else wrench
-    m, t = _rot_trans(transform)
-    f = _apply(m, w.force.x, w.force.y, w.force.z)
-    tq = _apply(m, w.torque.x, w.torque.y, w.torque.z)
-    extra = _cross(t, f)
-    out = Wrench(Vector3(*f), Vector3(tq[0] + extra[0], tq[1] + extra[1], tq[2] + extra[2]))
+    force, torque = _screw(transform, w.force, w.torque)
+    out = Wrench(force, torque)
     return WrenchStamped(header=_header(transform), wrench=out) if stamped else out
 
 
@@ -188,11 +194,8 @@ def do_transform_twist(twist: TwistStamped | Twist, transform: TransformStamped)
     """
     stamped = isinstance(twist, TwistStamped)
     tw = twist.twist if stamped else twist
-    m, t = _rot_trans(transform)
-    rot = _apply(m, tw.angular.x, tw.angular.y, tw.angular.z)
-    vel = _apply(m, tw.linear.x, tw.linear.y, tw.linear.z)
-    extra = _cross(t, rot)
-    out = Twist(Vector3(vel[0] + extra[0], vel[1] + extra[1], vel[2] + extra[2]), Vector3(*rot))
+    angular, linear = _screw(transform, tw.angular, tw.linear)
+    out = Twist(linear, angular)
     return TwistStamped(header=_header(transform), twist=out) if stamped else out
 
 
