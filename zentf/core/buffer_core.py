@@ -33,7 +33,7 @@ from .exceptions import (ConnectivityException, ExtrapolationException, InvalidA
                          LookupException, TransformException)
 from .messages import Header, Quaternion, Transform, TransformStamped, Vector3
 from .ratelimit import RateLimitedLogger
-from .time import NSEC_PER_SEC, Duration, Time
+from .time import NSEC_PER_SEC, Duration, Time, ns_from_sec
 
 __all__ = ["BufferCore", "TransformableResult", "NEVER_TRANSFORMABLE", "DEFAULT_CACHE_TIME",
            "MAX_GRAPH_DEPTH"]
@@ -76,8 +76,7 @@ def _ns(t: Any) -> int:
     else:
         if not math.isfinite(t):
             raise ValueError(f"time must be finite, got {t!r}")
-        ns = t * NSEC_PER_SEC
-        ns = round(ns) if -1e19 < ns < 1e19 else MAX_STAMP_NS + 1  # (1e300 s: no OverflowError)
+        ns = ns_from_sec(t, "time")  # ROS's whole seconds + rounded fraction
     if ns < 0:
         raise ValueError(f"time cannot be negative ({t!r})")
     if ns > MAX_STAMP_NS:
@@ -1138,6 +1137,22 @@ class BufferCore:
         """Vectorized lookup_transform over times[N]: (translations[N,3], quaternions[N,4])."""
         from .geometry import lookup_transforms as _lt
         return _lt(self, target_frame, source_frame, times)
+
+    # ------------------------------------------------------------------------ velocity (ROS 2 tf2)
+
+    def lookup_velocity(self, tracking_frame: str, observation_frame: str, time: TimeArg,
+                        averaging_interval: Union[Duration, float, int]) -> Any:
+        """ROS 2 tf2 ``lookupVelocity``: a VelocityStamped of tracking_frame seen from observation_frame."""
+        from .velocity import lookup_velocity as _lv
+        return _lv(self, tracking_frame, observation_frame, time, averaging_interval)
+
+    def lookup_velocity_full(self, tracking_frame: str, observation_frame: str, reference_frame: str,
+                             reference_point: Any, reference_point_frame: str, time: TimeArg,
+                             averaging_interval: Union[Duration, float, int]) -> Any:
+        """ROS 2 tf2 ``lookupVelocity`` with a reference frame and a reference point (zentf.core.velocity)."""
+        from .velocity import lookup_velocity_full as _lvf
+        return _lvf(self, tracking_frame, observation_frame, reference_frame, reference_point,
+                    reference_point_frame, time, averaging_interval)
 
 
 def _inverse(tx: float, ty: float, tz: float, x: float, y: float, z: float, w: float) -> tuple:

@@ -204,6 +204,79 @@ class PoseStamped(Message):
     pose: Pose = field(default_factory=Pose)
 
 
+# --- More geometry_msgs that tf2_geometry_msgs transforms (issue 16) ----------------------------
+
+
+@register
+@dataclass(slots=True)
+class QuaternionStamped(Message):
+    TYPE_NAME: ClassVar[str] = "geometry_msgs/msg/QuaternionStamped"
+    header: Header = field(default_factory=Header)
+    quaternion: Quaternion = field(default_factory=Quaternion)
+
+
+@register
+@dataclass(slots=True)
+class PoseWithCovariance(Message):
+    """A pose and its 6x6 row-major covariance (x, y, z, rotation about X, Y, Z), 36 numbers."""
+
+    TYPE_NAME: ClassVar[str] = "geometry_msgs/msg/PoseWithCovariance"
+    pose: Pose = field(default_factory=Pose)
+    covariance: list[float] = field(default_factory=lambda: [0.0] * 36)
+
+    def __post_init__(self) -> None:
+        if len(self.covariance) != 36:  # a fixed float64[36] in ROS
+            raise ValueError(f"PoseWithCovariance.covariance must have 36 numbers, got {len(self.covariance)}")
+
+
+@register
+@dataclass(slots=True)
+class PoseWithCovarianceStamped(Message):
+    TYPE_NAME: ClassVar[str] = "geometry_msgs/msg/PoseWithCovarianceStamped"
+    header: Header = field(default_factory=Header)
+    pose: PoseWithCovariance = field(default_factory=PoseWithCovariance)
+
+
+@register
+@dataclass(slots=True)
+class Wrench(Message):
+    TYPE_NAME: ClassVar[str] = "geometry_msgs/msg/Wrench"
+    force: Vector3 = field(default_factory=Vector3)
+    torque: Vector3 = field(default_factory=Vector3)
+
+
+@register
+@dataclass(slots=True)
+class WrenchStamped(Message):
+    TYPE_NAME: ClassVar[str] = "geometry_msgs/msg/WrenchStamped"
+    header: Header = field(default_factory=Header)
+    wrench: Wrench = field(default_factory=Wrench)
+
+
+@register
+@dataclass(slots=True)
+class TwistStamped(Message):
+    TYPE_NAME: ClassVar[str] = "geometry_msgs/msg/TwistStamped"
+    header: Header = field(default_factory=Header)
+    twist: "Twist" = field(default_factory=lambda: Twist())  # Twist is defined with the demo messages below
+
+
+@register
+@dataclass(slots=True)
+class VelocityStamped(Message):
+    """What ROS 2 tf2's lookupVelocity returns: the twist of body_frame_id, in header.frame_id."""
+
+    TYPE_NAME: ClassVar[str] = "geometry_msgs/msg/VelocityStamped"
+    header: Header = field(default_factory=Header)
+    body_frame_id: str = ""
+    reference_frame_id: str = ""
+    velocity: "Twist" = field(default_factory=lambda: Twist())
+
+
+__all__ += ["QuaternionStamped", "PoseWithCovariance", "PoseWithCovarianceStamped", "Wrench", "WrenchStamped",
+            "TwistStamped", "VelocityStamped"]
+
+
 @register
 @dataclass(slots=True)
 class TFMessage(Message):

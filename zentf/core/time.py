@@ -2,22 +2,53 @@
 from __future__ import annotations
 
 import math
-from typing import Union
+from typing import Any, Union
 
 NSEC_PER_SEC = 1_000_000_000
 
-__all__ = ["Time", "Duration", "NSEC_PER_SEC", "to_time", "to_duration", "fmt_stamp"]
+__all__ = ["Time", "Duration", "NSEC_PER_SEC", "to_time", "to_duration", "fmt_stamp", "ns_from_sec",
+           "ns_from_sec_array"]
 
 
-def _ns_from_sec(seconds: float, what: str) -> int:
-    """Round float seconds to the nearest nanosecond; refuse NaN and infinities by name."""
+def ns_from_sec(seconds: float, what: str = "time") -> int:
+    """Float seconds -> integer ns as ROS does it: whole seconds first, then the rounded fraction.
+
+    ``sec = floor(s); nsec = round_half_away((s - sec) * 1e9)`` is roscpp's ``fromSec``
+    (ros/roscpp_core rostime) and ROS 2 tf2's ``durationFromSec`` (tf2/src/time.cpp), so a
+    present-day stamp (1.7e9 s) lands on the nanosecond nearest its double; ``round(s * 1e9)``
+    would round the product at 1.7e18, whose doubles are 256 ns apart. ``s - floor(s)`` is exact
+    in binary floating point, so only the fraction's scaling is rounded. (rospy and rclpy truncate
+    ``s * 1e9`` instead; zentf follows the C++ client libraries and tf2 of both ROS versions.)
+    Negative spans work the same way: -0.25 s is -1 s + 750000000 ns. Integers are exact.
+    """
     if isinstance(seconds, bool) or not isinstance(seconds, (int, float)):
+        if hasattr(seconds, "item"):  # numpy scalars
+            return ns_from_sec(seconds.item(), what)
         raise TypeError(f"{what} must be a number of seconds, got {type(seconds).__name__}")
     if isinstance(seconds, int):
         return seconds * NSEC_PER_SEC
     if not math.isfinite(seconds):
         raise ValueError(f"{what} must be finite, got {seconds!r}")
-    return round(seconds * NSEC_PER_SEC)
+    sec = math.floor(seconds)
+    x = (seconds - sec) * 1e9  # in [0, 1e9]
+    nsec = math.floor(x)
+    if x - nsec >= 0.5:  # half away from zero (x >= 0), as boost::math::round / std::round
+        nsec += 1
+    return sec * NSEC_PER_SEC + nsec
+
+
+def ns_from_sec_array(seconds: "Any") -> "Any":
+    """ns_from_sec over a float numpy array (same arithmetic, element by element) -> int64 array."""
+    import numpy as np  # only batch callers pay for numpy
+
+    a = np.asarray(seconds, dtype=np.float64)
+    if not np.all(np.isfinite(a)):
+        raise ValueError("times must be finite")
+    sec = np.floor(a)
+    x = (a - sec) * 1e9
+    nsec = np.floor(x)
+    nsec += (x - nsec) >= 0.5
+    return sec.astype(np.int64) * NSEC_PER_SEC + nsec.astype(np.int64)
 
 
 class _Nanoseconds:
@@ -90,7 +121,7 @@ class Duration(_Nanoseconds):
 
     @classmethod
     def from_sec(cls, seconds: float) -> "Duration":
-        return cls(nanoseconds=_ns_from_sec(seconds, "Duration"))
+        return cls(nanoseconds=ns_from_sec(seconds, "Duration"))
 
     @classmethod
     def from_nsec(cls, nanoseconds: int) -> "Duration":
@@ -148,7 +179,7 @@ class Time(_Nanoseconds):
 
     @classmethod
     def from_sec(cls, seconds: float) -> "Time":
-        return cls(nanoseconds=_ns_from_sec(seconds, "Time"))
+        return cls(nanoseconds=ns_from_sec(seconds, "Time"))
 
     @classmethod
     def from_nsec(cls, nanoseconds: int) -> "Time":
