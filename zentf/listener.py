@@ -88,7 +88,7 @@ class _FutureGuard:
         return self.core.set_transforms_raw(samples, authority, is_static) if samples else 0
 
     def set_transform_raw(self, *args: Any) -> bool:
-        sample, (authority, is_static) = args[:10], args[10:12]
+        sample, authority = args[:10], args[10]
         if not self._split([sample], authority):
             return False
         return self.core.set_transform_raw(*args)
