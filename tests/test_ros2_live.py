@@ -93,7 +93,7 @@ def _router(env: dict[str, str]) -> str:
     return env["ZENTF_CONNECT"].split("/", 1)[1]
 
 
-def test_zentf_sees_a_ros2_node(ros2_env, procs) -> None:
+def test_zentf_sees_a_ros2_node(ros2_env, procs, tmp_path) -> None:
     sdk = procs([*SDK_NODE, "pub", _router(ros2_env), "--node", "sdk_tf_node"], ros2_env)
     sdk.wait_for_line("publishing", timeout=60)
     listener = procs([sys.executable, "-c", LISTENER], ros2_env)
@@ -119,6 +119,19 @@ def test_zentf_sees_a_ros2_node(ros2_env, procs) -> None:
     t = msg["transforms"][0]
     assert (t["header"]["frame_id"], t["child_frame_id"]) == ("map", "odom")
     assert t["transform"]["translation"] == {"x": 1.0, "y": 2.0, "z": 3.0}
+
+    monitor = zentf(["tf", "monitor", "--duration", "2"], ros2_env)
+    assert monitor.returncode == 0, monitor.stderr
+    assert "base_link" in monitor.stdout and "Authority undetectable" in monitor.stdout   # as ROS 2's tf2_monitor
+    frames = zentf(["tf", "frames", "--wait", "1", "--print", "-o", str(tmp_path / "frames")], ros2_env)
+    assert frames.returncode == 0, frames.stderr
+    assert "odom" in frames.stdout and "base_link" in frames.stdout and (tmp_path / "frames.gv").exists()
+    hz = zentf(["topic", "hz", "/tf", "--duration", "2"], ros2_env)
+    assert hz.returncode == 0 and "average rate: " in hz.stdout, hz.stdout + hz.stderr
+    rate = float(hz.stdout.split("average rate: ")[-1].split()[0])
+    assert 5 < rate < 15                                                   # the SDK node publishes at 10 Hz
+    graph = zentf(["graph", "--wait", "2"], ros2_env)
+    assert "/sdk_tf_node" in graph.stdout and "-> /tf [tf2_msgs/msg/TFMessage]" in graph.stdout
 
     # a listener that starts late, after the SDK node has been publishing for a while
     late = procs([sys.executable, "-c", LISTENER.replace("zentf_listener", "late_listener")], ros2_env)

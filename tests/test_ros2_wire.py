@@ -176,7 +176,11 @@ def test_zentf_nodes_speak_ros2_on_the_wire(ros2_options) -> None:
         assert {"/tf_pub", "/tf_sub"} <= set(nodes)
         assert topics["/tf"].types == [TF] and topics["/tf"].publishers == ["/tf_pub"]
         assert "/tf_sub" in topics["/tf_static"].subscribers
-        tokens = [str(r.ok.key_expr) for r in raw.liveliness().get(f"@ros2_lv/{dom}/**", timeout=2) if r.ok]
+        tokens: list[str] = []  # the tokens as a ROS 2 graph cache sees them (history + live)
+        tok_sub = raw.liveliness().declare_subscriber(f"@ros2_lv/{dom}/**", lambda s: tokens.append(str(s.key_expr)),
+                                                      history=True)
+        assert _wait(lambda: sum(1 for k in tokens if "/tf_pub/" in k or "/tf_sub/" in k) >= 5, 10), tokens
+        tok_sub.undeclare()
         assert any(k.endswith("/MP/%/%/tf_pub/%tf/tf2_msgs::msg::dds_::TFMessage_/" + TF_KEY.rsplit("/", 1)[1]
                               + "/::,100:,:,:,,") for k in tokens), tokens
         assert any("/MP/%/%/tf_pub/%tf_static/" in k and k.endswith("/:1:,1:,:,:,,") for k in tokens), tokens
