@@ -148,6 +148,39 @@ bool mesh_use_embedded_materials
     "visualization_msgs/msg/MarkerArray": """
 Marker[] markers
 """,
+    "std_msgs/msg/String": """
+string data
+""",
+    "geometry_msgs/msg/QuaternionStamped": """
+std_msgs/Header header
+Quaternion quaternion
+""",
+    "geometry_msgs/msg/TwistStamped": """
+std_msgs/Header header
+Twist twist
+""",
+    "geometry_msgs/msg/Wrench": """
+Vector3  force
+Vector3  torque
+""",
+    "geometry_msgs/msg/WrenchStamped": """
+std_msgs/Header header
+Wrench wrench
+""",
+    "geometry_msgs/msg/PoseWithCovariance": """
+Pose pose
+float64[36] covariance
+""",
+    "geometry_msgs/msg/PoseWithCovarianceStamped": """
+std_msgs/Header header
+PoseWithCovariance pose
+""",
+    "geometry_msgs/msg/VelocityStamped": """
+std_msgs/Header header
+string body_frame_id
+string reference_frame_id
+Twist velocity
+""",
     "service_msgs/msg/ServiceEventInfo": """
 uint8 REQUEST_SENT = 0
 uint8 REQUEST_RECEIVED = 1
