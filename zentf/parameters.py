@@ -105,10 +105,11 @@ class ParameterService:
 
     def __init__(self, node: Any) -> None:
         self.node = node
-        node.create_service("~/get_parameters", GetParameters, self._get)
-        node.create_service("~/set_parameters", SetParameters, self._set)
-        node.create_service("~/list_parameters", ListParameters, self._list)
-        node.create_service("~/describe_parameters", DescribeParameters, self._describe)
+        depth = 1000  # rmw_qos_profile_parameters, as rclcpp's parameter services (shown in ROS 2 tokens)
+        node.create_service("~/get_parameters", GetParameters, self._get, qos=depth)
+        node.create_service("~/set_parameters", SetParameters, self._set, qos=depth)
+        node.create_service("~/list_parameters", ListParameters, self._list, qos=depth)
+        node.create_service("~/describe_parameters", DescribeParameters, self._describe, qos=depth)
 
     def _get(self, req: Any, resp: Any) -> Any:
         params = self.node._params
