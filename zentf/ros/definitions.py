@@ -181,6 +181,18 @@ string body_frame_id
 string reference_frame_id
 Twist velocity
 """,
+    "tf2_msgs/msg/TF2Error": """
+uint8 NO_ERROR = 0
+uint8 LOOKUP_ERROR = 1
+uint8 CONNECTIVITY_ERROR = 2
+uint8 EXTRAPOLATION_ERROR = 3
+uint8 INVALID_ARGUMENT_ERROR = 4
+uint8 TIMEOUT_ERROR = 5
+uint8 TRANSFORM_ERROR = 6
+
+uint8 error
+string error_string
+""",
     "service_msgs/msg/ServiceEventInfo": """
 uint8 REQUEST_SENT = 0
 uint8 REQUEST_RECEIVED = 1
