@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import logging
 import sys
+import time
 import uuid
 
 import pytest
@@ -154,3 +155,44 @@ def test_type_without_definition_is_skipped_with_one_warning(isolated_router, ca
         assert any("/SS/%/%/skipper/%skipper%get_parameters/rcl_interfaces::srv::dds_::GetParameters_/" in t
                    and t.endswith("/::,1000:,:,:,,") for t in ss), ss
         assert any("/SC/%/%/skipper/%trig/" in t for t in tokens), tokens
+
+
+def test_bad_ros2_requests_get_an_error_reply_and_one_line(isolated_router, caplog) -> None:
+    import zenoh
+
+    from zentf.core.services import SetBool
+    from zentf.profile import parse_ros2_attachment, ros2_attachment
+    from zentf.ros import decode
+
+    opts = NodeOptions(zenoh=ZenohOptions(connect=[isolated_router], no_multicast=True, mode="client"),
+                       wire="ros2", domain_id=1 + uuid.uuid4().int % 200)
+    caplog.set_level(logging.WARNING)
+    served: list = []
+    with Node("strict", options=opts) as node:
+        srv = node.create_service("echo", SetBool, lambda req, resp: served.append(req) or SetBool.Response(True, "x"))
+        raw = opts.zenoh.open_session()
+        try:
+            querier = raw.declare_querier(srv.key, target=zenoh.QueryTarget.ALL_COMPLETE)
+            deadline = time.monotonic() + 10
+            while not querier.matching_status.matching and time.monotonic() < deadline:
+                time.sleep(0.02)  # polls an event Zenoh offers only as a status here
+
+            def ask(payload: bytes, attachment: bytes | None) -> list:
+                return [(r.ok, r.err) for r in raw.get(srv.key, target=zenoh.QueryTarget.ALL_COMPLETE, payload=payload,
+                                                       attachment=attachment, timeout=10.0)]
+
+            gid = bytes(range(16))
+            (ok, err), = ask(b"\x00\x01\x00\x00\x01", None)  # no rmw_zenoh attachment: refused
+            assert ok is None and "without rmw_zenoh attachment" in err.payload.to_bytes().decode()
+            (ok, err), = ask(b"\x00\x01\x00", ros2_attachment(1, 5, gid))  # truncated CDR
+            assert ok is None and "bad request for std_srvs/srv/SetBool" in err.payload.to_bytes().decode()
+            (ok, err), = ask(b"\x00\x01\x00\x00\x01", ros2_attachment(7, 5, gid))  # data: true
+            assert err is None
+            seq, _, back_gid = parse_ros2_attachment(ok.attachment.to_bytes())
+            assert (seq, back_gid) == (7, gid)  # the reply carries the request's sequence number and GID
+            assert decode(ok.payload.to_bytes(), "std_srvs/srv/SetBool_Response").success is True
+            assert [r.data for r in served] == [True]
+        finally:
+            raw.close()
+    lines = [r.getMessage() for r in caplog.records if "/echo" in r.getMessage()]
+    assert len(lines) == 1 and "refused" in lines[0], lines  # rate-limited per service
