@@ -8,8 +8,8 @@
    send time, CLOCK_REALTIME) to the moment its transforms were inserted in the listener's Buffer
    (lookup-able; a lookup root -> tip proves it, untimed). CPU share of one core: the rsp process's
    user+system time over the run / wall time. Reference in the same run: a bare zenoh-python relay
-   process (subscribe joint_states, put the same bytes on tf; no decoding, no FK) with a bare
-   callback as receiver: the floor of the same two hops. Peer to peer on loopback, no router.
+   process (subscribe joint_states, put as many bytes as zentf's TFMessage on tf; no decoding, no
+   FK) with a bare callback as receiver: the floor of the same two hops with the same bytes. Peer to peer on loopback, no router.
    Targets (issue 12): rsp CPU <= 5 % of one core; p50 joint_states -> lookup-able <= 0.5 ms.
 2. Forward kinematics of ``--vectors`` joint vectors at once (``Kinematics.link_poses_batch``, numpy)
    against a Python loop over the vectors calling ``Kinematics.link_poses`` (a per-joint loop of 4x4
@@ -105,12 +105,14 @@ def role_listen(args: argparse.Namespace) -> None:
 
 
 def role_raw_relay(args: argparse.Namespace) -> None:
-    """Reference publisher process: joint_states bytes forwarded unchanged on tf."""
+    """Reference publisher process: for each joint_states sample, a tf sample as large as zentf's
+    TFMessage (its first 8 bytes, the send time, copied from the input; no decoding, no kinematics)."""
     import zenoh
 
     session = zopts(listen=args.endpoint).open_session()
     pub = session.declare_publisher("bench/tf", congestion_control=zenoh.CongestionControl.BLOCK)
-    session.declare_subscriber("bench/joint_states", lambda s: pub.put(s.payload.to_bytes()))
+    pad = b"x" * max(0, args.out_size - 8)
+    session.declare_subscriber("bench/joint_states", lambda s: pub.put(s.payload.to_bytes()[:8] + pad))
     print("publishing robot (raw relay)", flush=True)
     threading.Event().wait(args.count / 50 + 120)
 
@@ -135,7 +137,7 @@ def role_raw_listen(args: argparse.Namespace) -> None:
 
 # ------------------------------------------------------------------ one run
 
-def run_publisher_case(impl: str, urdf: Path, joints: int, rate: float, seconds: float) -> dict:
+def run_publisher_case(impl: str, urdf: Path, joints: int, rate: float, seconds: float, out_size: int) -> dict:
     ep = f"tcp/127.0.0.1:{free_port()}"
     count = int(seconds * rate)
     env = {**os.environ, "PYTHONPATH": str(REPO)}
@@ -145,7 +147,8 @@ def run_publisher_case(impl: str, urdf: Path, joints: int, rate: float, seconds:
         pub_cmd = [sys.executable, "-m", "nodes.robot_state_publisher", str(urdf), "--listen", ep, "--mode", "peer",
                    "--no-multicast", "--namespace", "bench", "-p", "publish_frequency:=10000"]
     else:
-        pub_cmd = [sys.executable, __file__, "--role", "raw_relay", "--endpoint", ep, "--count", str(count)]
+        pub_cmd = [sys.executable, __file__, "--role", "raw_relay", "--endpoint", ep, "--count", str(count),
+                   "--out-size", str(out_size)]
     rsp = subprocess.Popen(pub_cmd, env=env, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     listener = None
     node = session = None
@@ -225,6 +228,40 @@ def run_publisher_case(impl: str, urdf: Path, joints: int, rate: float, seconds:
                     p.wait()
 
 
+def in_process_costs(joints: int, n: int = 2000) -> tuple[float, float, int]:
+    """Per message, no network: (robot_state_publisher decode + kinematics + encoding, listener insert) in us,
+    and the size of the TFMessage."""
+    from zentf import wire
+    from zentf.buffer import Buffer
+    from zentf.core.messages import Header, JointState
+    from zentf.node import Node
+    from zentf.options import NodeOptions
+    from zentf.tools.robot_state_publisher import RobotStatePublisher, _joint_state_decoder
+    from zentf.urdf import parse_urdf
+
+    node = Node("bench_inproc", options=NodeOptions(namespace="bench_inproc", zenoh=zopts()), check_unique=False)
+    try:
+        rsp = RobotStatePublisher(node, parse_urdf(chain_urdf(joints)), ignore_timestamp=True)
+        out: list[bytes] = []
+        rsp._tf.publish_bytes = out.append  # keep the payloads here instead of sending them
+        dec = _joint_state_decoder()
+        names = [f"j{i}" for i in range(1, joints + 1)]
+        payloads = [wire.encode(JointState(Header(), names, [0.1 + 1e-4 * i] * joints, [], [])) for i in range(n)]
+        t0 = time.perf_counter()
+        for i, p in enumerate(payloads):
+            m = dec.decode(p)
+            rsp.process(m.name, m.position, 1, i + 1)
+        t_rsp = (time.perf_counter() - t0) / n
+        buf = Buffer()
+        t0 = time.perf_counter()
+        for p in out:
+            wire.ingest_tf(p, buf, "/bench", False)
+        t_ingest = (time.perf_counter() - t0) / len(out)
+    finally:
+        node.shutdown()
+    return 1e6 * t_rsp, 1e6 * t_ingest, len(out[-1])
+
+
 def pct(sorted_values: list[float], q: float) -> float:
     return sorted_values[min(len(sorted_values) - 1, int(q * len(sorted_values)))] if sorted_values else float("nan")
 
@@ -254,6 +291,7 @@ def main() -> None:
     parser.add_argument("--role", default=None, help=argparse.SUPPRESS)
     parser.add_argument("--endpoint", default=None, help=argparse.SUPPRESS)
     parser.add_argument("--count", type=int, default=0, help=argparse.SUPPRESS)
+    parser.add_argument("--out-size", type=int, default=0, help=argparse.SUPPRESS)
     parser.add_argument("--joints", type=int, default=100)
     parser.add_argument("--seconds", type=float, default=10.0)
     parser.add_argument("--rate", type=float, default=100.0)
@@ -267,10 +305,12 @@ def main() -> None:
 
     print(f"# zentf urdf bench  (python {sys.version.split()[0]}, {os.cpu_count()} cpus, "
           f"load {os.getloadavg()[0]:.2f}; loopback, peer to peer)")
+    t_rsp, t_ingest, out_size = in_process_costs(args.joints)
     with tempfile.TemporaryDirectory() as tmp:
         urdf = Path(tmp) / "chain.urdf"
         urdf.write_text(chain_urdf(args.joints))
-        rows = {impl: run_publisher_case(impl, urdf, args.joints, args.rate, args.seconds) for impl in ("raw", "zentf")}
+        rows = {impl: run_publisher_case(impl, urdf, args.joints, args.rate, args.seconds, out_size)
+                for impl in ("raw", "zentf")}
     print(f"\n## robot_state_publisher: {args.joints}-joint chain, joint_states at {args.rate:g} Hz for "
           f"{args.seconds:g} s")
     print(f"{'':28}{'zentf rsp':>12}{'raw relay':>12}{'ratio':>8}")
@@ -282,6 +322,9 @@ def main() -> None:
         print(f"{'latency ' + label + ', us':28}{zv:>12.0f}{rv:>12.0f}{zv / rv:>8.2f}"
               + ("   target p50 <= 500 us" if q == 0.5 else ""))
     print(f"{'samples':28}{z['n']:>12}{r['n']:>12}")
+    print(f"TFMessage of {args.joints} transforms: {out_size} bytes (the relay sends as many)")
+    print(f"where the time goes, per message, in process (no network): robot_state_publisher decode + kinematics"
+          f" + encoding {t_rsp:.0f} us; the listener inserting its {args.joints} transforms {t_ingest:.0f} us")
 
     print(f"\n## forward kinematics of {args.vectors} joint vectors")
     print(f"{'model':28}{'batch, ms':>12}{'loop, ms':>12}{'speed-up':>10}")

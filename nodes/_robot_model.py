@@ -24,7 +24,7 @@ def own_arguments(parser: argparse.ArgumentParser) -> None:
                         help="xacro argument (repeat)")
 
 
-class ArgError(Exception):
+class ArgError(ValueError):
     """A bad command line (one line)."""
 
 
@@ -51,32 +51,39 @@ def xacro_mappings(items: Sequence[str]) -> dict[str, str]:
 
 
 def load_model(urdf: str | None, package_path: list[str], xacro_args: dict[str, str],
-               description: object) -> Robot:
-    """The robot from a file, else from the robot_description parameter text."""
+               description: object, *, optional: bool = False) -> Robot | None:
+    """The robot from a file, else from the robot_description parameter text (None if optional)."""
     if urdf:
         return load_urdf(urdf, package_path=package_path, xacro_args=xacro_args)
     if isinstance(description, str) and description.strip():
         return parse_urdf(description, source="robot_description", package_path=package_path)
+    if optional:
+        return None
     raise ArgError("no robot model: give a URDF file (or the robot_description parameter)")
 
 
 class Prepared:
     """What start-up checked: node options, the program's arguments, the robot model."""
 
-    def __init__(self, opts, debug: bool, args: argparse.Namespace, robot: Robot) -> None:
+    def __init__(self, opts, debug: bool, args: argparse.Namespace, robot: Robot | None,
+                 package_path: list[str]) -> None:
         self.opts, self.debug, self.args, self.robot = opts, debug, args, robot
+        self.package_path = package_path
 
 
-def prepare(prog: str, parser: argparse.ArgumentParser, argv: Sequence[str]) -> Prepared | None:
-    """Options and the model, before anything starts; None for --help. Raises ArgError/URDFError/OptionsError."""
+def prepare(prog: str, parser: argparse.ArgumentParser, argv: Sequence[str], *,
+            model_optional: bool = False) -> Prepared | None:
+    """Options and the model, before anything starts; None for --help. Raises ArgError/URDFError/OptionsError.
+    With ``model_optional`` no file and no parameter is allowed (the model comes from the topic later)."""
     opts, debug, rest = _common.split_node_options(prog, argv)
     args = parse_own(parser, rest)
     if args is None:
         return None
     params = opts.resolved_params(opts.name or prog)
     package_path = [*args.package_path, *[d for d in str(params.get("package_path", "")).split(os.pathsep) if d]]
-    robot = load_model(args.urdf, package_path, xacro_mappings(args.xacro_arg), params.get("robot_description"))
-    return Prepared(opts, debug, args, robot)
+    robot = load_model(args.urdf, package_path, xacro_mappings(args.xacro_arg), params.get("robot_description"),
+                       optional=model_optional)
+    return Prepared(opts, debug, args, robot, package_path)
 
 
 #: What ``prepare`` raises for a bad start (one line each).

@@ -7,6 +7,8 @@
 
 Start values are joint_state_publisher's: 0, or the middle of the range when 0 is outside it.
 Parameters: ``rate`` (Hz, default 10), ``robot_description`` (URDF text when no file is given).
+With neither a file nor the parameter, the model is read from the latched ``robot_description``
+topic that robot_state_publisher publishes (as ROS 2's joint_state_publisher does).
 """
 from __future__ import annotations
 
@@ -34,6 +36,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--gui", action="store_true", help="serve a web page with one slider per joint")
     p.add_argument("--gui-port", type=int, default=0, metavar="PORT", help="its port on 127.0.0.1 (default: any free)")
     p.add_argument("--no-browser", action="store_true", help="print the page's URL without opening a browser")
+    p.add_argument("--description-timeout", type=float, default=30.0, metavar="S",
+                   help="without a model: how long to wait for the robot_description topic (default 30)")
     return p
 
 
@@ -63,7 +67,7 @@ def parse_values(items: Sequence[str], prepared: Prepared) -> dict[str, float]:
 
 
 def check(p: Prepared) -> dict[str, float]:
-    """The checks that need the model (run before anything starts)."""
+    """The start-up checks (those of --set need the model: later when it comes from the topic)."""
     a = p.args
     if a.rate is not None and not (a.rate > 0 and math.isfinite(a.rate)):
         raise ArgError(f"--rate must be a positive number, got {a.rate}")
@@ -73,13 +77,15 @@ def check(p: Prepared) -> dict[str, float]:
         raise ArgError(f"--gui-port must be 0..65535, got {a.gui_port}")
     if a.sweep and a.gui:
         raise ArgError("--sweep and --gui exclude each other")
-    return parse_values(a.values, p)
+    if not (a.description_timeout > 0 and math.isfinite(a.description_timeout)):
+        raise ArgError(f"--description-timeout must be a positive number, got {a.description_timeout}")
+    return parse_values(a.values, p) if p.robot is not None else {}
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
-        p = prepare(PROG, _parser(), argv)
+        p = prepare(PROG, _parser(), argv, model_optional=True)
         if p is None:
             return 0
         initial = check(p)
@@ -98,6 +104,9 @@ def _run(p: Prepared, initial: dict[str, float]) -> None:
 
     a = p.args
     with _common.make_node(p.opts, PROG) as node:
+        if p.robot is None:
+            p.robot = _model_from_topic(node, p)
+            initial = parse_values(a.values, p)
         rate = a.rate if a.rate is not None else _common.param_positive(node, "rate", 10.0)
         jsp = JointStatePublisher(node, p.robot, rate=rate, initial=initial,
                                   sweep_period=a.sweep_period if a.sweep else None)
@@ -122,6 +131,30 @@ def _run(p: Prepared, initial: dict[str, float]) -> None:
             if gui is not None:
                 gui.close()
             jsp.close()
+
+
+def _model_from_topic(node, p: Prepared):
+    """The URDF latched on robot_description (robot_state_publisher's); URDFError/ArgError end the program."""
+    import threading
+
+    from zentf.core.messages import String
+    from zentf.urdf import parse_urdf
+
+    texts: list[str] = []
+    got = threading.Event()
+    sub = node.create_subscription("robot_description", String, lambda m: (texts.append(m.data), got.set()),
+                                   latched=True)
+    _common.say(f"waiting for the robot model on {node.resolve_topic_name('robot_description')}")
+    deadline = p.args.description_timeout
+    while not got.wait(min(0.2, deadline)) and node.ok():
+        deadline -= 0.2
+        if deadline <= 0:
+            raise ArgError(f"no robot model: nothing on {node.resolve_topic_name('robot_description')} within "
+                           f"{p.args.description_timeout:g} s (give a URDF file, or start robot_state_publisher)")
+    node.destroy_subscription(sub)
+    if not texts:
+        raise KeyboardInterrupt  # stopped while waiting
+    return parse_urdf(texts[0], source="robot_description", package_path=p.package_path)
 
 
 if __name__ == "__main__":

@@ -27,6 +27,9 @@ def offline_env() -> dict[str, str]:
     (["tf", "echo", "a", "b", "--time=-1"], ["'--time'", "-1 is not a time stamp"]),
     (["topic", "pub", "/clock", "rosgraph_msgs/msg/Clock", "{clock: {sec: 99999999999999999999}}"],
      ["bad DATA for rosgraph_msgs/msg/Clock: clock.sec: 99999999999999999999 is out of range"]),
+    # magnitudes that overflow a wait or a sleep (was: "negative timeout" / "time_t" errors, exit 1)
+    (["node", "list", "--wait", "1e300"], ["'--wait'", "1e+300 is too large (at most 1e+09)"]),
+    (["topic", "hz", "x", "--period", "1e300"], ["'--period'", "1e+300 is too large"]),
     # a negative number is a number (was: "No such option '-1'")
     (["clock", "rate", "-1"], ["rate FACTOR must be a finite number > 0, got -1.0"]),
     (["tf", "echo", "a", "b", "-2"], ["Invalid value for '[RATE]': -2.0 is not in the range"]),

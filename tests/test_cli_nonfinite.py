@@ -108,3 +108,15 @@ def test_infinities_are_refused(path, cmd, param, value, shown):
     result = CliRunner().invoke(cli, argv, catch_exceptions=False)
     assert result.exit_code == 2, (argv, result.output)
     assert f"{shown} is not finite" in result.output, (argv, result.output)
+
+
+@pytest.mark.parametrize("path,cmd,param", FLOAT_PARAMS,
+                         ids=[f"{' '.join(p)}:{q.name}" for p, _, q in FLOAT_PARAMS])
+def test_absurd_magnitudes_are_refused(path, cmd, param):
+    """1e300 s would overflow a sleep, a wait or a Zenoh timeout ("negative timeout", "time_t")."""
+    from click.testing import CliRunner
+
+    argv = _argv(path, cmd, param, "1e300")
+    result = CliRunner().invoke(cli, argv, catch_exceptions=False)
+    assert result.exit_code == 2, (argv, result.output)
+    assert "1e+300 is too large" in result.output or "1e+300 is not a time stamp" in result.output, result.output

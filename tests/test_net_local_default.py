@@ -118,8 +118,11 @@ def test_readme_first_command_and_the_cli_work_with_zero_configuration(spawn, lo
 
 
 def _children(pid: int) -> list[int]:
-    out = subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout
-    return [int(p) for p in out.split()]
+    """Every descendant (the launcher's nodes run under a reaper each: grandchildren)."""
+    from zentf.launch import proctree
+
+    table = proctree.snapshot()
+    return list(proctree.descendants(pid, table))
 
 
 def test_the_rendezvous_is_taken_over_when_its_holder_exits(spawn, local_env) -> None:

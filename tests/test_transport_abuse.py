@@ -152,3 +152,107 @@ def test_bad_tolerance_values_are_refused() -> None:
         _tolerance_ns(float("nan"))
     with pytest.raises(TypeError):
         _tolerance_ns("5")
+
+
+# ------------------------------------------------------------------ points 5 and "fair under flood"
+
+class StalenessProbe:
+    """A user thread reading the honest edge's newest stamp every 10 ms: how old is the data?"""
+
+    def __init__(self, buf: Buffer) -> None:
+        import threading
+
+        self.buf = buf
+        self.ages: list[int] = []
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.wait(0.01):
+            self.ages.append(time.time_ns() - latest_stamp(self.buf))
+
+    def stop(self) -> list[int]:
+        self._stop.set()
+        self._thread.join(5)
+        return sorted(self.ages)
+
+
+@pytest.mark.parametrize("kind,count,per", [("nan", 200_000, 1), ("frames", 200_000, 10)])
+def test_honest_edge_stays_fresh_and_logs_stay_short_under_a_flood(spawn, node_options, caplog, kind, count,
+                                                                     per) -> None:
+    with Node("victim", options=node_options) as node, caplog.at_level(logging.INFO, "zentf"):
+        buf = Buffer(node=node)
+        tl = TransformListener(buf, node)
+        spawn.python("-c", HONEST, "av1").wait_for_line("ready", timeout=30)
+        assert buf.can_transform("world", "av1", Time(), timeout=30)
+        probe = StalenessProbe(buf)
+        attacker = spawn.python("-c", ATTACKER, kind, str(count), str(per))
+        attacker.wait_for_line("^sent", timeout=120)
+        got_all = buf.can_transform("world", f"done_{kind}", Time(), timeout=60)
+        ages = probe.stop()
+        # the honest edge is still live after the flood
+        wait_fresh_sample(buf, latest_stamp(buf))
+        assert buf.lookup_transform("world", "av1", Time()).transform.translation.x == 1.0
+    st = tl.stats()
+    assert got_all or st["dropped"], st  # the sentinel arrives unless the flooder's backlog was shed
+    assert len(ages) > 20
+    median, worst = ages[len(ages) // 2], ages[-1]
+    assert median < 250e6 and worst < 3e9, (median / 1e6, worst / 1e6, st)
+    records = [r for r in caplog.records if r.name.startswith("zentf")]
+    assert len(records) <= 12, [r.getMessage()[:120] for r in records]  # rate-limited, not one per sample
+    if kind == "nan":
+        assert any("TF_NAN_INPUT" in r.getMessage() and "/attacker" in r.getMessage() for r in records)
+
+
+# ------------------------------------------------------------------ point 7: escaped names, listener side
+
+def test_frame_ids_with_control_characters_are_logged_escaped(spawn, node_options, caplog) -> None:
+    with Node("victim", options=node_options) as node, caplog.at_level(logging.INFO, "zentf"):
+        buf = Buffer(node=node)
+        TransformListener(buf, node)
+        spawn.python("-c", ATTACKER, "evil", "1", "1").wait_for_line("^sent", timeout=30)
+        assert buf.can_transform("world", "done_evil", Time(), timeout=30)
+    text = "\n".join(r.getMessage() for r in caplog.records)
+    assert r"evil\x1b[2J\r\nFAKE LINE" in text
+    assert "\x1b" not in text and "\r" not in text and "FAKE LINE" not in text.replace(r"\nFAKE LINE", "")
+
+
+# ------------------------------------------------------------------ point 8: bounds, in a listener process
+
+LISTENER = textwrap.dedent("""
+    import json, sys
+    from zentf.node import Node, init_logging
+    from zentf.buffer import Buffer
+    from zentf.listener import TransformListener
+    from zentf.core.time import Time
+    init_logging()
+    def rss_kb():
+        for line in open("/proc/self/status"):
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    node = Node("victim")
+    buf = Buffer(node=node)
+    tl = TransformListener(buf, node)   # bounds from the node parameters (ZENTF_PARAMS)
+    buf.set_transform_raw("world", "done_distinct", 1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, "/seed")
+    idle = rss_kb()
+    print("ready", buf.max_frames, buf.max_frame_id_length, flush=True)
+    ok = buf.wait_for(lambda: buf.lookup_transform("world", "done_distinct", Time()).header.stamp.nanoseconds > 1, 120)
+    print("RESULT " + json.dumps({"ok": ok, "frames": len(buf.get_frames()), "rss_mb": (rss_kb() - idle) / 1024,
+                                  "stats": tl.stats()}), flush=True)
+    node.shutdown()
+""")
+
+
+def test_forged_frames_are_capped_by_node_parameter_in_a_listener_process(spawn, zenoh_env) -> None:
+    import json
+
+    env = {**zenoh_env, "ZENTF_PARAMS": json.dumps({"tf_max_frames": 3000, "tf_max_frame_id_length": 64})}
+    listener = spawn.python("-c", LISTENER, env=env)
+    assert listener.wait_for_line(r"^ready (\d+) (\d+)", timeout=30).groups() == ("3000", "64")
+    spawn.python("-c", ATTACKER, "distinct", "100000", "100").wait_for_line("^sent", timeout=120)
+    res = json.loads(listener.wait_for_line(r"^RESULT (.*)", timeout=120).group(1))
+    assert res["ok"] and res["frames"] == 3000, res
+    assert res["rss_mb"] < 50, res
+    out = listener.output()
+    assert out.count("TF_TOO_MANY_FRAMES") <= 3 and "max_frames 3000" in out

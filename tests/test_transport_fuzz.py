@@ -93,7 +93,7 @@ def _ts(parent: str, child: str, x: float, stamp: Time) -> TransformStamped:
 
 def test_listener_survives_fuzzing(spawn, node_options) -> None:
     with Node("victim", options=node_options) as node:
-        buf = Buffer(node=node)
+        buf = Buffer(node=node, max_frames=30_000)  # the huge valid message below holds 20,000 frames
         tl = TransformListener(buf, node)
         buf.set_transform(_ts("good_parent", "good_child", 1.5, Time(sec=7)), "test", is_static=True)
         buf.set_transform(_ts("odom", "base", 0.5, Time(sec=1000)), "test")

@@ -90,10 +90,12 @@ def test_a_server_killed_mid_call_fails_the_call_within_its_timeout(server, node
     t0 = time.monotonic()
     fut = client.call_async(timeout=30)
     server.wait_for_line(r"^handling stall$", 20)
+    killed = time.monotonic()
     server.signal(signal.SIGKILL)
     exc = fut.exception(40)
-    assert isinstance(exc, ServiceException), exc
-    assert time.monotonic() - t0 < 30, "the error must arrive within the call's timeout"
+    assert isinstance(exc, ServiceUnavailableError), exc  # the router ends the query: no waiting for the timeout
+    assert "went away during the call" in str(exc)
+    assert time.monotonic() - t0 < 30 and time.monotonic() - killed < 10
 
 
 def test_graph_lists_servers_and_clients(server, node, zenoh_session, test_namespace):

@@ -19,8 +19,9 @@ def _post(url: str, body: dict) -> dict:
         return json.loads(r.read())
 
 
-def test_launch_urdf_with_gui_publishes_the_model_and_follows_the_page(spawn) -> None:
-    launch = spawn([*LAUNCH, "model:=configs/robots/my_robot.urdf", "gui:=true"])
+def test_launch_urdf_with_gui_publishes_the_model_and_follows_the_page(spawn, zenoh_env) -> None:
+    env = {k: v for k, v in zenoh_env.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}  # no browser opened
+    launch = spawn([*LAUNCH, "model:=configs/robots/my_robot.urdf", "gui:=true"], env=env)
     url = launch.wait_for_line(r"sliders: (http://127\.0\.0\.1:\d+/)", timeout=60).group(1)
     launch.wait_for_line(r"publishing robot 'my_robot'", timeout=60, from_start=True)
     probe = spawn.python(PROBE, "base_link:head", "base_link:right_tip")

@@ -286,3 +286,15 @@ def test_xacro_arguments_reach_the_model(tmp_path: Path) -> None:
     robot = load_urdf(path, xacro_args={"reach": "0.25"})
     assert robot.joints["j2"].origin.xyz == (0.25, 0.0, 0.0)
     assert Kinematics(robot).link_poses()["l2"][0, 3] == pytest.approx(0.5)
+
+
+def test_joint_state_message_round_trip() -> None:
+    from zentf import wire
+    from zentf.core.messages import Header, JointState, Message
+    from zentf.core.time import Time
+
+    js = JointState(Header(Time(5, 6), "base"), ["a", "b"], [0.5, -1.0], [0.1, 0.2], [])
+    assert js.to_dict() == Message.to_dict(js)  # the fast form is the generic one
+    assert wire.decode(wire.encode(js), JointState) == js
+    with pytest.raises(ValueError, match=r"JointState\.position\[1\]: expected a number"):
+        JointState.from_dict({**js.to_dict(), "position": [0.5, "x"]})

@@ -150,8 +150,23 @@ def test_joint_state_publisher_start_errors(zenoh_env) -> None:
     ]:
         proc = zentf(["joint-state-publisher", str(R2D2), *args], zenoh_env)
         assert_one_line_error(proc, needle, code=2)
-    proc = zentf(["joint-state-publisher"], zenoh_env)
-    assert_one_line_error(proc, "no robot model", code=2)
+    # no file, no parameter, and nobody publishes robot_description: one line after the wait
+    proc = zentf(["joint-state-publisher", "--description-timeout", "0.5"], zenoh_env)
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr
+    assert proc.stderr.splitlines()[-1].startswith("joint_state_publisher: error: no robot model: nothing on /t_")
+
+
+def test_joint_state_publisher_takes_the_model_from_robot_description(spawn) -> None:
+    rsp = spawn.python("-m", "nodes.robot_state_publisher", str(R2D2))
+    rsp.wait_for_line("publishing robot 'visual'", timeout=30)
+    jsp = spawn.python("-m", "nodes.joint_state_publisher", "--set", "head_swivel=0.6")
+    jsp.wait_for_line(r"waiting for the robot model on /t_\w+/robot_description", timeout=30)
+    jsp.wait_for_line("publishing joint_states of robot 'visual': 8 movable joints", timeout=30)
+    probe = spawn.python(PROBE, "base_link:head")
+    while True:
+        line = json.loads(probe.wait_for_line(r'^\{"pair"', timeout=30).string)
+        if line["q"][2] == pytest.approx(math.sin(0.3)):
+            break
 
 
 def test_urdf_check_and_graph(tmp_path) -> None:

@@ -27,6 +27,9 @@ _LAZY: dict[str, str] = {
     "MessageFilter": "zentf.message_filter",
     "Clock": "zentf.clock",
     "Rate": "zentf.clock",
+    "BufferServer": "zentf.buffer_server",
+    "BufferClient": "zentf.buffer_server",
+    "ServiceException": "zentf.service",
 }
 
 

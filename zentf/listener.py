@@ -1,10 +1,11 @@
-"""TransformListener: fills a Buffer from ``tf`` and ``tf_static`` on Zenoh's own threads (fast path)."""
+"""TransformListener: fills a Buffer from ``tf`` (fairly per sender) and ``tf_static``."""
 from __future__ import annotations
 
 import logging
 import math
 import threading
 import uuid
+from collections import deque
 from functools import partial
 from typing import Any
 
@@ -21,6 +22,18 @@ log = logging.getLogger("zentf.listener")
 #: (a deliberate difference from tf2, which takes any stamp: one sample stamped years ahead would
 #: otherwise own the edge's latest value and push every honest sample out as TF_OLD_DATA).
 DEFAULT_FUTURE_TOLERANCE = 5.0
+#: ``tf`` messages Zenoh holds for the listener's thread; beyond it Zenoh drops the oldest, so a flood
+#: never backs up into the network (where an honest message would wait behind it).
+RING_CAPACITY = 16384
+#: Messages waiting in the per-sender queues in all; beyond it the biggest backlog loses its oldest.
+MAX_PENDING = 100_000
+#: A sender none of whose last SUSPECT_AFTER messages put anything into the buffer (NaN, forged frames
+#: past the cap, garbage...) keeps only its newest SUSPECT_QUEUE waiting (ROS 2's tf queue depth).
+SUSPECT_AFTER = 8
+SUSPECT_QUEUE = 100
+#: Senders with a queue of their own; messages of further senders share one.
+MAX_SENDERS = 64
+_OTHERS = b"\x00others"
 
 
 def _tolerance_ns(value: Any) -> int | None:
@@ -75,7 +88,7 @@ class _FutureGuard:
         return self.core.set_transforms_raw(samples, authority, is_static) if samples else 0
 
     def set_transform_raw(self, *args: Any) -> bool:
-        sample, (authority, is_static) = args[:10], args[10:12]
+        sample, authority = args[:10], args[10]
         if not self._split([sample], authority):
             return False
         return self.core.set_transform_raw(*args)
@@ -92,6 +105,9 @@ class TransformListener:
 
     Beyond tf2: ``tf`` samples stamped more than ``future_tolerance`` seconds ahead of the node's clock
     (wall or sim; node parameter ``tf_future_tolerance``; None turns it off) are refused and logged.
+    ``tf`` is read by one thread from a Zenoh ring buffer, one message per sender in turn, so a sender
+    flooding the topic delays only its own data (docs/protocol.md, "Limits"); ``tf_static`` is handled
+    in Zenoh's callback.
     ``max_frames`` and ``max_frame_id_length`` (node parameters ``tf_max_frames``,
     ``tf_max_frame_id_length``), when given, set the buffer's bounds. Log lines are rate-limited per
     reason and sender, names escaped. Without a node, a hidden one is created from the env.
@@ -103,6 +119,7 @@ class TransformListener:
                  tf_topic: str = "tf", tf_static_topic: str = "tf_static", spin_thread: bool = True,
                  future_tolerance: Any = _UNSET, max_frames: Any = _UNSET,
                  max_frame_id_length: Any = _UNSET) -> None:
+        import zenoh
         import zenoh.ext as zx
 
         self.buffer = buffer
@@ -118,6 +135,7 @@ class TransformListener:
         self.rejected = 0          # well-formed transforms the buffer refused (NaN, bad quaternion, old data...)
         self.malformed = 0         # transform elements with a bad shape
         self.bad_messages = 0      # payloads that were not a TFMessage at all
+        self.dropped = 0           # tf messages dropped unread: a sender's backlog grew too big
         for name, value in (("max_frames", max_frames), ("max_frame_id_length", max_frame_id_length)):
             if value is self._UNSET:
                 value = self.node.get_parameter_value(f"tf_{name}", self._UNSET)
@@ -137,6 +155,7 @@ class TransformListener:
         #: ROS 2 carries no sender name: tf2_ros records one fixed authority for every transform
         self._fixed_authority = profile.authority(None, "") if profile.name == "ros2" else None
         self._authorities: dict[bytes, str] = {}
+        self._thread: threading.Thread | None = None
         session = self.node.session
         static_key = wire_key(self.node, tf_static_topic)
         self._subs.append(zx.declare_advanced_subscriber(
@@ -145,9 +164,14 @@ class TransformListener:
         self._declare_token(static_key, is_static=True)
         if not static_only:
             key = wire_key(self.node, tf_topic)
-            # the bound method itself (no lambda frame): tf ingest runs right in Zenoh's callback thread
-            self._subs.append(session.declare_subscriber(key, self._on_sample))
+            # Zenoh's thread fills a bounded ring; this listener's thread drains it into per-sender
+            # queues and serves them in turn, so a flood delays only the flooder's own data
+            sub = session.declare_subscriber(key, zenoh.handlers.RingChannel(RING_CAPACITY))
+            self._subs.append(sub)
             self._declare_token(key)
+            self._thread = threading.Thread(target=self._serve, args=(sub,), daemon=True,
+                                            name=f"zentf-listener-{key}")
+            self._thread.start()
         self._jump = self.node.get_clock().add_jump_callback(self._on_jump)
         self.node.add_on_shutdown(self.unregister)
 
@@ -158,8 +182,77 @@ class TransformListener:
                                                           latched=is_static,
                                                           topic=self.node.wire.topic_of_key(key)[0]))
 
-    def _on_sample(self, sample: Any, is_static: bool = False) -> None:
-        """Decode and insert one message; every failure is contained here."""
+    def _serve(self, sub: Any) -> None:
+        """Listener thread: drain the ring into per-sender FIFOs, then handle one message per sender."""
+        recv, try_recv = sub.recv, sub.try_recv
+        queues: dict[bytes, deque] = {}
+        strikes: dict[bytes, int] = {}  # messages in a row that put nothing into the buffer, per sender
+        pending = 0
+        handle = self._on_sample
+        while True:
+            try:  # blocks in Zenoh (GIL released) when idle; fails once undeclared
+                sample = try_recv() if pending else recv()
+            except Exception:
+                return
+            n = 0
+            while sample is not None:
+                att = sample.attachment
+                key = att.to_bytes() if att is not None else b""
+                q = queues.get(key)
+                if q is None:
+                    if len(queues) >= MAX_SENDERS:
+                        key = _OTHERS
+                        q = queues.get(key)
+                    if q is None:
+                        q = queues[key] = deque()
+                q.append(sample)
+                pending += 1
+                if pending > MAX_PENDING:
+                    self._shed(queues, q, key)
+                    pending -= 1
+                elif len(q) > SUSPECT_QUEUE and strikes.get(key, 0) >= SUSPECT_AFTER:
+                    self._drop(q, key)
+                    pending -= 1
+                n += 1
+                if n >= RING_CAPACITY:
+                    break
+                try:
+                    sample = try_recv()
+                except Exception:
+                    return
+            for key in list(queues):
+                q = queues[key]
+                if handle(q.popleft()):
+                    if key in strikes:
+                        del strikes[key]
+                else:
+                    k = strikes[key] = strikes.get(key, 0) + 1
+                    if k >= SUSPECT_AFTER:
+                        while len(q) > SUSPECT_QUEUE:  # what it queued before it turned suspect
+                            self._drop(q, key)
+                            pending -= 1
+                    if len(strikes) > 4 * MAX_SENDERS:
+                        strikes.clear()
+                pending -= 1
+                if not q:
+                    del queues[key]
+
+    def _shed(self, queues: dict[bytes, deque], q: deque, key: bytes) -> None:
+        """Too much waiting in all: the biggest backlog (usually the sender just heard) loses its oldest."""
+        if len(q) * len(queues) < MAX_PENDING:
+            key, q = max(queues.items(), key=lambda kv: len(kv[1]))
+        self._drop(q, key)
+
+    def _drop(self, q: deque, key: bytes) -> None:
+        q.popleft()
+        self.dropped += 1
+        sender = key.decode("utf-8", "replace") if key else "unknown sender"
+        self._limiter.log(logging.WARNING, ("overload", key),
+                          "tf listener overloaded: dropped a message from %s unread (%d waiting from it)",
+                          sender, len(q))
+
+    def _on_sample(self, sample: Any, is_static: bool = False) -> bool:
+        """Decode and insert one message; True if something got into the buffer. Never raises."""
         try:
             enc = sample.encoding
             if enc != self._tf_encoding:  # cheap Rust-side compare for the common case
@@ -184,7 +277,7 @@ class TransformListener:
                 key, sender = "?", "unknown sender"
             self._limiter.log(logging.WARNING, ("bad", key, sender), "dropped bad message on '%s' from %s: %s",
                               key, sender, str(e))
-            return
+            return False
         # plain counters (statistics only; no lock on the hot path)
         self.messages += 1
         self.transforms += accepted
@@ -196,6 +289,7 @@ class TransformListener:
             self._limiter.log(logging.WARNING, ("malformed", key, authority),
                               "skipped %d malformed transform(s) on '%s' from %s: %s",
                               malformed, key, authority, problem or "")
+        return accepted > 0
 
     def _on_jump(self, old: Any, new: Any) -> None:
         log.warning("Detected jump back in time of %.6fs. Clearing TF buffer.", (old - new).to_sec())
@@ -205,7 +299,7 @@ class TransformListener:
         with self._lock:
             return {"messages": self.messages, "transforms": self.transforms, "rejected": self.rejected,
                     "malformed": self.malformed, "bad_messages": self.bad_messages,
-                    "future": self._guard.refused if self._guard is not None else 0}
+                    "future": self._guard.refused if self._guard is not None else 0, "dropped": self.dropped}
 
     def unregister(self) -> None:
         """Stop listening (the buffer keeps its data)."""
@@ -217,6 +311,9 @@ class TransformListener:
                 pass
         self._subs.clear()
         self._tokens.clear()
+        thread, self._thread = self._thread, None
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(5)
         if self._own_node and not self.node._closed:
             self.node.shutdown()
 

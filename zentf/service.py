@@ -171,7 +171,8 @@ class Service:
             out = cdr_codec.encode(response) if ros2_id is not None else wire.encode(response)
         except Exception as e:
             reason = f"{type(e).__name__}: {e}" if str(e) else type(e).__name__
-            self.node.get_logger().warning("service %s: handler failed for %s: %s", name, caller, reason)
+            self.node._bad_input(f"srv-handler:{self.key}",  # rate-limited: a flood of failing calls
+                                 f"service {name}: handler failed for {caller}: {reason}")
             self._reply_err(query, f"service {name} failed: {reason}")
             return
         try:

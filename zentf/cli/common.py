@@ -29,17 +29,27 @@ class CliError(Exception):
 CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 
 
-def _refuse_non_finite(value: float, ptype: click.ParamType, param: Any, ctx: Any) -> float:
+#: The largest magnitude a float option takes (~31 years in seconds): beyond it, sleeps, waits and
+#: Zenoh timeouts overflow ("timestamp out of range", "negative timeout").
+FLOAT_LIMIT = 1e9
+
+
+def _refuse_non_finite(value: float, ptype: click.ParamType, param: Any, ctx: Any,
+                       limit: Optional[float] = FLOAT_LIMIT) -> float:
     if not math.isfinite(value):
         ptype.fail(f"{value!r} is not finite", param, ctx)
+    if limit is not None and abs(value) > limit:
+        ptype.fail(f"{value:g} is too large (at most {limit:g})", param, ctx)
     return value
 
 
 class FiniteFloat(click.types.FloatParamType):
-    """A float that refuses NaN and ±inf: a NaN timeout or duration would wait (or loop) forever."""
+    """A float that refuses NaN, ±inf and absurd magnitudes: a NaN timeout would wait (or loop) forever."""
+
+    limit: Optional[float] = FLOAT_LIMIT
 
     def convert(self, value: Any, param: Any, ctx: Any) -> Any:
-        return _refuse_non_finite(super().convert(value, param, ctx), self, param, ctx)
+        return _refuse_non_finite(super().convert(value, param, ctx), self, param, ctx, self.limit)
 
 
 class FiniteFloatRange(click.FloatRange):
@@ -55,6 +65,7 @@ class StampSeconds(FiniteFloat):
 
     name = "seconds"
     MAX = (2 ** 63 - 1) / 1e9
+    limit = None  # its own range below
 
     def convert(self, value: Any, param: Any, ctx: Any) -> Any:
         rv = super().convert(value, param, ctx)

@@ -42,7 +42,7 @@ def joint_state_publisher(ctx: click.Context) -> int:
     """joint_state_publisher (and its GUI as a local web page)."""
     model, _, jsp = _programs()
     try:
-        p = model.prepare(jsp.PROG, jsp._parser(), list(ctx.args))
+        p = model.prepare(jsp.PROG, jsp._parser(), list(ctx.args), model_optional=True)
         if p is None:
             return 0
         initial = jsp.check(p)

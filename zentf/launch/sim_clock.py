@@ -14,6 +14,7 @@ import threading
 import time
 from typing import Any
 
+from ..core.time import ns_from_sec
 from .description import ClockSpec
 
 __all__ = ["SimTime", "SimClockPublisher", "CONTROL_KEY", "query_clock"]
@@ -76,7 +77,7 @@ class SimClockPublisher:
         from zentf.node import Node
         from zentf.options import NodeOptions
 
-        start_ns = time.time_ns() if spec.start is None else round(spec.start * 1e9)
+        start_ns = time.time_ns() if spec.start is None else ns_from_sec(spec.start, "clock start")
         self.sim = SimTime(start_ns, spec.rate, spec.paused)
         self.period = 1.0 / spec.frequency
         self._msg_type = ClockMsg

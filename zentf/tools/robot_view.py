@@ -52,8 +52,8 @@ class RobotModelDisplay:
         except URDFError as e:
             log.warning("cannot draw the robot: %s", e)
             return
-        for path in self._entities:  # a new model replaces the old one
-            self.rec.log(path, self.rr.Clear(recursive=True))
+        for path in self._entities:  # a new model replaces the old one (its visuals were logged static)
+            self.rec.log(path, self.rr.Clear(recursive=True), static=True)
         self._entities.clear()
         self._drawn.clear()
         self.robot = robot

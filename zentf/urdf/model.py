@@ -147,12 +147,10 @@ class Joint:
         return self.type in MOVABLE_TYPES
 
     def bounds(self) -> tuple[float, float]:
-        """The range a slider or a sweep uses: the limits; continuous (and limitless) joints ±π."""
-        if self.type == "continuous" or self.limit is None or self.limit.lower >= self.limit.upper:
-            if self.type == "prismatic":
-                return (-1.0, 1.0) if self.limit is None else (self.limit.lower, self.limit.upper)
+        """The range a slider or a sweep uses: the limits; continuous (or limitless) joints ±π."""
+        if self.type == "continuous" or self.limit is None:
             return (-math.pi, math.pi)
-        return (self.limit.lower, self.limit.upper)
+        return (min(self.limit.lower, self.limit.upper), max(self.limit.lower, self.limit.upper))
 
     def center(self) -> float:
         """joint_state_publisher's start value: 0, or the middle of the range when 0 is outside it."""
