@@ -196,3 +196,33 @@ def test_bad_ros2_requests_get_an_error_reply_and_one_line(isolated_router, capl
             raw.close()
     lines = [r.getMessage() for r in caplog.records if "/echo" in r.getMessage()]
     assert len(lines) == 1 and "refused" in lines[0], lines  # rate-limited per service
+
+
+def test_parameter_types_and_atomic_sets_over_ros2(ros2_env, procs, isolated_router) -> None:
+    from zentf.core.parameters import (PARAMETER_DOUBLE, PARAMETER_DOUBLE_ARRAY, PARAMETER_NOT_SET,
+                                       PARAMETER_STRING, GetParameterTypes, ParameterMsg,
+                                       SetParametersAtomically, to_value)
+
+    node_proc = procs([sys.executable, "tests/param_node.py"], ros2_env)
+    node_proc.wait_for_line("^ready$", 40)
+    opts = NodeOptions(zenoh=ZenohOptions(connect=[isolated_router], no_multicast=True, mode="client"),
+                       wire="ros2", domain_id=int(ros2_env["ROS_DOMAIN_ID"]))
+    with Node("_asker", options=opts) as node:
+        types = node.create_client("/param_node/get_parameter_types", GetParameterTypes)
+        atomic = node.create_client("/param_node/set_parameters_atomically", SetParametersAtomically)
+        assert types.wait_for_service(20) and atomic.wait_for_service(20)
+        got = types.call(GetParameterTypes.Request(names=["speed", "mode", "gains", "nope"]), timeout=20).types
+        assert got == [PARAMETER_DOUBLE, PARAMETER_STRING, PARAMETER_DOUBLE_ARRAY, PARAMETER_NOT_SET]
+
+        def both(speed: object, mode: object) -> object:
+            req = SetParametersAtomically.Request(parameters=[ParameterMsg("speed", to_value(speed)),
+                                                              ParameterMsg("mode", to_value(mode))])
+            return atomic.call(req, timeout=20).result
+
+        refused = both(-1.0, "manual")  # the callback refuses speed: mode is not set either
+        assert (refused.successful, refused.reason) == (False, "speed must be >= 0")
+        wrong = both(3.0, True)         # mode is a string: speed is not set either
+        assert not wrong.successful and "{mode} is of type {string}" in wrong.reason
+        assert both(3.0, "manual").successful
+        node_proc.wait_for_line(r"^speed is now 3\.0$", 20)
+        assert "speed is now -1.0" not in node_proc.output()
