@@ -71,13 +71,18 @@ def main() -> int:
         tf.close()
         return 0
 
+    out_lock = threading.Lock()
+
     def printer(topic: str):
         def on_msg(msg: object) -> None:
             for t in msg.transforms:
                 tr, q = t.transform.translation, t.transform.rotation
-                print(json.dumps({"topic": topic, "parent": t.header.frame_id, "child": t.child_frame_id,
-                                  "stamp": t.header.stamp.sec * 10**9 + t.header.stamp.nanosec,
-                                  "t": [tr.x, tr.y, tr.z], "q": [q.x, q.y, q.z, q.w]}), flush=True)
+                line = json.dumps({"topic": topic, "parent": t.header.frame_id, "child": t.child_frame_id,
+                                   "stamp": t.header.stamp.sec * 10**9 + t.header.stamp.nanosec,
+                                   "t": [tr.x, tr.y, tr.z], "q": [q.x, q.y, q.z, q.w]})
+                with out_lock:  # two subscriptions call back from their own threads: one whole line each
+                    sys.stdout.write(line + "\n")
+                    sys.stdout.flush()
         return on_msg
 
     subs = [ROS2Subscriber("/tf_static", "tf2_msgs/msg/TFMessage", printer("/tf_static"), node_name=args.node,

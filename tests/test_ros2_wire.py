@@ -69,7 +69,10 @@ def test_tokens_of_rmw_zenoh_parse_into_the_graph() -> None:
     e = parse_ros2_token(pub)
     assert (e.kind, e.topic, e.node) == ("pub", "/robot1/chatter", "/robot1/talker")
     service = node.replace("/NN/", "/SS/") + "/%add/example_interfaces::srv::dds_::AddTwoInts_/RIHS01_x/::,10:,:,:,,"
-    for other in ("@zentf/node/%/x", "@ros2_lv/0/z", service, node.replace("/%/%/", "/%/bad-ns/")):
+    e = parse_ros2_token(service)  # service servers (SS) and clients (SC) are in the graph too
+    assert (e.kind, e.topic, e.type_name, e.node) == ("srv", "/add", "example_interfaces/srv/AddTwoInts", "/listener")
+    assert parse_ros2_token(service.replace("/SS/", "/SC/")).kind == "cli"
+    for other in ("@zentf/node/%/x", "@ros2_lv/0/z", node.replace("/%/%/", "/%/bad-ns/")):
         assert parse_ros2_token(other) is None
     assert Ros2Profile(3).parse_token(node) is None                 # another domain
 
@@ -210,10 +213,14 @@ def test_bad_cdr_on_a_ros2_topic_is_dropped_with_one_line(ros2_options, caplog) 
         listener = TransformListener(buf, node)
         got: list = []
         sub = node.create_subscription("points", PointStamped, got.append)
-        tf_key = node.wire.data_key("/tf", TF)
+        pubs = [raw.declare_publisher(node.wire.data_key("/tf", TF)),
+                raw.declare_publisher(node.wire.data_key("/points", PointStamped.TYPE_NAME))]
+        # the router must know both subscribers before the junk goes out (their declarations queue behind
+        # the node's others, e.g. its parameter services)
+        assert _wait(lambda: all(p.matching_status.matching for p in pubs))
         for junk in (b"", b"\x00\x01\x00\x00\xff\xff\xff\x7f", b"garbage that is not cdr"):
-            raw.put(tf_key, junk)
-            raw.put(node.wire.data_key("/points", PointStamped.TYPE_NAME), junk)
+            for p in pubs:
+                p.put(junk)
         assert _wait(lambda: listener.stats()["bad_messages"] == 3 and sub.errors == 3)
         assert buf.get_frames() == []
         assert got == []

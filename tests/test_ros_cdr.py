@@ -16,6 +16,8 @@ import pytest
 from zentf.core.messages import (MESSAGE_TYPES, ColorRGBA, Header, Marker, Point, Pose, PoseStamped, Quaternion,
                                  TFMessage, Transform, TransformStamped, Vector3)
 from zentf.core.time import Duration, Time
+import zentf.core.parameters  # noqa: F401,E402  (every zentf type is registered, whatever ran before)
+import zentf.core.services  # noqa: F401,E402
 from zentf.ros import (CdrError, UnknownTypeError, dds_type_name, decode, decode_plain, definition, encode,
                        encode_tf, parse_schema, ros_type_name, serialize, tf_samples, type_hash)
 from zentf.ros.typehash import type_hash as hash_of
@@ -117,7 +119,7 @@ def test_type_hashes_are_computed_like_ros2(bag, store) -> None:
     assert checked == {TF, "nav_msgs/msg/Odometry", "geometry_msgs/msg/PoseWithCovarianceStamped"}
     compared = 0
     for name in MESSAGE_TYPES:
-        if name.split("/")[0] == "turtlesim":   # not in rosbags' store
+        if name not in store.fielddefs:   # turtlesim, std_srvs, service parts: not in rosbags' store
             continue
         assert type_hash(name) == store.hash_rihs01(name), name
         compared += 1
@@ -181,7 +183,12 @@ def _example(cls):
     return msg
 
 
-@pytest.mark.parametrize("name", sorted(MESSAGE_TYPES))
+#: zentf's one-request form of tf2's LookupTransform action: no ROS 2 message has these names (ROS 2 has
+#: _Goal/_Result), so they have no ROS 2 definition and do not travel with --wire ros2.
+NOT_ROS2 = ("tf2_msgs/action/LookupTransform_Request", "tf2_msgs/action/LookupTransform_Response")
+
+
+@pytest.mark.parametrize("name", sorted(n for n in MESSAGE_TYPES if n not in NOT_ROS2))
 def test_every_zentf_type_round_trips_and_rosbags_reads_it(name: str, store) -> None:
     cls = MESSAGE_TYPES[name]
     msg = _example(cls)
@@ -192,7 +199,7 @@ def test_every_zentf_type_round_trips_and_rosbags_reads_it(name: str, store) -> 
         assert back.to_dict().keys() == msg.to_dict().keys()
     else:
         assert back == msg
-    if name.split("/")[0] != "turtlesim":
+    if name in store.fielddefs:  # rosbags' Jazzy store has no turtlesim, std_srvs nor service parts
         ref = _plain(store.deserialize_cdr(payload, name))
         assert ref == _lists(decode_plain(payload, name))
         ours = msg.to_dict()

@@ -461,23 +461,24 @@ class Node:
         return sub
 
     # ---- services (zentf.service)
-    def create_service(self, name: Any, srv_type: Any, callback: Callable[..., Any]) -> Any:
-        """A service server: ``create_service('spawn', Spawn, handler)``; rclpy's order works too."""
+    def create_service(self, name: Any, srv_type: Any, callback: Callable[..., Any], qos: int = 10) -> Any:
+        """A service server: ``create_service('spawn', Spawn, handler)``; rclpy's order works too.
+        ``qos`` is the history depth ROS 2 tokens show (--wire ros2)."""
         from .service import Service
 
         if isinstance(name, type):
             name, srv_type = srv_type, name
         self._check_open()
-        return Service(self, self.resolve_topic_name(name), srv_type, callback)
+        return Service(self, self.resolve_topic_name(name), srv_type, callback, depth=qos)
 
-    def create_client(self, name: Any, srv_type: Any) -> Any:
+    def create_client(self, name: Any, srv_type: Any, qos: int = 10) -> Any:
         """A service client: ``create_client('spawn', Spawn)``; rclpy's order works too."""
         from .service import Client
 
         if isinstance(name, type):
             name, srv_type = srv_type, name
         self._check_open()
-        return Client(self, self.resolve_topic_name(name), srv_type)
+        return Client(self, self.resolve_topic_name(name), srv_type, depth=qos)
 
     def destroy_publisher(self, pub: Publisher) -> None:
         pub.destroy()

@@ -1,7 +1,8 @@
 """Node parameters over the network: ROS 2's parameter services on every node, and a client for tools.
 
-A node serves ``~/get_parameters``, ``~/set_parameters``, ``~/list_parameters`` and
-``~/describe_parameters`` (rcl_interfaces types, keys ``<ns>/<node>/<service>``), so
+A node serves ``~/get_parameters``, ``~/set_parameters``, ``~/list_parameters``,
+``~/describe_parameters``, ``~/get_parameter_types`` and ``~/set_parameters_atomically`` (rcl_interfaces
+types, as rclcpp's ParameterService; keys ``<ns>/<node>/<service>``, or rmw_zenoh's with --wire ros2), so
 ``zentf param list / get / set / dump`` reach it from anywhere. A set is checked against the type the
 parameter was declared with, then offered to the node's ``add_on_set_parameters_callback`` callbacks
 (any may reject it, with a reason), then applied; ``use_sim_time`` switches the node's clock.
@@ -12,12 +13,12 @@ import logging
 from typing import Any
 
 from .core.parameters import (PARAMETER_NOT_SET, TYPE_NAMES, DescribeParameters, GetParameters,
-                              ListParameters, ListParametersResult, ParameterDescriptor, ParameterMsg,
-                              ParameterValue, SetParameters, SetParametersResult, check_type, coerce,
-                              from_value, to_value, type_of)
+                              GetParameterTypes, ListParameters, ListParametersResult, ParameterDescriptor,
+                              ParameterMsg, ParameterValue, SetParameters, SetParametersAtomically,
+                              SetParametersResult, check_type, coerce, from_value, to_value, type_of)
 
 __all__ = ["ParameterService", "ParameterClient", "InvalidParameterTypeException",
-           "InvalidParameterValueException", "declared_type", "set_one", "raise_for", "SERVICE_NAMES"]
+           "InvalidParameterValueException", "declared_type", "set_one", "set_all", "raise_for", "SERVICE_NAMES"]
 
 log = logging.getLogger("zentf.parameters")
 
@@ -84,6 +85,35 @@ def set_one(node: Any, name: str, value: Any) -> SetParametersResult:
     return SetParametersResult(True, "")
 
 
+def set_all(node: Any, items: list[tuple[str, Any]]) -> SetParametersResult:
+    """All or nothing (set_parameters_atomically): every value checked, the callbacks offered the whole
+    list at once, then all applied; the result says why nothing was set."""
+    checked = []
+    for name, value in items:
+        if name not in node._params:
+            return SetParametersResult(False, f"parameter '{name}' is not declared on {node.get_fully_qualified_name()}")
+        declared = node._param_types.get(name, PARAMETER_NOT_SET)
+        problem = check_type(name, value, declared)
+        if problem is not None:
+            return SetParametersResult(False, problem)
+        value = coerce(value, declared)
+        if name == "use_sim_time" and not isinstance(value, bool):
+            return SetParametersResult(False, "use_sim_time must be true or false")
+        checked.append((name, value))
+    for cb in list(node._param_callbacks):
+        try:
+            res = _result(cb([type(node._params[n])(n, v) for n, v in checked]))
+        except Exception as e:
+            return SetParametersResult(False, f"a parameter callback raised {type(e).__name__}: {e}")
+        if not res.successful:
+            return SetParametersResult(False, res.reason or "rejected by a parameter callback")
+    for name, value in checked:
+        node._params[name].value = value
+        if name == "use_sim_time":
+            node._set_use_sim_time(value)
+    return SetParametersResult(True, "")
+
+
 def raise_for(name: str, value: Any, result: SetParametersResult) -> None:
     """A refused local set as rclpy's exception."""
     if result.successful:
@@ -105,10 +135,13 @@ class ParameterService:
 
     def __init__(self, node: Any) -> None:
         self.node = node
-        node.create_service("~/get_parameters", GetParameters, self._get)
-        node.create_service("~/set_parameters", SetParameters, self._set)
-        node.create_service("~/list_parameters", ListParameters, self._list)
-        node.create_service("~/describe_parameters", DescribeParameters, self._describe)
+        depth = 1000  # rmw_qos_profile_parameters, as rclcpp's parameter services (shown in ROS 2 tokens)
+        node.create_service("~/get_parameters", GetParameters, self._get, qos=depth)
+        node.create_service("~/set_parameters", SetParameters, self._set, qos=depth)
+        node.create_service("~/list_parameters", ListParameters, self._list, qos=depth)
+        node.create_service("~/describe_parameters", DescribeParameters, self._describe, qos=depth)
+        node.create_service("~/get_parameter_types", GetParameterTypes, self._types, qos=depth)
+        node.create_service("~/set_parameters_atomically", SetParametersAtomically, self._set_atomically, qos=depth)
 
     def _get(self, req: Any, resp: Any) -> Any:
         params = self.node._params
@@ -125,6 +158,20 @@ class ParameterService:
                 continue
             results.append(set_one(self.node, p.name, value))
         resp.results = results
+        return resp
+
+    def _set_atomically(self, req: Any, resp: Any) -> Any:
+        try:
+            items = [(p.name, from_value(p.value)) for p in req.parameters]
+        except ValueError as e:
+            resp.result = SetParametersResult(False, str(e))
+            return resp
+        resp.result = set_all(self.node, items)
+        return resp
+
+    def _types(self, req: Any, resp: Any) -> Any:
+        params, types = self.node._params, self.node._param_types
+        resp.types = [types.get(n, PARAMETER_NOT_SET) if n in params else PARAMETER_NOT_SET for n in req.names]
         return resp
 
     def _list(self, req: Any, resp: Any) -> Any:

@@ -11,7 +11,10 @@ Rolling with ``RMW_IMPLEMENTATION=rmw_zenoh_cpp``) see each other (docs/ros2.md)
   older string-keyed layout of Jazzy 0.2.0-0.2.3 is read too;
 - liveliness ``@ros2_lv/<domain>/<zid>/<node id>/<entity id>/<NN|MP|MS>/<enclave>/<ns>/<node>
   [/<topic>/<DDS type>/<hash>/<qos>]`` with '/' mangled to '%' and rmw_zenoh's compact QoS string;
-- transient local (latched) topics through zenoh-ext advanced publishers/subscribers, as rmw_zenoh does.
+- transient local (latched) topics through zenoh-ext advanced publishers/subscribers, as rmw_zenoh does;
+- services as rmw_zenoh's: a complete queryable on ``<domain>/<service>/<DDS service type>/<RIHS01 hash of
+  the service type>``, CDR request and response, the request's attachment (sequence number, time, client
+  GID) and the reply's (same sequence number and GID, the server's time), ``SS``/``SC`` tokens.
 """
 from __future__ import annotations
 
@@ -31,18 +34,22 @@ from .ros.tf import encode_tf as cdr_encode_tf
 
 __all__ = ["WireProfile", "ZentfProfile", "Ros2Profile", "make_profile", "PROFILES", "qos_string",
            "parse_ros2_token", "ros2_attachment", "parse_ros2_attachment", "ROS2_DEFAULT_DEPTH",
-           "ROS2_AUTHORITY", "ROS2_ROUTER", "zentf_node_token", "zentf_entity_token"]
+           "ROS2_AUTHORITY", "ROS2_ROUTER", "ROS2_SERVICE_DEPTH", "ROS2_PARAMETER_SERVICE_DEPTH",
+           "zentf_node_token", "zentf_entity_token"]
 
 PROFILES = ("zentf", "ros2")
 #: rmw_zenoh's default history depth: a depth equal to it is left out of the QoS string.
 ROS2_DEFAULT_DEPTH = 42
+#: History depth of rmw_qos_profile_services_default and of rmw_qos_profile_parameters (parameter services).
+ROS2_SERVICE_DEPTH = 10
+ROS2_PARAMETER_SERVICE_DEPTH = 1000
 #: tf2_ros (ROS 2) cannot tell who sent a transform; its listener records this authority.
 ROS2_AUTHORITY = "Authority undetectable"
 #: Where a ROS 2 machine's rmw_zenohd router listens (DEFAULT_RMW_ZENOH_SESSION_CONFIG.json5).
 ROS2_ROUTER = "tcp/localhost:7447"
 _ADMIN = "@ros2_lv"
-_KINDS = {"node": "NN", "pub": "MP", "sub": "MS"}
-_KIND_OF = {"NN": "node", "MP": "pub", "MS": "sub", "SS": "service", "SC": "client"}
+_KINDS = {"node": "NN", "pub": "MP", "sub": "MS", "srv": "SS", "cli": "SC"}
+_KIND_OF = {"NN": "node", "MP": "pub", "MS": "sub", "SS": "srv", "SC": "cli"}
 
 
 def zentf_node_token(namespace: str, name: str) -> str:
@@ -72,6 +79,10 @@ class WireProfile:
 
     def encoding(self, type_name: str) -> Any:
         return wire.encoding_for(type_name)
+
+    def service_key(self, fq_service: str, srv_type: str) -> str:
+        """Key of a service's queryable: the resolved name, as a topic's."""
+        return topic_to_key(fq_service)
 
     # ---- payloads
     def encode(self, msg: Message | dict, type_name: str = "") -> bytes:
@@ -225,12 +236,12 @@ def _mangle(text: str) -> str:
 
 
 def parse_ros2_token(key: str) -> GraphEntry | None:
-    """An ``@ros2_lv`` token -> GraphEntry (node/pub/sub; services are skipped), None if not one."""
+    """An ``@ros2_lv`` token -> GraphEntry (node, pub, sub, srv or cli), None if not one."""
     parts = str(key).split("/")
     if len(parts) < 9 or parts[0] != _ADMIN:
         return None
     kind = _KIND_OF.get(parts[5])
-    if kind not in ("node", "pub", "sub"):
+    if kind is None:
         return None
     try:
         ns = normalize_namespace(parts[7].replace("%", "/"))
@@ -266,6 +277,18 @@ class Ros2Profile(WireProfile):
                 except UnknownTypeError:
                     raise ValueError(f"no ROS 2 definition for {type_name}: it cannot travel with --wire ros2") from None
             self._keys[(fq_topic, type_name)] = k
+        return k
+
+    def service_key(self, fq_service: str, srv_type: str) -> str:
+        """``<domain>/<service>/<DDS service type>/<hash of the service type>`` (rmw_zenoh's service key);
+        UnknownTypeError when zentf has no .srv definition of the type."""
+        k = self._keys.get((fq_service, "srv:" + srv_type))
+        if k is None:
+            try:
+                k = f"{self.domain_id}/{topic_to_key(fq_service)}/{dds_type_name(srv_type)}/{type_hash(srv_type)}"
+            except (UnknownTypeError, ValueError):
+                raise UnknownTypeError(f"no ROS 2 definition for {srv_type}") from None
+            self._keys[(fq_service, "srv:" + srv_type)] = k
         return k
 
     def topic_of_key(self, key: str) -> tuple[str, str | None]:

@@ -17,7 +17,7 @@ __all__ = ["PARAMETER_NOT_SET", "PARAMETER_BOOL", "PARAMETER_INTEGER", "PARAMETE
            "PARAMETER_BYTE_ARRAY", "PARAMETER_BOOL_ARRAY", "PARAMETER_INTEGER_ARRAY", "PARAMETER_DOUBLE_ARRAY",
            "PARAMETER_STRING_ARRAY", "TYPE_NAMES", "ParameterValue", "ParameterMsg", "SetParametersResult",
            "ParameterDescriptor", "ListParametersResult", "GetParameters", "SetParameters", "ListParameters",
-           "DescribeParameters", "type_of", "to_value", "from_value", "check_type", "coerce"]
+           "DescribeParameters", "GetParameterTypes", "SetParametersAtomically", "type_of", "to_value", "from_value", "check_type", "coerce"]
 
 PARAMETER_NOT_SET = 0
 PARAMETER_BOOL = 1
@@ -117,6 +117,11 @@ ListParameters = _pair("rcl_interfaces/srv/ListParameters",
                        {"result": (ListParametersResult, ListParametersResult)})
 DescribeParameters = _pair("rcl_interfaces/srv/DescribeParameters", {"names": (list[str], list)},
                            {"descriptors": (list[ParameterDescriptor], list)})
+GetParameterTypes = _pair("rcl_interfaces/srv/GetParameterTypes", {"names": (list[str], list)},
+                          {"types": (list[int], list)})
+SetParametersAtomically = _pair("rcl_interfaces/srv/SetParametersAtomically",
+                                {"parameters": (list[ParameterMsg], list)},
+                                {"result": (SetParametersResult, SetParametersResult)})
 
 
 def _all(items: Any, kind: type) -> bool:

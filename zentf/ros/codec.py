@@ -45,6 +45,8 @@ def fit_plain(cls: type[Message], plain: Any) -> Any:
             (item,) = typing.get_args(tp)
             if isinstance(item, type) and issubclass(item, Message) and isinstance(v, list):
                 v = [fit_plain(item, x) for x in v]
+            elif item is int and isinstance(v, (bytes, bytearray)):
+                v = list(v)  # a uint8/byte sequence decodes as bytes; the dataclass holds a list of ints
         out[name] = v
     return out
 

@@ -148,16 +148,173 @@ bool mesh_use_embedded_materials
     "visualization_msgs/msg/MarkerArray": """
 Marker[] markers
 """,
+    "std_msgs/msg/String": """
+string data
+""",
+    "geometry_msgs/msg/QuaternionStamped": """
+std_msgs/Header header
+Quaternion quaternion
+""",
+    "geometry_msgs/msg/TwistStamped": """
+std_msgs/Header header
+Twist twist
+""",
+    "geometry_msgs/msg/Wrench": """
+Vector3  force
+Vector3  torque
+""",
+    "geometry_msgs/msg/WrenchStamped": """
+std_msgs/Header header
+Wrench wrench
+""",
+    "geometry_msgs/msg/PoseWithCovariance": """
+Pose pose
+float64[36] covariance
+""",
+    "geometry_msgs/msg/PoseWithCovarianceStamped": """
+std_msgs/Header header
+PoseWithCovariance pose
+""",
+    "geometry_msgs/msg/VelocityStamped": """
+std_msgs/Header header
+string body_frame_id
+string reference_frame_id
+Twist velocity
+""",
+    "tf2_msgs/msg/TF2Error": """
+uint8 NO_ERROR = 0
+uint8 LOOKUP_ERROR = 1
+uint8 CONNECTIVITY_ERROR = 2
+uint8 EXTRAPOLATION_ERROR = 3
+uint8 INVALID_ARGUMENT_ERROR = 4
+uint8 TIMEOUT_ERROR = 5
+uint8 TRANSFORM_ERROR = 6
+
+uint8 error
+string error_string
+""",
+    "service_msgs/msg/ServiceEventInfo": """
+uint8 REQUEST_SENT = 0
+uint8 REQUEST_RECEIVED = 1
+uint8 RESPONSE_SENT = 2
+uint8 RESPONSE_RECEIVED = 3
+uint8 event_type
+builtin_interfaces/Time stamp
+char[16] client_gid
+int64 sequence_number
+""",
+    "rcl_interfaces/msg/ParameterValue": """
+uint8 type
+bool bool_value
+int64 integer_value
+float64 double_value
+string string_value
+byte[] byte_array_value
+bool[] bool_array_value
+int64[] integer_array_value
+float64[] double_array_value
+string[] string_array_value
+""",
+    "rcl_interfaces/msg/Parameter": """
+string name
+ParameterValue value
+""",
+    "rcl_interfaces/msg/FloatingPointRange": """
+float64 from_value
+float64 to_value
+float64 step
+""",
+    "rcl_interfaces/msg/IntegerRange": """
+int64 from_value
+int64 to_value
+uint64 step
+""",
+    "rcl_interfaces/msg/ParameterDescriptor": """
+string name
+uint8 type
+string description
+string additional_constraints
+bool read_only false
+bool dynamic_typing false
+FloatingPointRange[<=1] floating_point_range
+IntegerRange[<=1] integer_range
+""",
+    "rcl_interfaces/msg/SetParametersResult": """
+bool successful
+string reason
+""",
+    "rcl_interfaces/msg/ListParametersResult": """
+string[] names
+string[] prefixes
+""",
 }
 
-#: Services: request and response parts (CDR only; their type hashes are not computed here).
-SERVICES: dict[str, tuple[str, str]] = {
-    "turtlesim/srv/Spawn": ("""
+#: Services (.srv text: request, ``---``, response), as ROS 2 Jazzy ships them. Each one also gets the
+#: ``<Name>_Event`` message and the service's own description (request_message, response_message,
+#: event_message) that rosidl hashes: see zentf/ros/types.py.
+SERVICES: dict[str, str] = {
+    "std_srvs/srv/Empty": """
+---
+""",
+    "std_srvs/srv/Trigger": """
+---
+bool success   # indicate successful run of triggered service
+string message # informational, e.g. for error messages
+""",
+    "std_srvs/srv/SetBool": """
+bool data # e.g. for hardware enabling / disabling
+---
+bool success   # indicate successful run of triggered service
+string message # informational, e.g. for error messages
+""",
+    "turtlesim/srv/Spawn": """
 float32 x
 float32 y
 float32 theta
+string name # Optional.  A unique name will be created and returned if this is empty
+---
 string name
-""", """
+""",
+    "turtlesim/srv/Kill": """
 string name
-"""),
+---
+""",
+    "turtlesim/srv/TeleportAbsolute": """
+float32 x
+float32 y
+float32 theta
+---
+""",
+    "rcl_interfaces/srv/GetParameters": """
+string[] names
+---
+ParameterValue[] values
+""",
+    "rcl_interfaces/srv/SetParameters": """
+Parameter[] parameters
+---
+SetParametersResult[] results
+""",
+    "rcl_interfaces/srv/SetParametersAtomically": """
+Parameter[] parameters
+---
+SetParametersResult result
+""",
+    "rcl_interfaces/srv/ListParameters": """
+uint64 DEPTH_RECURSIVE=0
+string[] prefixes
+uint64 depth
+---
+ListParametersResult result
+""",
+    "rcl_interfaces/srv/DescribeParameters": """
+string[] names
+---
+ParameterDescriptor[] descriptors
+""",
+    "rcl_interfaces/srv/GetParameterTypes": """
+string[] names
+---
+uint8[] types
+""",
 }

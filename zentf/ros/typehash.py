@@ -18,9 +18,11 @@ __all__ = ["type_hash", "type_description", "FIELD_TYPE_IDS"]
 #: type_description_interfaces/msg/FieldType ids of the scalar types.
 FIELD_TYPE_IDS: dict[str, int] = {
     "nested": 1, "int8": 2, "uint8": 3, "int16": 4, "uint16": 5, "int32": 6, "uint32": 7, "int64": 8,
-    "uint64": 9, "float32": 10, "float64": 11, "char": 13, "bool": 15, "byte": 16, "string": 17,
+    "uint64": 9, "float32": 10, "float64": 11, "char": 3, "bool": 15, "byte": 16, "string": 17,
     "wstring": 18,
 }
+# .msg 'char' is IDL 'uint8' (rosidl_adapter), so its id is FIELD_TYPE_UINT8, not FIELD_TYPE_CHAR (13);
+# checked: service_msgs/msg/ServiceEventInfo (char[16] client_gid) hashes as ROS 2 Jazzy's JSON says.
 _BOUNDED_STRING = 21     # FIELD_TYPE_BOUNDED_STRING (string<=N)
 _ARRAY_OFFSET = {None: 0, "fixed": 48, "bounded": 96, "sequence": 144}
 
