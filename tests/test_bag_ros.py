@@ -413,3 +413,16 @@ def test_without_rosbags_a_ros_bag_is_one_line_and_zentf_bags_still_work():
                            capture_output=True, text=True, timeout=60, cwd=REPO)
         assert r.returncode == code and text in (r.stderr if code else r.stdout), r.stderr
         assert "Traceback" not in r.stderr and r.stderr.count("\n") <= 1
+
+
+def test_topics_filter_takes_ros_and_zentf_names(tmp_path):
+    from zentf.tools.bag import BagWriter, open_bag
+
+    ros = [m.key for m in open_bag(NAV2).zentf(["tf_static", "/amcl_pose"])]
+    assert set(ros) == {"tf_static", "amcl_pose"} and len(ros) == 136
+    path = tmp_path / "ns.mcap"
+    with BagWriter(path, namespace="r1") as w:  # a zentf bag recorded under a namespace
+        for key in ("r1/tf", "r1/odom"):
+            w.write(key, b"\x80", "application/msgpack;tf2_msgs/msg/TFMessage")
+    assert [m.key for m in open_bag(path).zentf(["/tf"])] == ["r1/tf"]
+    assert [m.key for m in open_bag(path).zentf(["r1/odom"])] == ["r1/odom"]

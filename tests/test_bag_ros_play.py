@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from bag_reference import NAV2, ROS1, reference_core, rosbags_transforms
+from bag_reference import NAV2, ROS1, ROS2_DIR, reference_core, rosbags_transforms
 from conftest import REPO, child_env
 
 pytest.importorskip("rosbags")
@@ -120,8 +120,9 @@ def test_ros_topics_become_zentf_topics_with_zentf_payloads(spawn, zenoh_session
     assert play.wait(20) == 0
 
 
-def test_ros1_bag_plays_tf_and_a_late_joiner_gets_tf_static(spawn, test_namespace):
-    play = spawn([*ZENTF, "bag", "play", str(ROS1), "--loop", "--rate", "5"])
+@pytest.mark.parametrize("bag", [ROS1, ROS2_DIR], ids=["ros1_bag", "ros2_sqlite_folder"])
+def test_ros1_and_sqlite_bags_play_tf_and_a_late_joiner_gets_tf_static(spawn, test_namespace, bag):
+    play = spawn([*ZENTF, "bag", "play", str(bag), "--loop", "--rate", "5"])
     play.wait_for_line(r"playing: t = [1-9]", 30)
     listener = spawn.python("-m", "nodes.frame_listener", "-p", "target_frame:=odom", "-p", "source_frame:=base_link",
                             "-p", "period:=0.2")
