@@ -117,6 +117,29 @@ def test_readme_first_command_and_the_cli_work_with_zero_configuration(spawn, lo
     assert mine and all(" 127.0.0.1:" in ln for ln in mine), mine  # TCP on loopback only, no UDP at all
 
 
+def test_an_immediate_node_list_names_every_local_node(spawn, local_env) -> None:
+    """A short-lived listing is complete at once (issue 10): it asks the rendezvous, which every local
+    peer links to, rather than only the peers gossip has linked it to by then. --wait 0 leaves no
+    time to settle, so the answer must come whole from the first query; repeated, as it was a race."""
+    names = [f"/mesh{i}" for i in range(5)]
+    for i, name in enumerate(names):
+        p = spawn([*ZENTF, "static-transform-publisher", "--frame-id", f"f{i}", "--child-frame-id", f"g{i}",
+                   "--name", name[1:]], env=local_env)
+        p.wait_for_line(r"Spinning until stopped", 30)
+    for wait in ("0", "0", "0", "0", "0", "2"):
+        started = time.monotonic()
+        out = subprocess.run([*ZENTF, "node", "list", "--wait", wait], env=local_env, capture_output=True,
+                             text=True, timeout=60)
+        assert out.returncode == 0 and sorted(out.stdout.split()) == names, (wait, out)
+        assert time.monotonic() - started < 30, "node list must answer at once, not run out --wait"
+
+
+def test_node_list_with_nothing_running_is_empty_and_leaves_no_rendezvous(local_env) -> None:
+    """No holder: the listing falls back to a peer session, prints nothing and exits 0."""
+    out = subprocess.run([*ZENTF, "node", "list"], env=local_env, capture_output=True, text=True, timeout=60)
+    assert (out.returncode, out.stdout) == (0, ""), out
+
+
 def _children(pid: int) -> list[int]:
     """Every descendant (the launcher's nodes run under a reaper each: grandchildren)."""
     from zentf.launch import proctree

@@ -216,6 +216,24 @@ class ZenohOptions:
                     raise
         return self._open(self.config(hold=False))
 
+    def open_query_session(self) -> tuple[Any, str]:
+        """(session, mode) for a one-shot query of the whole local graph (node list, topic list...).
+
+        Local profile: a *client* of the rendezvous. Every local peer links to the rendezvous holder,
+        which answers a client's liveliness query from all their tokens at once (Zenoh's peer-to-peer
+        routing forwards other peers' declarations to clients, never to peers), so the answer does
+        not depend on gossip having linked this short-lived session to each peer. With nobody holding
+        the rendezvous nothing of this machine runs: the usual peer session (which then holds it).
+        Other profiles, or given mode/endpoints: ``open_session()`` as is.
+        """
+        if self._holds_rendezvous():
+            try:
+                return self._open(replace(self, mode="client").config(hold=False)), "client"
+            except OptionsError as e:
+                if "nable to connect" not in str(e):
+                    raise
+        return self.open_session(), self.mode or "peer"
+
     def _open(self, cfg: Any) -> Any:
         import zenoh
 

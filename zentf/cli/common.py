@@ -15,6 +15,7 @@ import click
 
 __all__ = ["CliError", "CliOptions", "CONTEXT_SETTINGS", "FiniteFloat", "FiniteFloatRange", "StampSeconds",
            "NumberArgsCommand", "finite_float", "liveliness_wait_option", "with_options", "open_node", "open_session",
+           "open_graph_session",
            "node_options", "status", "cli_node_name", "clean_error", "wire_profile"]
 
 
@@ -254,6 +255,18 @@ def open_session(opts: CliOptions) -> Any:
     node_opts = node_options(opts, cli_node_name("graph"))
     try:
         return wire_profile(opts).session_defaults(node_opts.zenoh).open_session()
+    except Exception as exc:
+        if opts.debug:
+            raise
+        raise CliError(_session_error(exc, opts)) from exc
+
+
+def open_graph_session(opts: CliOptions) -> tuple[Any, str]:
+    """(session, mode) for a one-shot graph listing: in the local profile a client of the rendezvous,
+    which answers for every local node at once (ZenohOptions.open_query_session)."""
+    node_opts = node_options(opts, cli_node_name("graph"))
+    try:
+        return wire_profile(opts).session_defaults(node_opts.zenoh).open_query_session()
     except Exception as exc:
         if opts.debug:
             raise

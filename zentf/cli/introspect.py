@@ -5,13 +5,15 @@ import threading
 import time
 from typing import Any, Optional
 
-from .common import CliOptions, node_options, open_session, status, wire_profile
+from .common import CliOptions, node_options, open_graph_session, status, wire_profile
 
 __all__ = ["graph_snapshot", "graph_namespace"]
 
 #: A fresh peer-mode session may answer a liveliness query before the router has sent it the
 #: current tokens (measured: empty replies in ~1/3 of fresh sessions, tokens up to ~0.25 s late),
-#: so one-shot listings also watch token arrivals and wait until they stop for this long.
+#: so one-shot peer listings also watch token arrivals and wait until they stop for this long.
+#: Client sessions (the local profile's listings: a client of the rendezvous) need no such wait:
+#: their router or peer answers the query from every token it holds.
 QUIET = 0.25
 MIN_WAIT = 0.35
 
@@ -27,8 +29,7 @@ def graph_snapshot(opts: CliOptions, wait: float, namespace: Optional[str] = Non
     from zentf.graph import GraphWatcher, build_graph, list_tokens
 
     profile = wire_profile(opts)
-    zopts = profile.session_defaults(node_options(opts, "_zentf_cli").zenoh)
-    session = open_session(opts)
+    session, mode = open_graph_session(opts)
     opened = time.monotonic()
     last_change = [opened]
     lock = threading.Lock()
@@ -40,7 +41,7 @@ def graph_snapshot(opts: CliOptions, wait: float, namespace: Optional[str] = Non
     watcher = None
     try:
         with status("Querying the graph"):
-            if zopts.mode != "client":
+            if mode != "client":
                 watcher = GraphWatcher(session, on_change=on_change, namespace=namespace, profile=profile)
             entries = set(list_tokens(session, namespace, timeout=max(0.1, wait), profile=profile))
             if watcher is not None:
