@@ -8,6 +8,9 @@ Measured in one run, as wall time of fresh processes (median and best of --runs)
   zentf --help         target < 0.3 s
   zentf tf echo        Popen -> first "At time" line, camera <- laser from two static publishers
                        already running on a local router; target < 0.5 s
+  ... (local)          the same with zero configuration (the local profile, a rendezvous port of
+                       the bench's own), plus `zentf node list` there (a short-lived listing that
+                       asks the rendezvous, docs/networking.md#security); target < 0.6 s
 Child processes may write .pyc files (as any installed package has them); the last row shows the
 same echo with zentf compiled from source at every start (PYTHONDONTWRITEBYTECODE=1, as in CI).
 Also prints the heaviest imports of `zentf tf echo` (python -X importtime), so a regression shows
@@ -40,6 +43,16 @@ def wall(cmd: list[str], env: dict[str, str]) -> float:
     t0 = time.perf_counter()
     subprocess.run(cmd, env=env, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
     return time.perf_counter() - t0
+
+
+def listing(cmd: list[str], env: dict[str, str], lines: int) -> float:
+    """Wall time of a one-shot listing, which must print ``lines`` lines (a fast but partial answer fails)."""
+    t0 = time.perf_counter()
+    out = subprocess.run(cmd, env=env, cwd=REPO, capture_output=True, text=True, check=True).stdout.split()
+    took = time.perf_counter() - t0
+    if len(out) != lines:
+        raise RuntimeError(f"{cmd} listed {out}, expected {lines} lines")
+    return took
 
 
 def first_line(cmd: list[str], env: dict[str, str], pattern: str, timeout: float = 30.0) -> float:
@@ -104,6 +117,7 @@ def main() -> int:
     ep = f"tcp/127.0.0.1:{free_port()}"
     ns = f"bench_{uuid.uuid4().hex[:8]}"
     zenv = {**env, "ZENTF_CONNECT": ep, "ZENTF_NO_MULTICAST": "1", "ZENTF_NAMESPACE": ns, "PYTHONUNBUFFERED": "1"}
+    lenv = {**env, "ZENTF_LOCAL_PORT": str(free_port()), "PYTHONUNBUFFERED": "1"}  # zero configuration
 
     procs: list[subprocess.Popen] = []
     try:
@@ -113,10 +127,11 @@ def main() -> int:
         wait_line(router, r"listening on")
         for a in (["0.4", "0", "0.2", "0.5", "0", "0", "base_link", "laser"],
                   ["-0.5", "0", "0.4", "0", "0", "0", "base_link", "camera"]):
-            p = subprocess.Popen([PY, "-m", "nodes.static_transform_publisher", *a], env=zenv, cwd=REPO,
-                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-            procs.append(p)
-            wait_line(p, r"Spinning until stopped")
+            for penv in (zenv, lenv):
+                p = subprocess.Popen([PY, "-m", "nodes.static_transform_publisher", *a], env=penv, cwd=REPO,
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                procs.append(p)
+                wait_line(p, r"Spinning until stopped")
 
         cases = [
             ("python -c pass", "reference", None, lambda: wall([PY, "-c", "pass"], env)),
@@ -127,6 +142,10 @@ def main() -> int:
             ("  same, zentf without .pyc", "first transform", 0.5,
              lambda: first_line([PY, "-m", "zentf.cli", "tf", "echo", "camera", "laser"],
                                 {**zenv, **nopyc}, r"^At time ")),
+            ("zentf tf echo (local)", "first transform", 0.5,
+             lambda: first_line([PY, "-m", "zentf.cli", "tf", "echo", "camera", "laser"], lenv, r"^At time ")),
+            ("zentf node list (local)", "complete list", 0.6,
+             lambda: listing([PY, "-m", "zentf.cli", "node", "list"], lenv, 2)),
         ]
         zenv_imports = dict(zenv)
         results = []
