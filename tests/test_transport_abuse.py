@@ -65,6 +65,9 @@ ATTACKER = textwrap.dedent("""
                 for i in range(count // per))
     elif kind == "distinct":  # a new frame name in every sample
         msgs = ([tf("world", f"forged_{i * per + j}", now) for j in range(per)] for i in range(count // per))
+    elif kind == "sim":    # for a sim-time listener at 1000 s: one sample at 1001 s, one at wall time
+        msgs = [[tf("world", "sim_ok", 1001 * NS, 1.0), tf("world", "sim_ahead", now, 1.0)]]
+        now = 1002 * NS   # (the sentinel's stamp)
     elif kind == "evil":   # control characters in frame ids, a NaN so the buffer logs them
         msgs = [[tf("world", "evil\\x1b[2J\\r\\nFAKE LINE", now, float("nan"))]]
     att = b"/attacker"
@@ -76,7 +79,8 @@ ATTACKER = textwrap.dedent("""
         for m in msgs:
             pub.put(msgpack.packb({"transforms": m}), attachment=att)
     dt = time.perf_counter() - t0
-    pub.put(msgpack.packb({"transforms": [tf("world", "done_" + kind, time.time_ns(), 1.0)]}), attachment=att)
+    done = now if kind == "sim" else time.time_ns()
+    pub.put(msgpack.packb({"transforms": [tf("world", "done_" + kind, done, 1.0)]}), attachment=att)
     print(f"sent {count} in {dt:.3f}s", flush=True)
     time.sleep(0.5)
     s.close()
@@ -141,6 +145,24 @@ def test_tolerance_is_a_node_parameter_and_a_small_lead_is_accepted(spawn, node_
         attacker.wait_for_line("^sent", timeout=30)
         assert buf.can_transform("world", "done_future", Time(), timeout=30)
         assert tl.stats()["future"] == 1 and not buf.can_transform("world", "av1", Time())
+
+
+def test_the_guard_follows_sim_time(spawn, node_options, test_namespace) -> None:
+    from zentf.core.messages import Clock as ClockMsg
+
+    sim = node_options.with_(params={"use_sim_time": True}, remappings={"/clock": f"/{test_namespace}/clock"})
+    with Node("victim", options=sim) as node, Node("clockpub", options=node_options) as src:
+        buf = Buffer(node=node)
+        tl = TransformListener(buf, node)
+        pub = src.create_publisher("clock", ClockMsg)
+        assert pub.wait_for_subscribers(10)
+        pub.publish(ClockMsg(Time(sec=1000)))
+        assert node.get_clock().sleep_until(Time(sec=1000), timeout=10)
+        spawn.python("-c", ATTACKER, "sim", "1", "1").wait_for_line("^sent", timeout=30)
+        assert buf.can_transform("world", "done_sim", Time(), timeout=30)  # 1002 s: within 5 s of sim now
+        assert buf.can_transform("world", "sim_ok", Time(), timeout=5)     # 1001 s
+        assert not buf.frame_exists("sim_ahead")                            # wall time: years ahead of sim
+        assert tl.stats()["future"] == 1
 
 
 def test_bad_tolerance_values_are_refused() -> None:

@@ -25,6 +25,8 @@ DEFAULT_FUTURE_TOLERANCE = 5.0
 #: ``tf`` messages Zenoh holds for the listener's thread; beyond it Zenoh drops the oldest, so a flood
 #: never backs up into the network (where an honest message would wait behind it).
 RING_CAPACITY = 16384
+#: Samples moved from the ring to the per-sender queues between two rounds (one message per sender).
+DRAIN_BATCH = 256
 #: Messages waiting in the per-sender queues in all; beyond it the biggest backlog loses its oldest.
 MAX_PENDING = 100_000
 #: A sender none of whose last SUSPECT_AFTER messages put anything into the buffer (NaN, forged frames
@@ -195,6 +197,7 @@ class TransformListener:
             except Exception:
                 return
             n = 0
+            shed: dict[bytes, int] = {}
             while sample is not None:
                 att = sample.attachment
                 key = att.to_bytes() if att is not None else b""
@@ -205,21 +208,25 @@ class TransformListener:
                         q = queues.get(key)
                     if q is None:
                         q = queues[key] = deque()
+                if len(q) >= SUSPECT_QUEUE and strikes.get(key, 0) >= SUSPECT_AFTER:
+                    q.popleft()  # a suspect sender: its newest SUSPECT_QUEUE wait, the oldest goes
+                    shed[key] = shed.get(key, 0) + 1
+                    pending -= 1
                 q.append(sample)
                 pending += 1
                 if pending > MAX_PENDING:
-                    self._shed(queues, q, key)
-                    pending -= 1
-                elif len(q) > SUSPECT_QUEUE and strikes.get(key, 0) >= SUSPECT_AFTER:
-                    self._drop(q, key)
+                    big = self._shed(queues, q, key)
+                    shed[big] = shed.get(big, 0) + 1
                     pending -= 1
                 n += 1
-                if n >= RING_CAPACITY:
+                if n >= DRAIN_BATCH:  # short rounds: a light sender is served often however big the flood
                     break
                 try:
                     sample = try_recv()
                 except Exception:
                     return
+            if shed:
+                self._log_shed(shed, queues)
             for key in list(queues):
                 q = queues[key]
                 if handle(q.popleft()):
@@ -227,29 +234,33 @@ class TransformListener:
                         del strikes[key]
                 else:
                     k = strikes[key] = strikes.get(key, 0) + 1
-                    if k >= SUSPECT_AFTER:
-                        while len(q) > SUSPECT_QUEUE:  # what it queued before it turned suspect
-                            self._drop(q, key)
-                            pending -= 1
+                    if k >= SUSPECT_AFTER and len(q) > SUSPECT_QUEUE:  # queued before it turned suspect
+                        extra = len(q) - SUSPECT_QUEUE
+                        for _ in range(extra):
+                            q.popleft()
+                        pending -= extra
+                        self._log_shed({key: extra}, queues)
                     if len(strikes) > 4 * MAX_SENDERS:
                         strikes.clear()
                 pending -= 1
                 if not q:
                     del queues[key]
 
-    def _shed(self, queues: dict[bytes, deque], q: deque, key: bytes) -> None:
+    def _shed(self, queues: dict[bytes, deque], q: deque, key: bytes) -> bytes:
         """Too much waiting in all: the biggest backlog (usually the sender just heard) loses its oldest."""
         if len(q) * len(queues) < MAX_PENDING:
             key, q = max(queues.items(), key=lambda kv: len(kv[1]))
-        self._drop(q, key)
-
-    def _drop(self, q: deque, key: bytes) -> None:
         q.popleft()
-        self.dropped += 1
-        sender = key.decode("utf-8", "replace") if key else "unknown sender"
-        self._limiter.log(logging.WARNING, ("overload", key),
-                          "tf listener overloaded: dropped a message from %s unread (%d waiting from it)",
-                          sender, len(q))
+        return key
+
+    def _log_shed(self, shed: dict[bytes, int], queues: dict[bytes, deque]) -> None:
+        for key, n in shed.items():
+            self.dropped += n
+            sender = key.decode("utf-8", "replace") if key else "unknown sender"
+            q = queues.get(key)
+            self._limiter.log(logging.WARNING, ("overload", key),
+                              "tf listener overloaded: dropped %d message(s) from %s unread (%d waiting from it)",
+                              n, sender, len(q) if q is not None else 0)
 
     def _on_sample(self, sample: Any, is_static: bool = False) -> bool:
         """Decode and insert one message; True if something got into the buffer. Never raises."""

@@ -1,0 +1,377 @@
+"""Abuse benchmark (issue 10): a listener under a flood of bad and foreign tf samples, in real processes.
+
+    python bench/abuse.py [--flood 1000000] [--per-msg 1] [--frames 100000]
+
+A Zenoh router on loopback (like the tests' router fixture), and client processes on it:
+- a **listener** (Buffer + TransformListener, as a user program has it) whose helper thread reads the
+  latest stamp of the legitimate edge ``world -> legit`` every 5 ms and records its staleness
+  (wall now - stamp of the newest sample in the buffer);
+- a **legitimate** broadcaster sending ``world -> legit`` at 50 Hz, stamped with the send time;
+- a **flooder**, a raw Zenoh session putting ``--flood`` samples on the same ``tf`` key as fast as it
+  can (``--per-msg`` samples per message, attachment ``/flooder``): NaN transforms of the legitimate
+  edge, then valid transforms of 1000 other frames (foreign data that costs real inserts).
+Reported: staleness p50/p99 with no flood (the reference, same run) and during each flood (target
+p99 <= 100 ms); the listener's log bytes per second during the NaN flood (target <= 10 kB/s) against
+what one line per refused sample would write (tf2's behaviour); listener RSS after ``--frames``
+distinct frames were offered (target <= 50 MB above idle) against the same listener with the frame
+cap off (``max_frames=None``, tf2's unbounded buffer).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+NS = 1_000_000_000
+NAMESPACE = "abuse"
+EDGE = ("world", "legit")
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def zopts(endpoint: str):
+    from zentf.options import ZenohOptions
+
+    return ZenohOptions(connect=[endpoint], mode="client", no_multicast=True)
+
+
+def rss_kb() -> int:
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    return 0
+
+
+# ------------------------------------------------------------------ child roles
+
+def role_listener(args: argparse.Namespace) -> None:
+    """Commands on stdin, one per line: start / stop (staleness samples) / mark (RSS, stats) / quit."""
+    import logging
+
+    logging.basicConfig(level=logging.WARNING, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    from zentf.buffer import Buffer
+    from zentf.listener import TransformListener
+    from zentf.node import Node
+    from zentf.options import NodeOptions
+
+    node = Node("abuse_listener", options=NodeOptions(namespace=NAMESPACE, zenoh=zopts(args.endpoint)),
+                check_unique=False)
+    kw = {} if args.max_frames == "default" else {"max_frames": None if args.max_frames == "none" else int(args.max_frames)}
+    buf = Buffer(node=node, **kw)
+    tl = TransformListener(buf, node)
+    sampling = threading.Event()
+    quit_ = threading.Event()
+    stale: list[int] = []
+
+    def sampler() -> None:
+        while not quit_.is_set():
+            if sampling.wait(0.1):
+                try:
+                    st = buf.lookup_transform(*EDGE, 0).header.stamp.nanoseconds
+                    stale.append(time.time_ns() - st)
+                except Exception:
+                    pass
+                time.sleep(0.005)
+
+    threading.Thread(target=sampler, daemon=True).start()
+    print("ready", flush=True)
+    for line in sys.stdin:
+        cmd = line.strip()
+        if cmd == "start":
+            stale.clear()
+            sampling.set()
+            print("started", flush=True)
+        elif cmd == "stop":
+            sampling.clear()
+            print("RESULT " + json.dumps({"stale_ns": stale, "stats": tl.stats()}), flush=True)
+        elif cmd == "mark":
+            print("RESULT " + json.dumps({"rss_kb": rss_kb(), "stats": tl.stats(),
+                                          "frames": len(buf.get_frames())}), flush=True)
+        elif cmd == "wait_edge":
+            ok = buf.can_transform(*EDGE, 0, timeout=30)
+            print(f"RESULT {json.dumps({'ok': ok})}", flush=True)
+        elif cmd == "quit":
+            break
+    quit_.set()
+    node.shutdown()
+
+
+def role_legit(args: argparse.Namespace) -> None:
+    from zentf.broadcaster import TransformBroadcaster
+    from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
+    from zentf.core.time import Time
+    from zentf.node import Node
+    from zentf.options import NodeOptions
+
+    node = Node("legit_broadcaster", options=NodeOptions(namespace=NAMESPACE, zenoh=zopts(args.endpoint)),
+                check_unique=False)
+    br = TransformBroadcaster(node)
+    print("ready", flush=True)
+    period = NS // 50
+    nxt = time.monotonic_ns()
+    i = 0
+    while True:
+        i += 1
+        br.send_transform(TransformStamped(Header(Time(nanoseconds=time.time_ns()), EDGE[0]), EDGE[1],
+                                           Transform(Vector3(float(i), 0.0, 0.0), Quaternion(0.0, 0.0, 0.0, 1.0))))
+        nxt += period
+        time.sleep(max(0.0, (nxt - time.monotonic_ns()) / NS))
+
+
+def flood_payloads(kind: str, n_msgs: int, per_msg: int, base: int):
+    """Yield TFMessage payloads: 'nan' (NaN legit edge), 'frames' (1000 foreign frames), 'distinct'."""
+    import msgpack
+
+    def tf(parent: str, child: str, stamp: int, x: float) -> dict:
+        return {"header": {"stamp": {"sec": stamp // NS, "nanosec": stamp % NS}, "frame_id": parent},
+                "child_frame_id": child,
+                "transform": {"translation": {"x": x, "y": 0.0, "z": 0.0},
+                              "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}
+
+    if kind == "nan":
+        payload = msgpack.packb({"transforms": [tf(*EDGE, base, float("nan"))] * per_msg})
+        for _ in range(n_msgs):
+            yield payload
+        return
+    k = 0
+    for i in range(n_msgs):
+        items = []
+        for _ in range(per_msg):
+            if kind == "frames":
+                items.append(tf("world", f"other{k % 1000}", base + (k // 1000) * 1000, 1.0))
+            else:
+                items.append(tf("world", f"distinct_frame_{k:07d}", base, 1.0))
+            k += 1
+        yield msgpack.packb({"transforms": items})
+
+
+def role_flood(args: argparse.Namespace) -> None:
+    import zenoh
+
+    from zentf import wire
+    from zentf.core.messages import TFMessage
+
+    session = zopts(args.endpoint).open_session()
+    pub = session.declare_publisher(f"{NAMESPACE}/tf", encoding=wire.encoding_for(TFMessage.TYPE_NAME),
+                                    congestion_control=zenoh.CongestionControl.BLOCK)
+    while not pub.matching_status.matching:
+        time.sleep(0.01)
+    n_msgs = args.count // args.per_msg
+    att = b"/flooder"
+    payloads = list(flood_payloads(args.kind, n_msgs, args.per_msg, time.time_ns() - 2 * NS)) \
+        if args.kind != "nan" else None
+    print("ready", flush=True)
+    sys.stdin.readline()
+    t0 = time.perf_counter()
+    if payloads is None:
+        put = pub.put
+        for p in flood_payloads("nan", n_msgs, args.per_msg, time.time_ns()):
+            put(p, attachment=att)
+    else:
+        for p in payloads:
+            pub.put(p, attachment=att)
+    dt = time.perf_counter() - t0
+    print("RESULT " + json.dumps({"secs": dt, "samples": n_msgs * args.per_msg}), flush=True)
+    time.sleep(1.0)  # (closing at once can lose the last puts)
+    session.close()
+
+
+# ------------------------------------------------------------------ orchestration (this process)
+
+class Child:
+    def __init__(self, role: str, endpoint: str, *extra: str, stderr_counter: bool = False) -> None:
+        self.p = subprocess.Popen([sys.executable, __file__, "--role", role, "--endpoint", endpoint, *extra],
+                                  stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE if stderr_counter else None, text=True, bufsize=1)
+        self.log_bytes = 0
+        self.log_lines: list[str] = []
+        if stderr_counter:
+            threading.Thread(target=self._count, daemon=True).start()
+        self.expect("ready")
+
+    def _count(self) -> None:
+        assert self.p.stderr is not None
+        for line in self.p.stderr:
+            self.log_bytes += len(line.encode())
+            if len(self.log_lines) < 50:
+                self.log_lines.append(line.rstrip())
+
+    def expect(self, word: str) -> str:
+        assert self.p.stdout is not None
+        line = self.p.stdout.readline()
+        while line and not line.startswith(word):
+            line = self.p.stdout.readline()
+        if not line:
+            raise RuntimeError(f"{self.p.args[3]} ended before {word!r}")
+        return line
+
+    def ask(self, cmd: str) -> dict:
+        assert self.p.stdin is not None
+        self.p.stdin.write(cmd + "\n")
+        self.p.stdin.flush()
+        return json.loads(self.expect("RESULT ")[len("RESULT "):])
+
+    def send(self, cmd: str) -> None:
+        assert self.p.stdin is not None
+        self.p.stdin.write(cmd + "\n")
+        self.p.stdin.flush()
+
+    def stop(self) -> None:
+        if self.p.poll() is None:
+            self.p.terminate()
+            try:
+                self.p.wait(5)
+            except subprocess.TimeoutExpired:
+                self.p.kill()
+                self.p.wait(5)
+
+
+def start_router() -> tuple[subprocess.Popen, str]:
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    p = subprocess.Popen([sys.executable, "-m", "zentf.router", "--listen", ep, "--no-multicast"],
+                         stdout=subprocess.PIPE, text=True)
+    assert p.stdout is not None
+    line = p.stdout.readline()
+    if "listening" not in line:
+        raise RuntimeError(f"router did not start: {line!r}")
+    return p, ep
+
+
+class _Skip(Exception):
+    """--only: the part not asked for."""
+
+
+def pct(values: list[int], q: float) -> float:
+    s = sorted(values)
+    return s[min(len(s) - 1, int(q * len(s)))] / 1e6 if s else float("nan")
+
+
+def flood(ep: str, kind: str, count: int, per_msg: int) -> dict:
+    f = Child("flood", ep, "--kind", kind, "--count", str(count), "--per-msg", str(per_msg))
+    try:
+        f.send("go")
+        return json.loads(f.expect("RESULT ")[len("RESULT "):])
+    finally:
+        f.stop()
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--role", default="main", choices=["main", "listener", "legit", "flood"])
+    ap.add_argument("--endpoint")
+    ap.add_argument("--kind", default="nan")
+    ap.add_argument("--count", type=int, default=0)
+    ap.add_argument("--max-frames", default="default")
+    ap.add_argument("--flood", type=int, default=1_000_000, help="samples in each flood")
+    ap.add_argument("--per-msg", type=int, default=1, help="samples per flood message")
+    ap.add_argument("--frames", type=int, default=100_000, help="distinct frames offered in the memory case")
+    ap.add_argument("--only", choices=["flood", "memory"], help="run one part")
+    args = ap.parse_args()
+    if args.role != "main":
+        {"listener": role_listener, "legit": role_legit, "flood": role_flood}[args.role](args)
+        return
+
+    print(f"# zentf abuse bench  (python {sys.version.split()[0]}, {os.cpu_count()} cpus; loopback router)")
+    router, ep = start_router()
+    children: list[Child] = []
+    try:
+        if args.only == "memory":
+            raise _Skip
+        lis = Child("listener", ep, stderr_counter=True)
+        children.append(lis)
+        children.append(Child("legit", ep))
+        if not lis.ask("wait_edge")["ok"]:
+            raise RuntimeError("the listener never got the legitimate edge")
+        rows = []
+        lis.send("start")
+        lis.expect("started")
+        time.sleep(3.0)
+        base = lis.ask("stop")
+        rows.append(("no flood (reference)", base, None, 0))
+        for kind, label in (("nan", "NaN flood of the same edge"), ("frames", "valid flood of 1000 other frames")):
+            lis.send("start")
+            lis.expect("started")
+            b0 = lis.log_bytes
+            fl = flood(ep, kind, args.flood, args.per_msg)
+            time.sleep(0.5)  # the tail of the flood is still being handled
+            res = lis.ask("stop")
+            # log bytes per second of flooding (+0.5 s of tail): the lines only appear while it lasts
+            rows.append((label, res, fl, (lis.log_bytes - b0) / (fl["secs"] + 0.5)))
+        print()
+        print(f"| legitimate 50 Hz edge, staleness (ms) | p50 | p99 | max | flood rate (samples/s) | listener log |")
+        print("|---|---|---|---|---|---|")
+        for label, res, fl, lb in rows:
+            s = res["stale_ns"]
+            rate = f"{fl['samples'] / fl['secs']:,.0f}" if fl else ""
+            print(f"| {label} | {pct(s, .5):.1f} | {pct(s, .99):.1f} (target <= 100) | {max(s) / 1e6:.1f} | "
+                  f"{rate} | {lb / 1000:.2f} kB/s |")
+        nan_row = rows[1]
+        secs = nan_row[2]["secs"]
+        line_len = 260  # one TF_NAN_INPUT line as tf2 (and zentf before issue 10) printed it
+        tf2_bytes = nan_row[2]["samples"] * line_len  # tf2 refuses, and logs, every one of them
+        print()
+        print("| NaN flood, listener log | zentf | tf2: one line per refused sample |")
+        print("|---|---|---|")
+        print(f"| bytes/s | {nan_row[3]:,.0f} (target <= 10,000) | at least {tf2_bytes / (secs + 0.5):,.0f} |")
+        print(f"| bytes for the whole flood | {nan_row[3] * (secs + 0.5):,.0f} | {tf2_bytes:,.0f} |")
+        print("zentf's lines:")
+        for line in lis.log_lines[:6]:
+            print(f"    {line[:200]}")
+    except _Skip:
+        pass
+    finally:
+        for c in children:
+            c.stop()
+        children.clear()
+    if args.only == "flood":
+        router.terminate()
+        router.wait(5)
+        return
+
+    rss = {}
+    try:
+        for cap in ("default", "none"):
+            lis = Child("listener", ep, "--max-frames", cap, stderr_counter=True)
+            children.append(lis)
+            idle = lis.ask("mark")
+            fl = flood(ep, "distinct", args.frames, 100)
+            last = -1
+            while True:  # until the listener has handled everything (messages counter stable)
+                m = lis.ask("mark")
+                if m["stats"]["messages"] + m["stats"]["bad_messages"] == last:
+                    break
+                last = m["stats"]["messages"] + m["stats"]["bad_messages"]
+                time.sleep(0.5)
+            rss[cap] = (idle, m)
+            lis.stop()
+    finally:
+        for c in children:
+            c.stop()
+        router.terminate()
+        router.wait(5)
+    print()
+    print(f"| listener after {args.frames:,} distinct frames offered | frames stored | RSS above idle (MB) |")
+    print("|---|---|---|")
+    for cap, label in (("default", "zentf (default frame cap)"), ("none", "cap off (tf2: unbounded)")):
+        idle, m = rss[cap]
+        d = (m["rss_kb"] - idle["rss_kb"]) / 1024
+        print(f"| {label} | {m['frames']:,} | {d:.1f}" + (" (target <= 50) |" if cap == "default" else " |"))
+    print()
+    print("Noisy on a shared machine; compare the columns of one run, not runs with each other.")
+
+
+if __name__ == "__main__":
+    main()
