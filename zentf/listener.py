@@ -1,10 +1,12 @@
 """TransformListener: fills a Buffer from ``tf`` (fairly per sender) and ``tf_static``."""
 from __future__ import annotations
 
+import atexit
 import logging
 import math
 import threading
 import uuid
+import weakref
 from collections import deque
 from functools import partial
 from typing import Any
@@ -171,9 +173,12 @@ class TransformListener:
             sub = session.declare_subscriber(key, zenoh.handlers.RingChannel(RING_CAPACITY))
             self._subs.append(sub)
             self._declare_token(key)
-            self._thread = threading.Thread(target=self._serve, args=(sub,), daemon=True,
+            # the thread reads the ring through its handler object: undeclaring the subscriber while
+            # the thread waits in sub.recv() fails ("Already borrowed") and leaves it blocked
+            self._thread = threading.Thread(target=self._serve, args=(sub.handler,), daemon=True,
                                             name=f"zentf-listener-{key}")
             self._thread.start()
+            _LIVE.add(self)
         self._jump = self.node.get_clock().add_jump_callback(self._on_jump)
         self.node.add_on_shutdown(self.unregister)
 
@@ -184,9 +189,9 @@ class TransformListener:
                                                           latched=is_static,
                                                           topic=self.node.wire.topic_of_key(key)[0]))
 
-    def _serve(self, sub: Any) -> None:
+    def _serve(self, ring: Any) -> None:
         """Listener thread: drain the ring into per-sender FIFOs, then handle one message per sender."""
-        recv, try_recv = sub.recv, sub.try_recv
+        recv, try_recv = ring.recv, ring.try_recv
         queues: dict[bytes, deque] = {}
         strikes: dict[bytes, int] = {}  # messages in a row that put nothing into the buffer, per sender
         pending = 0
@@ -323,8 +328,9 @@ class TransformListener:
         self._subs.clear()
         self._tokens.clear()
         thread, self._thread = self._thread, None
+        _LIVE.discard(self)
         if thread is not None and thread is not threading.current_thread():
-            thread.join(5)
+            thread.join(5)  # the undeclared ring wakes it at once
         if self._own_node and not self.node._closed:
             self.node.shutdown()
 
@@ -357,3 +363,18 @@ def wire_key(node: Node, topic: str) -> str:
             raise ValueError(f"invalid tf topic {topic!r}: a wildcard must be a whole part ('*' or '**')")
     key = node.wire.data_key(node.resolve_topic_name("/".join(marks.get(p, p) for p in parts)), _TF.TYPE_NAME)
     return "/".join({v: k for k, v in marks.items()}.get(c, c) for c in key.split("/"))
+
+
+#: Listeners whose thread still runs. At exit they are stopped before the interpreter finalizes: a
+#: daemon thread woken inside Zenoh during finalization would be unwound through Rust frames and
+#: abort the process ("FATAL: exception not rethrown").
+_LIVE: "weakref.WeakSet[TransformListener]" = weakref.WeakSet()
+
+
+@atexit.register
+def _stop_listeners() -> None:
+    for listener in list(_LIVE):
+        try:
+            listener.unregister()
+        except Exception:  # noqa: BLE001 - best effort on the way out
+            pass
