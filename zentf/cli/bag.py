@@ -141,7 +141,7 @@ def bag_record(topics: tuple[str, ...], all_topics: bool, output: Optional[str],
     profile = wire_profile(opts)
     try:
         if profile.name == "ros2":  # a ROS 2 graph: CDR as it came, in a rosbag2-style MCAP (docs/ros2.md)
-            from zentf.tools.ros2_bag import Ros2BagWriter
+            from zentf.tools.bag import Ros2BagWriter
 
             path = output or time.strftime("zentf_%Y%m%d_%H%M%S.mcap")
             keys = [f"{profile.domain_id}/{k}" if k.endswith("**") else profile.data_key("/" + k, None)
