@@ -229,6 +229,22 @@ def zenoh_env(zenoh_router: str, test_namespace: str) -> dict[str, str]:
 
 
 @pytest.fixture
+def ros2_env(isolated_router: str) -> dict[str, str]:
+    """Child env for a ROS 2 graph: this test's router, client mode, ZENTF_WIRE=ros2 in a ROS domain of its
+    own, root namespace (ROS 2 topics are absolute)."""
+    env = child_env(isolated_router, "")
+    env.pop("ZENTF_NAMESPACE", None)
+    env["ZENTF_WIRE"] = "ros2"
+    env["ROS_DOMAIN_ID"] = str(1 + uuid.uuid4().int % 200)
+    return env
+
+
+def router_address(env: dict[str, str]) -> str:
+    """The router a child env connects to, without the protocol (``tcp/127.0.0.1:7447`` -> ``127.0.0.1:7447``)."""
+    return env["ZENTF_CONNECT"].split("/", 1)[1]
+
+
+@pytest.fixture
 def spawn(zenoh_env: dict[str, str]) -> Iterator:
     """Factory ``spawn(args, env=None, **kw) -> Proc`` (default env: zenoh_env); all are stopped at teardown.
 

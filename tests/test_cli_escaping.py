@@ -74,3 +74,27 @@ def test_listings_print_hostile_names_escaped(injector, zenoh_env, test_namespac
         assert raw not in out, (argv, out)
     assert not any(line.startswith("line") for line in out.splitlines()), out  # no forged line
     assert SHOWN in out or SHOWN.replace("\\", "\\\\") in out, (argv, out)
+
+
+def test_bag_info_prints_hostile_names_escaped(tmp_path, zenoh_env):
+    """`zentf bag info` lists a bag's topics, types and tf frames: a bag from anyone cannot drive the terminal."""
+    from zentf import wire
+    from zentf.core.messages import TFMessage
+    from zentf.tools.bag import BagWriter
+
+    msg = TFMessage.from_dict({"transforms": [{
+        "header": {"stamp": {"sec": 1, "nanosec": 0}, "frame_id": "base"}, "child_frame_id": EVIL,
+        "transform": {"translation": {"x": 1.0}, "rotation": {"w": 1.0}}}]})
+    path = tmp_path / "evil.mcap"
+    with BagWriter(path) as w:
+        w.write("tf", wire.encode(msg), str(wire.encoding_for(TFMessage.TYPE_NAME)), log_time=1_000_000_000)
+        w.write(f"topic_{EVIL}", b"\x80", f"{wire.ENCODING};pkg/msg/{EVIL}", log_time=2_000_000_000)
+    proc = zentf(["bag", "info", str(path)], zenoh_env)
+    assert proc.returncode == 0, proc.stderr
+    out = proc.stdout + proc.stderr
+    for raw in ("\x1b", "\r", "\u202e"):
+        assert raw not in out, out
+    assert not any(line.startswith("line") for line in out.splitlines()), out  # no forged line
+    assert f"base -> {SHOWN}" in out, out          # a tf frame
+    assert f"topic_{SHOWN}" in out, out             # a topic
+    assert f"pkg/msg/{SHOWN}" in out, out           # a type

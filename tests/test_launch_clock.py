@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import subprocess
 import sys
 import textwrap
@@ -13,7 +14,7 @@ from typing import Iterator
 
 import pytest
 
-from conftest import REPO, Proc, child_env
+from conftest import REPO, Proc, child_env, free_port
 from zentf import wire
 from zentf.options import ZenohOptions
 
@@ -187,3 +188,21 @@ def test_a_clock_only_launch_keeps_serving_until_ctrl_c(clock_env, tmp_path):
         assert p.wait(10) == 0
     finally:
         p.stop()
+
+
+def test_zentf_clock_with_zero_configuration_reaches_a_launcher_that_is_not_the_rendezvous(spawn, tmp_path):
+    """`zentf clock` asks as the graph listings do (a client of the machine's rendezvous), so it finds a
+    launcher's clock in the local profile even when another process holds the rendezvous."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("ZENTF_")}
+    env.update(PYTHONUNBUFFERED="1", ZENTF_LOCAL_PORT=str(free_port()),
+               PYTHONPATH=os.pathsep.join(p for p in (str(REPO), os.environ.get("PYTHONPATH", "")) if p))
+    holder = spawn([sys.executable, "-m", "zentf.cli", "static-transform-publisher", "--frame-id", "a",
+                    "--child-frame-id", "b"], env=env)
+    holder.wait_for_line(r"Spinning until stopped", 30)
+    f = tmp_path / "clock_only.yaml"
+    f.write_text("clock: {start: 5, rate: 0.5}\n")
+    launcher = spawn([sys.executable, "-m", "zentf.launch", str(f)], env=env, cwd=tmp_path)
+    launcher.wait_for_line(r"sim clock: /clock from t=5\.000 s at 0\.5x", 30)
+    st = zentf_clock(env)
+    assert st["paused"] is False and st["rate"] == 0.5 and st["time"] >= 5.0
+    assert zentf_clock(env, "pause")["paused"] is True

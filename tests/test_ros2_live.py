@@ -11,12 +11,11 @@ from __future__ import annotations
 import json
 import math
 import sys
-import uuid
 
 import pytest
 
 from cli_helpers import zentf
-from conftest import REPO, Proc, child_env
+from conftest import REPO, router_address
 
 pytest.importorskip("zenoh_ros2_sdk")
 
@@ -65,38 +64,10 @@ while node.ok():
 """
 
 
-@pytest.fixture
-def ros2_env(isolated_router: str) -> dict[str, str]:
-    """Child env: this test's router, client mode, --wire ros2 in a domain of its own, root namespace."""
-    env = child_env(isolated_router, "")
-    env.pop("ZENTF_NAMESPACE", None)
-    env["ZENTF_WIRE"] = "ros2"
-    env["ROS_DOMAIN_ID"] = str(1 + uuid.uuid4().int % 200)
-    return env
-
-
-@pytest.fixture
-def procs():
-    started: list[Proc] = []
-
-    def start(args: list[str], env: dict[str, str]) -> Proc:
-        p = Proc(args, env=env)
-        started.append(p)
-        return p
-
-    yield start
-    for p in started:
-        p.stop(timeout=5)
-
-
-def _router(env: dict[str, str]) -> str:
-    return env["ZENTF_CONNECT"].split("/", 1)[1]
-
-
-def test_zentf_sees_a_ros2_node(ros2_env, procs, tmp_path) -> None:
-    sdk = procs([*SDK_NODE, "pub", _router(ros2_env), "--node", "sdk_tf_node"], ros2_env)
+def test_zentf_sees_a_ros2_node(ros2_env, spawn, tmp_path) -> None:
+    sdk = spawn([*SDK_NODE, "pub", router_address(ros2_env), "--node", "sdk_tf_node"], ros2_env)
     sdk.wait_for_line("publishing", timeout=60)
-    listener = procs([sys.executable, "-c", LISTENER], ros2_env)
+    listener = spawn([sys.executable, "-c", LISTENER], ros2_env)
     m = listener.wait_for_line(r"map->base_link (\S+) (\S+) (\S+)", timeout=40)
     assert [float(x) for x in m.groups()] == [1.5, 2.0, 3.0]   # map->odom (1,2,3) + odom->base_link (0.5,0,0)
 
@@ -134,7 +105,7 @@ def test_zentf_sees_a_ros2_node(ros2_env, procs, tmp_path) -> None:
     assert "/sdk_tf_node" in graph.stdout and "-> /tf [tf2_msgs/msg/TFMessage]" in graph.stdout
 
     # a listener that starts late, after the SDK node has been publishing for a while
-    late = procs([sys.executable, "-c", LISTENER.replace("zentf_listener", "late_listener")], ros2_env)
+    late = spawn([sys.executable, "-c", LISTENER.replace("zentf_listener", "late_listener")], ros2_env)
     m = late.wait_for_line(r"map->base_link (\S+) (\S+) (\S+)", timeout=40)
     assert [float(x) for x in m.groups()] == [1.5, 2.0, 3.0]
 
@@ -144,11 +115,11 @@ def test_zentf_sees_a_ros2_node(ros2_env, procs, tmp_path) -> None:
     assert "/tf" not in plain.stdout.split()
 
 
-def test_a_ros2_node_sees_zentf_broadcasters(ros2_env, procs) -> None:
-    bc = procs([sys.executable, "-c", BROADCASTER], ros2_env)
+def test_a_ros2_node_sees_zentf_broadcasters(ros2_env, spawn) -> None:
+    bc = spawn([sys.executable, "-c", BROADCASTER], ros2_env)
     bc.wait_for_line("static sent", timeout=40)
     # the SDK subscriber starts after the static transform went out: it must come from the latched cache
-    sub = procs([*SDK_NODE, "sub", _router(ros2_env), "--node", "sdk_listener"], ros2_env)
+    sub = spawn([*SDK_NODE, "sub", router_address(ros2_env), "--node", "sdk_listener"], ros2_env)
     sub.wait_for_line("subscribed", timeout=60)
     # (the SDK queries the cache while it builds the subscriber: the line may come before "subscribed")
     line = sub.wait_for_line(r'"topic": "/tf_static"', timeout=40, from_start=True).string
@@ -162,10 +133,10 @@ def test_a_ros2_node_sees_zentf_broadcasters(ros2_env, procs) -> None:
     assert math.isclose(sum(q * q for q in got["q"]), 1.0)
 
 
-def test_bag_record_of_a_ros2_graph_is_a_rosbag2_mcap(ros2_env, procs, tmp_path) -> None:
+def test_bag_record_of_a_ros2_graph_is_a_rosbag2_mcap(ros2_env, spawn, tmp_path) -> None:
     mcap_reader = pytest.importorskip("mcap.reader")
     decoder = pytest.importorskip("mcap_ros2.decoder")
-    sdk = procs([*SDK_NODE, "pub", _router(ros2_env), "--node", "sdk_tf_node"], ros2_env)
+    sdk = spawn([*SDK_NODE, "pub", router_address(ros2_env), "--node", "sdk_tf_node"], ros2_env)
     sdk.wait_for_line("publishing", timeout=60)
     out = tmp_path / "robot.mcap"
     rec = zentf(["bag", "record", "/tf", "/tf_static", "-o", str(out), "--duration", "2"], ros2_env)

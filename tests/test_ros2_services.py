@@ -19,7 +19,7 @@ import uuid
 import pytest
 from cli_helpers import assert_one_line_error, zentf
 
-from conftest import REPO, Proc, child_env
+from conftest import REPO, router_address
 from zentf.core.services import LookupTransform, Trigger
 from zentf.node import Node
 from zentf.options import NodeOptions, ZenohOptions
@@ -29,33 +29,9 @@ SDK_SERVICE = [sys.executable, str(REPO / "tests" / "ros2_sdk_service.py")]
 
 
 @pytest.fixture
-def ros2_env(isolated_router: str) -> dict[str, str]:
-    """Child env for nodes: this test's router, client mode, ZENTF_WIRE=ros2 in a domain of its own, root ns."""
-    env = child_env(isolated_router, "")
-    env.pop("ZENTF_NAMESPACE", None)
-    env["ZENTF_WIRE"] = "ros2"
-    env["ROS_DOMAIN_ID"] = str(1 + uuid.uuid4().int % 200)
-    return env
-
-
-@pytest.fixture
 def cli_env(ros2_env: dict[str, str]) -> dict[str, str]:
     """The same for `zentf` commands, which are given ``--wire ros2`` on the command line instead."""
     return {k: v for k, v in ros2_env.items() if k != "ZENTF_WIRE"}
-
-
-@pytest.fixture
-def procs():
-    started: list[Proc] = []
-
-    def start(args: list[str], env: dict[str, str]) -> Proc:
-        p = Proc(args, env=env)
-        started.append(p)
-        return p
-
-    yield start
-    for p in started:
-        p.stop(timeout=5)
 
 
 def _ok(proc) -> str:
@@ -63,12 +39,8 @@ def _ok(proc) -> str:
     return proc.stdout
 
 
-def _router(env: dict[str, str]) -> str:
-    return env["ZENTF_CONNECT"].split("/", 1)[1]
-
-
-def test_ros2_node_starts_and_param_cli_works(ros2_env, cli_env, procs) -> None:
-    node = procs([sys.executable, "tests/param_node.py"], ros2_env)
+def test_ros2_node_starts_and_param_cli_works(ros2_env, cli_env, spawn) -> None:
+    node = spawn([sys.executable, "tests/param_node.py"], ros2_env)
     node.wait_for_line("^ready$", 40)
     w = ["--wire", "ros2"]
     assert _ok(zentf(["param", "list", "param_node", *w], cli_env)).splitlines() == [
@@ -90,8 +62,8 @@ def test_ros2_node_starts_and_param_cli_works(ros2_env, cli_env, procs) -> None:
     assert "Traceback" not in node.output()
 
 
-def test_service_call_under_ros2(ros2_env, cli_env, procs) -> None:
-    server = procs([sys.executable, "tests/service_server.py"], ros2_env)
+def test_service_call_under_ros2(ros2_env, cli_env, spawn) -> None:
+    server = spawn([sys.executable, "tests/service_server.py"], ros2_env)
     server.wait_for_line("^serving$", 40)
     w = ["--wire", "ros2"]
     out = _ok(zentf(["service", "call", "/echo", "std_srvs/srv/SetBool", "{data: true}", *w], cli_env))
@@ -103,10 +75,10 @@ def test_service_call_under_ros2(ros2_env, cli_env, procs) -> None:
                                  "--timeout", "1"], cli_env), "not available")
 
 
-def test_sdk_client_calls_zentf_services(ros2_env, procs) -> None:
-    procs([sys.executable, "tests/service_server.py"], ros2_env).wait_for_line("^serving$", 40)
-    procs([sys.executable, "tests/param_node.py"], ros2_env).wait_for_line("^ready$", 40)
-    sdk = procs([*SDK_SERVICE, "call", _router(ros2_env), "/param_node"], ros2_env)
+def test_sdk_client_calls_zentf_services(ros2_env, spawn) -> None:
+    spawn([sys.executable, "tests/service_server.py"], ros2_env).wait_for_line("^serving$", 40)
+    spawn([sys.executable, "tests/param_node.py"], ros2_env).wait_for_line("^ready$", 40)
+    sdk = spawn([*SDK_SERVICE, "call", router_address(ros2_env), "/param_node"], ros2_env)
     assert sdk.wait(90) == 0, sdk.output()
     values = [json.loads(x[len("RESULT "):]) for x in sdk.output().splitlines() if x.startswith("RESULT ")]
     assert values[0] == {"success": True, "message": "data was True"}
@@ -114,8 +86,8 @@ def test_sdk_client_calls_zentf_services(ros2_env, procs) -> None:
     assert values[2] == ["gains", "mode", "speed", "use_sim_time"]
 
 
-def test_zentf_client_calls_sdk_server(ros2_env, cli_env, procs) -> None:
-    sdk = procs([*SDK_SERVICE, "server", _router(ros2_env)], ros2_env)
+def test_zentf_client_calls_sdk_server(ros2_env, cli_env, spawn) -> None:
+    sdk = spawn([*SDK_SERVICE, "server", router_address(ros2_env)], ros2_env)
     sdk.wait_for_line("^serving$", 60)
     out = _ok(zentf(["service", "call", "/sdk_echo", "std_srvs/srv/SetBool", "{data: true}", "--wire", "ros2",
                      "--timeout", "30"], cli_env))
@@ -198,12 +170,12 @@ def test_bad_ros2_requests_get_an_error_reply_and_one_line(isolated_router, capl
     assert len(lines) == 1 and "refused" in lines[0], lines  # rate-limited per service
 
 
-def test_parameter_types_and_atomic_sets_over_ros2(ros2_env, procs, isolated_router) -> None:
+def test_parameter_types_and_atomic_sets_over_ros2(ros2_env, spawn, isolated_router) -> None:
     from zentf.core.parameters import (PARAMETER_DOUBLE, PARAMETER_DOUBLE_ARRAY, PARAMETER_NOT_SET,
                                        PARAMETER_STRING, GetParameterTypes, ParameterMsg,
                                        SetParametersAtomically, to_value)
 
-    node_proc = procs([sys.executable, "tests/param_node.py"], ros2_env)
+    node_proc = spawn([sys.executable, "tests/param_node.py"], ros2_env)
     node_proc.wait_for_line("^ready$", 40)
     opts = NodeOptions(zenoh=ZenohOptions(connect=[isolated_router], no_multicast=True, mode="client"),
                        wire="ros2", domain_id=int(ros2_env["ROS_DOMAIN_ID"]))

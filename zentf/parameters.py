@@ -62,27 +62,10 @@ def _result(ok: Any) -> SetParametersResult:
 
 def set_one(node: Any, name: str, value: Any) -> SetParametersResult:
     """Check, offer to the callbacks, apply: the result says why a set was refused."""
-    if name not in node._params:
-        return SetParametersResult(False, f"parameter '{name}' is not declared on {node.get_fully_qualified_name()}")
-    declared = node._param_types.get(name, PARAMETER_NOT_SET)
-    problem = check_type(name, value, declared)
-    if problem is not None:
-        return SetParametersResult(False, problem)
-    value = coerce(value, declared)
-    if name == "use_sim_time" and not isinstance(value, bool):
-        return SetParametersResult(False, "use_sim_time must be true or false")
-    for cb in list(node._param_callbacks):
-        try:
-            res = _result(cb([type(node._params[name])(name, value)]))  # a zentf.node.Parameter
-        except Exception as e:
-            return SetParametersResult(False, f"a parameter callback raised {type(e).__name__}: {e}")
-        if not res.successful:
-            return SetParametersResult(False, res.reason or "rejected by a parameter callback")
-    node._params[name].value = value
-    if name == "use_sim_time":
-        node._set_use_sim_time(value)
-    node.get_logger().debug("parameter %s set to %r", name, value)
-    return SetParametersResult(True, "")
+    res = set_all(node, [(name, value)])
+    if res.successful:
+        node.get_logger().debug("parameter %s set to %r", name, node._params[name].value)
+    return res
 
 
 def set_all(node: Any, items: list[tuple[str, Any]]) -> SetParametersResult:

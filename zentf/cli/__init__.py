@@ -88,8 +88,9 @@ _COMMANDS: dict[str, tuple[str, str]] = {
 def cli(debug: bool) -> None:
     """tf2's tools for robots whose processes talk over Zenoh.
 
-    Every command takes --namespace and the Zenoh options (--connect, --listen, --mode,
-    --no-multicast, --zenoh-config); the ZENTF_* environment variables give their defaults.
+    Every command takes --namespace, the Zenoh options (--connect, --listen, --mode,
+    --no-multicast, --lan, --zenoh-config) and --wire (zentf, or ros2 for a ROS 2 graph);
+    the ZENTF_* environment variables give their defaults.
     """
 
 

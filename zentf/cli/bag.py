@@ -15,6 +15,7 @@ import click
 
 from .common import (CONTEXT_SETTINGS, CliError, CliOptions, finite_float, node_options, open_node, wire_profile,
                      with_options)
+from .format import printable
 
 __all__ = ["bag"]
 
@@ -33,7 +34,8 @@ def _human_size(n: float) -> str:
 
 
 def _err(line: str) -> None:
-    sys.stderr.write(line + "\n")
+    """A line on stderr; topic names and problems read from a bag are printed escaped (printable)."""
+    sys.stderr.write(printable(line) + "\n")
     sys.stderr.flush()
 
 
@@ -141,7 +143,7 @@ def bag_record(topics: tuple[str, ...], all_topics: bool, output: Optional[str],
     profile = wire_profile(opts)
     try:
         if profile.name == "ros2":  # a ROS 2 graph: CDR as it came, in a rosbag2-style MCAP (docs/ros2.md)
-            from zentf.tools.ros2_bag import Ros2BagWriter
+            from zentf.tools.bag import Ros2BagWriter
 
             path = output or time.strftime("zentf_%Y%m%d_%H%M%S.mcap")
             keys = [f"{profile.domain_id}/{k}" if k.endswith("**") else profile.data_key("/" + k, None)
@@ -218,7 +220,7 @@ def _format_info(info: dict[str, Any]) -> str:
             return "-"
         return time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime(t)) + f".{int(t * 1000) % 1000:03d} UTC ({t:.3f})"
 
-    lines = [f"path:       {info['path']}",
+    lines = [f"path:       {printable(info['path'])}",
              f"format:     {info['format']}",
              f"encoding:   {info['encoding']}",
              f"size:       {_human_size(info['size'])}",
@@ -226,17 +228,18 @@ def _format_info(info: dict[str, Any]) -> str:
              f"start:      {stamp(info['start'])}",
              f"end:        {stamp(info['end'])}",
              f"messages:   {info['messages']}",
-             f"complete:   {'yes' if info['complete'] else 'no (' + str(info['problem']) + ')'}",
+             f"complete:   {'yes' if info['complete'] else 'no (' + printable(info['problem']) + ')'}",
              "topics:"]
-    width = max((len(t["key"]) for t in info["topics"]), default=0)
-    for t in info["topics"]:
+    keys = [printable(t["key"]) for t in info["topics"]]
+    width = max((len(k) for k in keys), default=0)
+    for key, t in zip(keys, info["topics"]):
         rate = f"{t['frequency']:8.2f} Hz" if t["frequency"] else " " * 11
         extra = " (latched)" if t["latched"] else ""
-        lines.append(f"  {t['key']:<{width}}  {t['count']:7d} msgs {rate}  {t['type'] or '?'}{extra}")
+        lines.append(f"  {key:<{width}}  {t['count']:7d} msgs {rate}  {printable(t['type'] or '?')}{extra}")
     for topic, edges in info["tf_edges"].items():
         if edges:
             lines.append(f"frames in {topic}: {len({f for e in edges for f in e})}")
-            lines.extend(f"  {parent} -> {child}" for parent, child in edges)
+            lines.extend(f"  {printable(parent)} -> {printable(child)}" for parent, child in edges)
     return "\n".join(lines)
 
 

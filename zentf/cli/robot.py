@@ -5,6 +5,9 @@ anything starts; then the program runs as `python -m nodes.<name>` would.
 """
 from __future__ import annotations
 
+import importlib
+from typing import Any
+
 import click
 
 from .common import CliError
@@ -14,12 +17,20 @@ __all__ = ["robot_state_publisher", "joint_state_publisher"]
 _PASS_THROUGH = {"ignore_unknown_options": True, "allow_extra_args": True, "help_option_names": []}
 
 
-def _programs():
+def _start(name: str, args: list[str], *, model_optional: bool = False, check: bool = False) -> tuple[Any, Any, Any]:
+    """(program module, prepared options or None for --help, what the program's ``check`` returned or None):
+    a start-up problem is one ``zentf: error:`` line, exit 2, before anything runs."""
     try:
-        from nodes import _robot_model, joint_state_publisher, robot_state_publisher
+        from nodes import _robot_model as model
+        program = importlib.import_module(f"nodes.{name}")
     except ImportError as exc:  # the nodes package is not installed
         raise CliError(f"the robot model programs are not available: {exc}") from exc
-    return _robot_model, robot_state_publisher, joint_state_publisher
+    try:
+        p = model.prepare(program.PROG, program._parser(), args, model_optional=model_optional)
+        checked = program.check(p) if check and p is not None else None
+    except model.START_ERRORS as exc:
+        raise CliError(str(exc), code=2) from exc
+    return program, p, checked
 
 
 @click.command("robot-state-publisher", add_help_option=False, context_settings=_PASS_THROUGH,
@@ -27,11 +38,7 @@ def _programs():
 @click.pass_context
 def robot_state_publisher(ctx: click.Context) -> int:
     """robot_state_publisher: URDF + joint_states -> tf, tf_static, robot_description."""
-    model, rsp, _ = _programs()
-    try:
-        p = model.prepare(rsp.PROG, rsp._parser(), list(ctx.args))
-    except model.START_ERRORS as exc:
-        raise CliError(str(exc), code=2) from exc
+    rsp, p, _ = _start("robot_state_publisher", list(ctx.args))
     return 0 if p is None else rsp.run(p)
 
 
@@ -40,12 +47,5 @@ def robot_state_publisher(ctx: click.Context) -> int:
 @click.pass_context
 def joint_state_publisher(ctx: click.Context) -> int:
     """joint_state_publisher (and its GUI as a local web page)."""
-    model, _, jsp = _programs()
-    try:
-        p = model.prepare(jsp.PROG, jsp._parser(), list(ctx.args), model_optional=True)
-        if p is None:
-            return 0
-        initial = jsp.check(p)
-    except model.START_ERRORS as exc:
-        raise CliError(str(exc), code=2) from exc
-    return jsp.run(p, initial)
+    jsp, p, initial = _start("joint_state_publisher", list(ctx.args), model_optional=True, check=True)
+    return 0 if p is None else jsp.run(p, initial)

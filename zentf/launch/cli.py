@@ -218,8 +218,8 @@ def clock(command: str, factor: Optional[float], timeout: float, as_json: bool, 
             raise click.UsageError(f"'{command}' takes no value")
         payload = command
     zopts = node_options(opts, "clock").zenoh
-    try:
-        session = zopts.open_session()
+    try:  # a one-shot query, as the graph listings make (zentf.cli.common.open_graph_session)
+        session, _ = zopts.open_query_session()
     except Exception as exc:
         raise CliError(clean_error(exc)) from exc
     try:

@@ -19,6 +19,7 @@ from ..broadcaster import StaticTransformBroadcaster
 from ..core.messages import TFMessage, message_type
 from ..node import Node, RateLimitedLog
 from ..profile import parse_ros2_attachment
+from .entities import undeclare_all
 
 __all__ = ["Ros2Bridge", "BridgeStats"]
 
@@ -150,10 +151,6 @@ class Ros2Bridge:
         return relay
 
     def close(self) -> None:
-        for obj in [*self._subs, *self._tokens]:
-            try:
-                obj.undeclare()
-            except Exception:  # noqa: BLE001
-                pass
+        undeclare_all([*self._subs, *self._tokens])
         self._subs.clear()
         self._tokens.clear()

@@ -27,6 +27,7 @@ from ..names import topic_to_key
 from ..node import Node, RateLimitedLog
 from ..urdf import Kinematics, Robot
 from ..urdf.kinematics import JointTransforms
+from .entities import undeclare_all
 
 __all__ = ["RobotStatePublisher"]
 
@@ -271,8 +272,4 @@ class RobotStatePublisher:
         return plan
 
     def close(self) -> None:
-        for obj in (self._sub, self._token):
-            try:
-                obj.undeclare()
-            except Exception:  # noqa: BLE001
-                pass
+        undeclare_all((self._sub, self._token))

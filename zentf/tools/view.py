@@ -17,6 +17,7 @@ from typing import Any
 
 from .. import wire
 from ..core.messages import Marker, MarkerArray, PointStamped, PoseStamped
+from .entities import undeclare_all
 
 __all__ = ["Viewer", "frame_path", "VIEW_TYPES", "require_rerun"]
 
@@ -253,9 +254,5 @@ class Viewer:
             stop.wait(max(0.0, period - (time.monotonic() - started)))
 
     def close(self) -> None:
-        for obj in (self._sub, self._token):
-            try:
-                obj.undeclare()
-            except Exception:  # noqa: BLE001
-                pass
+        undeclare_all((self._sub, self._token))
         self.listener.unregister()

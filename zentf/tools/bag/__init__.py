@@ -4,7 +4,8 @@ One module per concern, as in rosbags: ``formats`` (what a path holds), ``mcapsc
 MCAP scanning), ``native`` (zentf MCAP writer/reader), ``ros`` and ``ros1scan`` (ROS bags through
 rosbags), ``plain`` (ROS messages <-> zentf dicts), ``tfdecode`` (the /tf decoder), ``source``
 (``open_bag``: one interface over all formats), ``info``, ``offline`` (``load_buffer``),
-``convert``, ``ros2write`` (ROS 2 MCAP output), ``playback`` (Recorder, Player over Zenoh),
+``convert``, ``mcapwrite`` (what the writers share), ``ros2write`` (zentf messages to
+ROS 2 MCAP), ``ros2record`` (CDR samples of a ROS 2 graph to MCAP), ``playback`` (Recorder, Player over Zenoh),
 ``demo``. ROS formats need the optional ``rosbags`` package (``pip install 'zentf[ros]'``);
 zentf's own bags do not.
 """
@@ -19,10 +20,11 @@ from .native import (LATCHED_TOPICS, MESSAGE_ENCODING, PROFILE, BagMessage, BagR
                      rebase_key)
 from .offline import load_buffer
 from .playback import Player, PlayStats, Recorder
+from .ros2record import Ros2BagWriter
 from .ros2write import Ros2Writer
 from .source import Bag, open_bag, zentf_topic
 
 __all__ = ["BagError", "UnknownFormatError", "MissingDependencyError", "BagFormat", "detect_format", "BagMessage",
            "BagWriter", "BagReader", "Recorder", "Player", "PlayStats", "bag_info", "rebase_key", "is_latched_key",
            "write_drones_demo", "PROFILE", "MESSAGE_ENCODING", "LATCHED_TOPICS", "Bag", "open_bag", "zentf_topic",
-           "load_buffer", "convert", "Ros2Writer"]
+           "load_buffer", "convert", "Ros2Writer", "Ros2BagWriter"]

@@ -11,14 +11,12 @@ reception. Reading tolerates a truncated or corrupt file (see ``mcapscan``).
 from __future__ import annotations
 
 import os
-import threading
-import time
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import BinaryIO
 
 from .errors import BagError
 from .mcapscan import MAGIC, McapChannel, McapScan
+from .mcapwrite import McapFileWriter
 
 __all__ = ["BagMessage", "BagWriter", "BagReader", "rebase_key", "is_latched_key", "PROFILE",
            "MESSAGE_ENCODING", "LATCHED_TOPICS"]
@@ -62,102 +60,32 @@ def rebase_key(key: str, recorded_ns: str, play_ns: str) -> str:
     return f"{new}/{rest}" if new else rest
 
 
-class BagWriter:
+class BagWriter(McapFileWriter):
     """Appends messages to an MCAP file; thread-safe; ``close()`` writes the summary (index + stats)."""
 
     def __init__(self, path: str | os.PathLike, *, namespace: str = "", chunk_size: int = 64 * 1024,
                  compression: str = "zstd") -> None:
-        from mcap.writer import CompressionType, Writer
-
-        self.path = os.fspath(path)
+        super().__init__(path, profile=PROFILE, chunk_size=chunk_size, compression=compression)
         self.namespace = namespace.strip("/")
-        try:
-            self._file: BinaryIO = open(self.path, "wb")
-        except OSError as e:
-            raise BagError(f"cannot write {self.path}: {e.strerror}") from None
-        comp = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}[compression]
-        self._writer = Writer(self._file, chunk_size=chunk_size, compression=comp)
-        self._writer.start(profile=PROFILE, library="zentf")
-        self._schemas: dict[str, int] = {}
-        self._channels: dict[tuple[str, str, str], int] = {}
-        self._seq: dict[int, int] = {}
-        self._lock = threading.Lock()
-        self._closed = False
-        self.messages = 0
-        self.payload_bytes = 0
-        self.first_time: int | None = None
-        self.last_time: int | None = None
 
-    def _channel(self, key: str, encoding: str, sender: str, latched: bool | None) -> int:
+    def _register_channel(self, ck: tuple[str, str, str], latched: bool | None) -> int:
         from zentf.wire import type_name_from_encoding
 
-        ck = (key, encoding, sender)
-        cid = self._channels.get(ck)
-        if cid is not None:
-            return cid
+        key, encoding, sender = ck
         type_name = type_name_from_encoding(encoding) or ""
-        sid = self._schemas.get(type_name)
-        if sid is None:
-            sid = self._writer.register_schema(name=type_name, encoding=MESSAGE_ENCODING, data=b"") if type_name else 0
-            self._schemas[type_name] = sid
+        sid = self._schema(type_name, MESSAGE_ENCODING, b"") if type_name else 0
         meta = {"encoding": encoding, "sender": sender,
                 "latched": "true" if (is_latched_key(key) if latched is None else latched) else "false",
                 "namespace": self.namespace}
-        cid = self._writer.register_channel(topic=key, message_encoding=MESSAGE_ENCODING, schema_id=sid,
-                                            metadata=meta)
-        self._channels[ck] = cid
-        return cid
+        return self._writer.register_channel(topic=key, message_encoding=MESSAGE_ENCODING, schema_id=sid,
+                                             metadata=meta)
 
     def write(self, key: str, payload: bytes, encoding: str, sender: str = "", log_time: int | None = None,
               latched: bool | None = None) -> None:
-        t = time.time_ns() if log_time is None else int(log_time)
-        with self._lock:
-            if self._closed:
-                return
-            cid = self._channel(key, encoding, sender, latched)
-            seq = self._seq.get(cid, 0)
-            self._seq[cid] = seq + 1
-            self._writer.add_message(channel_id=cid, log_time=t, data=payload, publish_time=t, sequence=seq)
-            self.messages += 1
-            self.payload_bytes += len(payload)
-            if self.first_time is None:
-                self.first_time = t
-            self.last_time = t
-
-    def flush(self) -> None:
-        """Close the chunk in progress so a killed recorder loses at most what came after this call."""
-        with self._lock:
-            if not self._closed:
-                self._writer.flush()
-
-    @property
-    def file_size(self) -> int:
-        try:
-            return self._file.tell()
-        except (OSError, ValueError):
-            return 0
-
-    @property
-    def duration(self) -> float:
-        if self.first_time is None or self.last_time is None:
-            return 0.0
-        return (self.last_time - self.first_time) / 1e9
-
-    def close(self) -> None:
-        with self._lock:
-            if self._closed:
-                return
-            self._closed = True
-            try:
-                self._writer.finish()
-            finally:
-                self._file.close()
+        self._append((key, encoding, sender), payload, log_time, latched)
 
     def __enter__(self) -> "BagWriter":
         return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
 
 class BagReader:

@@ -16,6 +16,7 @@ from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from ..entities import undeclare_all
 from .native import BagMessage, BagWriter, rebase_key
 from .source import open_bag
 
@@ -58,11 +59,7 @@ class Recorder:
             log.debug("could not record a sample: %s", e)
 
     def close(self) -> None:
-        for obj in [*self._subs, *self._tokens]:
-            try:
-                obj.undeclare()
-            except Exception:  # noqa: BLE001
-                pass
+        undeclare_all([*self._subs, *self._tokens])
         self._subs.clear()
         self._tokens.clear()
 
@@ -219,13 +216,7 @@ class Player:
         return self.stats
 
     def close(self) -> None:
-        for obj in [*self._pubs.values(), *self._tokens, self._clock_pub]:
-            if obj is None:
-                continue
-            try:
-                obj.undeclare()
-            except Exception:  # noqa: BLE001
-                pass
+        undeclare_all([*self._pubs.values(), *self._tokens, self._clock_pub])
         self._pubs.clear()
         self._tokens.clear()
         self._clock_pub = None

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Collection, Iterator
+from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -174,18 +174,28 @@ class RosBag:
                     c.topic, c.msgtype, _is_latched(c.topic, bool(c.ext.latching)), c.ext.callerid or "",
                     c.msgdef.data, "ros1msg")
             sel = [c for c in reader.connections if want is None or c.topic in want]
-            it = reader.messages(connections=sel) if sel else iter(())
-            while True:
-                try:
-                    c, t, raw = next(it)
-                except StopIteration:
-                    break
-                except Exception as e:  # noqa: BLE001 - damage inside the file: stop, say where
-                    self.problem = f"stopped at a damaged chunk ({type(e).__name__}: {str(e)[:80]})"
-                    break
+            for c, t, raw in self._until_damaged(
+                    reader, sel, lambda n, e: f"stopped at a damaged chunk ({type(e).__name__}: {str(e)[:80]})"):
                 yield conns[c.id], t, raw
         finally:
             reader.close()
+
+    def _until_damaged(self, reader: Any, sel: list[Any],
+                       problem: Callable[[int, Exception], str]) -> Iterator[tuple[Any, int, bytes]]:
+        """rosbags' messages of the ``sel`` connections; damage inside the file ends the reading, and
+        ``problem(messages read, error)`` says where (``self.problem``)."""
+        it = reader.messages(connections=sel) if sel else iter(())
+        n = 0
+        while True:
+            try:
+                item = next(it)
+            except StopIteration:
+                return
+            except Exception as e:  # noqa: BLE001 - damage inside the file: stop, say where
+                self.problem = problem(n, e)
+                return
+            n += 1
+            yield item
 
     def _ros1_scan(self, want: set[str] | None) -> Iterator[tuple[RosConnection, int, bytes]]:
         from .ros1scan import Ros1Scan
@@ -218,17 +228,8 @@ class RosBag:
                     c.topic, c.msgtype, _is_latched(c.topic, latched_qos(getattr(c.ext, "offered_qos_profiles", None))),
                     "", c.msgdef.data if kind else "", kind)
             sel = [c for c in reader.connections if want is None or c.topic in want]
-            it = reader.messages(connections=sel) if sel else iter(())
-            n = 0
-            while True:
-                try:
-                    c, t, raw = next(it)
-                except StopIteration:
-                    break
-                except Exception as e:  # noqa: BLE001 - a damaged database page: stop, say where
-                    self.problem = f"stopped after {n} messages ({_one_line(e)})"
-                    break
-                n += 1
+            for c, t, raw in self._until_damaged(reader, sel,
+                                                 lambda n, e: f"stopped after {n} messages ({_one_line(e)})"):
                 yield conns[c.id], t, raw
         finally:
             try:

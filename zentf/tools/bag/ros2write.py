@@ -13,13 +13,13 @@ from __future__ import annotations
 import logging
 import os
 import shutil
-import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from .errors import BagError, MissingDependencyError
+from .mcapwrite import WriterBase
 
 __all__ = ["Ros2Writer", "ROSBAG2_VERSION"]
 
@@ -39,7 +39,7 @@ def _qos(latched: bool) -> Any:
                QosLiveliness.AUTOMATIC, forever, False)
 
 
-class Ros2Writer:
+class Ros2Writer(WriterBase):
     """rosbag2 MCAP writer fed with zentf messages; thread-safe; ``close()`` finishes the file."""
 
     def __init__(self, path: str | os.PathLike, *, namespace: str = "",
@@ -49,7 +49,7 @@ class Ros2Writer:
             from rosbags.typesys import Stores, get_typestore
         except ImportError:
             raise MissingDependencyError("writing ROS 2 bags") from None
-        self.path = os.fspath(path)
+        super().__init__(path)
         self.namespace = namespace.strip("/")
         self.bare = self.path.endswith(".mcap")
         target = Path(self.path)
@@ -67,12 +67,6 @@ class Ros2Writer:
         self._on_skip = on_skip
         self._conns: dict[tuple[str, str], Any] = {}
         self.skipped: dict[str, str] = {}
-        self._lock = threading.Lock()
-        self._closed = False
-        self.messages = 0
-        self.payload_bytes = 0
-        self.first_time: int | None = None
-        self.last_time: int | None = None
 
     def _skip(self, topic: str, why: str) -> None:
         if topic in self.skipped:
@@ -113,11 +107,7 @@ class Ros2Writer:
                 conn = self._conns[(topic, type_name)] = self._writer.add_connection(
                     topic, type_name, typestore=self.store, offered_qos_profiles=[_qos(lat)])
             self._writer.write(conn, t, raw)
-            self.messages += 1
-            self.payload_bytes += len(raw)
-            if self.first_time is None:
-                self.first_time = t
-            self.last_time = t
+            self._count(t, len(raw))
 
     def flush(self) -> None:
         """rosbags' writer closes its chunk on its own; nothing to force."""
@@ -129,28 +119,15 @@ class Ros2Writer:
         except OSError:
             return 0
 
-    @property
-    def duration(self) -> float:
-        if self.first_time is None or self.last_time is None:
-            return 0.0
-        return (self.last_time - self.first_time) / 1e9
-
-    def close(self) -> None:
-        with self._lock:
-            if self._closed:
-                return
-            self._closed = True
-            try:
-                self._writer.close()
-            finally:
-                if self.bare:
-                    found = sorted(self._dir.glob("*.mcap"))
-                    if found:
-                        os.replace(found[0], self.path)
-                    shutil.rmtree(self._dir, ignore_errors=True)
+    def _finish(self) -> None:
+        try:
+            self._writer.close()
+        finally:
+            if self.bare:
+                found = sorted(self._dir.glob("*.mcap"))
+                if found:
+                    os.replace(found[0], self.path)
+                shutil.rmtree(self._dir, ignore_errors=True)
 
     def __enter__(self) -> "Ros2Writer":
         return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
