@@ -235,3 +235,24 @@ def test_buffer_takes_the_bounds_too() -> None:
     buf = Buffer(max_frames=5, max_frame_id_length=8)
     assert (buf.max_frames, buf.max_frame_id_length) == (5, 8)
     assert not buf.set_transform_raw("w", "123456789", S, 0.0, 0.0, 0.0, *Q, "/x")
+
+
+def test_rate_limiter_survives_threads_logging_at_once() -> None:
+    import threading
+
+    lim = RateLimitedLogger(logging.getLogger("zentf.test"), period=0.0, rate=1e9, burst=10**9, max_keys=50)
+    errors: list[BaseException] = []
+
+    def spam(t: int) -> None:
+        try:
+            for i in range(20_000):
+                lim.allow((t, i))
+        except BaseException as e:  # pragma: no cover - the failure being tested for
+            errors.append(e)
+
+    threads = [threading.Thread(target=spam, args=(t,)) for t in range(4)]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join()
+    assert not errors and len(lim._next) <= 50 + 4

@@ -17,7 +17,11 @@ from typing import Any, Callable, Hashable
 __all__ = ["RateLimitedLogger", "escape"]
 
 class RateLimitedLogger:
-    """``log(level, key, fmt, *args)`` logs at most once per ``period`` s per key, with the suppressed count."""
+    """``log(level, key, fmt, *args)`` logs at most once per ``period`` s per key, with the suppressed count.
+
+    Lock-free (each step is one dict operation under the GIL): threads logging at once may, rarely,
+    miscount a suppressed line, never fail.
+    """
 
     __slots__ = ("logger", "period", "rate", "burst", "max_keys", "clock", "_next", "_suppressed", "_tokens",
                  "_stamp")
@@ -58,9 +62,10 @@ class RateLimitedLogger:
 
     def _forget(self, now: float) -> None:
         """Bound the key table: drop keys whose period is over, or the oldest half if none is."""
-        expired = [k for k, t in self._next.items() if t <= now]
-        if len(expired) < len(self._next) // 2:
-            expired = list(self._next)[: len(self._next) // 2]
+        table = self._next.copy()  # (one C call: other threads may log meanwhile, lock-free)
+        expired = [k for k, t in table.items() if t <= now]
+        if len(expired) < len(table) // 2:
+            expired = list(table)[: len(table) // 2]
         for k in expired:
             self._next.pop(k, None)
             self._suppressed.pop(k, None)
