@@ -240,3 +240,16 @@ def test_cli_wire_errors_are_one_line_usage_errors(isolated_router: str) -> None
     assert_one_line_error(zentf(["node", "list", "--wire", "dds"], env), "--wire", code=2)
     env["ZENTF_WIRE"] = "dds"
     assert_one_line_error(zentf(["node", "list", "--wait", "0.2"], env), "wire profile", code=2)
+
+
+def test_a_ros2_sender_is_its_publisher_gid_for_the_listener_queues() -> None:
+    """The listener queues tf per sender: under ros2 the attachment's sequence number and time change
+    with every sample, so the sender must be the GID (else every sample is a new sender, a flooder is
+    never isolated and ingest halves)."""
+    gid_a, gid_b = bytes(range(16)), bytes(range(1, 17))
+    first, second = ros2_attachment(1, 10, gid_a), ros2_attachment(2, 20, gid_a)
+    assert first != second
+    assert Ros2Profile.sender_of(first) == Ros2Profile.sender_of(second) == gid_a
+    assert Ros2Profile.sender_of(ros2_attachment(1, 10, gid_b)) == gid_b
+    assert Ros2Profile.sender_of(b"other layout") == b"other layout"
+    assert WireProfile.sender_of is None  # zentf's attachment is the node name itself

@@ -196,6 +196,7 @@ class TransformListener:
         strikes: dict[bytes, int] = {}  # messages in a row that put nothing into the buffer, per sender
         pending = 0
         handle = self._on_sample
+        sender_of = self.node.wire.sender_of  # None: the attachment bytes name the sender
         while True:
             try:  # blocks in Zenoh (GIL released) when idle; fails once undeclared
                 sample = try_recv() if pending else recv()
@@ -206,6 +207,8 @@ class TransformListener:
             while sample is not None:
                 att = sample.attachment
                 key = att.to_bytes() if att is not None else b""
+                if sender_of is not None:
+                    key = sender_of(key)
                 q = queues.get(key)
                 if q is None:
                     if len(queues) >= MAX_SENDERS:

@@ -121,6 +121,10 @@ class WireProfile:
     def authority(self, attachment: Any, fallback: str) -> str:
         return wire.authority_of(attachment, fallback)
 
+    #: Attachment bytes -> the sending publisher's identity, for per-sender queues; None: the bytes are it
+    #: (zentf's attachment is the sender's node name).
+    sender_of: Any = None
+
     # ---- graph
     def node_token(self, node: Any) -> str:
         return zentf_node_token(node._namespace, node.get_name())
@@ -337,6 +341,11 @@ class Ros2Profile(WireProfile):
 
     def authority(self, attachment: Any, fallback: str) -> str:
         return ROS2_AUTHORITY  # as tf2_ros in ROS 2 (ROS 1 used the sender's node name)
+
+    @staticmethod
+    def sender_of(raw: bytes) -> bytes:
+        """The publisher GID of an attachment: its sequence number and time change with every sample."""
+        return raw[17:] if len(raw) == 33 and raw[16] == 16 else raw
 
     def _node_part(self, node: Any, entity_id: int) -> str:
         return f"{_ADMIN}/{self.domain_id}/{node.session.info.zid()}/{node._ros2_id}/{entity_id}"
