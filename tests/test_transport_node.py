@@ -204,8 +204,13 @@ def test_node_name_unique_per_namespace(node_options, test_namespace) -> None:
         pass
 
 
-def test_graph_lists_nodes_and_drops_killed_node(spawn, zenoh_session, test_namespace) -> None:
-    with graph.GraphWatcher(zenoh_session, namespace=test_namespace) as w:
+def test_graph_lists_nodes_and_drops_killed_node(spawn, zenoh_session, zenoh_options, test_namespace) -> None:
+    # The watcher gets a session of its own: with a liveliness subscriber on the same client session,
+    # Zenoh 1.x now and then answers a liveliness query on that session with no token at all (seen
+    # ~1 run in 10 under parallel load, before and after 0.2); separate sessions, as the CLI tools
+    # and a user's node have, do not show it.
+    watch_session = zenoh_options.open_session()
+    with watch_session, graph.GraphWatcher(watch_session, namespace=test_namespace) as w:
         p = spawn.python("-c", PUBLISHER)
         fq = f"/{test_namespace}/pub"
         assert w.wait_for(lambda es: any(e.kind == "pub" and e.node == fq for e in es), 20), p.output()
@@ -213,7 +218,7 @@ def test_graph_lists_nodes_and_drops_killed_node(spawn, zenoh_session, test_name
         assert [n.fq_name for n in nodes] == [fq]
         assert nodes[0].publishers == [(f"/{test_namespace}/points", "geometry_msgs/msg/PointStamped")]
         info = graph.node_info(zenoh_session, fq)
-        assert info is not None and info.name == "pub"
+        assert info is not None and info.name == "pub", (graph.list_tokens(zenoh_session), p.returncode, p.output())
         topics = graph.list_topics(zenoh_session, test_namespace)
         assert [t.name for t in topics] == [f"/{test_namespace}/points"] and topics[0].publishers == [fq]
         p.kill()  # SIGKILL: no chance to undeclare; the session's death removes the tokens
