@@ -23,6 +23,7 @@ from .core.exceptions import (ConnectivityException, ExtrapolationException, Inv
 from .core.messages import TransformStamped
 from .core.services import TF2Error, LookupTransform
 from .core.time import Duration, Time, to_duration
+from .entities import undeclare_all
 from .names import topic_to_key
 
 __all__ = ["BufferServer", "BufferClient", "DEFAULT_NAME"]
@@ -160,11 +161,7 @@ class BufferServer:
             if self._closed:
                 return
             self._closed = True
-        for obj in (self._queryable, self._token):
-            try:
-                obj.undeclare()
-            except Exception:
-                pass
+        undeclare_all((self._queryable, self._token))
         self._pool.shutdown(wait=False, cancel_futures=True)
 
 

@@ -14,6 +14,7 @@ from typing import Any
 from .core.messages import TFMessage
 from .core.ratelimit import RateLimitedLogger
 from .core.time import Duration
+from .entities import undeclare_all
 from .node import Node
 
 __all__ = ["TransformListener", "StaticTransformListener", "DEFAULT_FUTURE_TOLERANCE"]
@@ -323,11 +324,7 @@ class TransformListener:
     def unregister(self) -> None:
         """Stop listening (the buffer keeps its data)."""
         self.node.get_clock().remove_jump_callback(self._jump)
-        for obj in [*self._subs, *self._tokens]:
-            try:
-                obj.undeclare()
-            except Exception:
-                pass
+        undeclare_all([*self._subs, *self._tokens])
         self._subs.clear()
         self._tokens.clear()
         thread, self._thread = self._thread, None

@@ -25,6 +25,7 @@ from .names import (fully_qualified_node_name, key_to_topic, normalize_namespace
 from .options import NodeOptions
 from .profile import make_profile, zentf_entity_token, zentf_node_token
 from .core.time import Duration, to_duration
+from .entities import undeclare_all
 
 __all__ = ["Node", "Publisher", "Subscription", "Timer", "Parameter", "NodeNameError",
            "ParameterNotDeclaredException", "RateLimitedLog", "spin", "init_logging",
@@ -149,11 +150,7 @@ class Publisher:
         self._pub.put(payload, attachment=self._attach())
 
     def destroy(self) -> None:
-        for obj in (self._pub, self._token):
-            try:
-                obj.undeclare()
-            except Exception:
-                pass
+        undeclare_all((self._pub, self._token))
         self.node._publishers.discard(self)
 
     def get_subscription_count(self) -> int:
@@ -219,11 +216,7 @@ class Subscription:
             self.callback(msg)
 
     def destroy(self) -> None:
-        for obj in (self._sub, self._token):
-            try:
-                obj.undeclare()
-            except Exception:
-                pass
+        undeclare_all((self._sub, self._token))
         self.node._subscriptions.discard(self)
 
 
@@ -546,11 +539,7 @@ class Node:
         if active and self._clock_sub is None:
             self._start_sim_clock()
         elif not active:
-            for obj in (self._clock_sub, self._clock_token):
-                try:
-                    obj.undeclare()
-                except Exception:
-                    pass
+            undeclare_all((self._clock_sub, self._clock_token))
             self._clock_sub = self._clock_token = None
         self._clock._set_ros_time_is_active(active)  # jump callbacks run: listeners clear their buffers
         now = self._timer_now()
@@ -703,17 +692,7 @@ class Node:
         for obj in [*self._subscriptions, *self._publishers]:
             obj.destroy()
         self._timers.clear()
-        for obj in (self._clock_sub, self._clock_token):
-            if obj is not None:
-                try:
-                    obj.undeclare()
-                except Exception:
-                    pass
-        for tok in self._tokens:
-            try:
-                tok.undeclare()
-            except Exception:
-                pass
+        undeclare_all((self._clock_sub, self._clock_token, *self._tokens))
         self._tokens.clear()
         self._close_session()
 

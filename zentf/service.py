@@ -30,6 +30,7 @@ from typing import Any
 from . import wire
 from .core.messages import Message
 from .core.services import ServiceType
+from .entities import undeclare_all
 from .ros import CdrError, UnknownTypeError
 from .ros import codec as cdr_codec
 
@@ -199,12 +200,7 @@ class Service:
         if self._destroyed:
             return
         self._destroyed = True
-        for obj in (self._queryable, self._token):
-            try:
-                if obj is not None:
-                    obj.undeclare()
-            except Exception:
-                pass
+        undeclare_all((self._queryable, self._token))
 
 
 def _drop(query: Any) -> None:
@@ -393,9 +389,4 @@ class Client:
         if self._destroyed:
             return
         self._destroyed = True
-        for obj in (self._querier, self._token):
-            try:
-                if obj is not None:
-                    obj.undeclare()
-            except Exception:
-                pass
+        undeclare_all((self._querier, self._token))

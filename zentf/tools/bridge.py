@@ -19,7 +19,7 @@ from ..broadcaster import StaticTransformBroadcaster
 from ..core.messages import TFMessage, message_type
 from ..node import Node, RateLimitedLog
 from ..profile import parse_ros2_attachment
-from .entities import undeclare_all
+from ..entities import undeclare_all
 
 __all__ = ["Ros2Bridge", "BridgeStats"]
 

@@ -27,7 +27,7 @@ from ..names import topic_to_key
 from ..node import Node, RateLimitedLog
 from ..urdf import Kinematics, Robot
 from ..urdf.kinematics import JointTransforms
-from .entities import undeclare_all
+from ..entities import undeclare_all
 
 __all__ = ["RobotStatePublisher"]
 

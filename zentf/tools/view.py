@@ -17,7 +17,7 @@ from typing import Any
 
 from .. import wire
 from ..core.messages import Marker, MarkerArray, PointStamped, PoseStamped
-from .entities import undeclare_all
+from ..entities import undeclare_all
 
 __all__ = ["Viewer", "frame_path", "VIEW_TYPES", "require_rerun"]
 

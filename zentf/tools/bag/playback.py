@@ -16,7 +16,7 @@ from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from ..entities import undeclare_all
+from ...entities import undeclare_all
 from .native import BagMessage, BagWriter, rebase_key
 from .source import open_bag
 

@@ -1,4 +1,4 @@
-"""Undeclaring what a tool declared on its session (subscribers, publishers, liveliness tokens)."""
+"""Undeclaring what a node, service or tool declared on its session (subscribers, publishers, queryables, tokens)."""
 from __future__ import annotations
 
 from collections.abc import Iterable
