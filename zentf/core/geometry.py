@@ -332,15 +332,12 @@ class _Tables:
             self.static = v
             self.unit = abs(s[4] ** 2 + s[5] ** 2 + s[6] ** 2 + s[7] ** 2 - 1.0) <= _UNIT_TOL
             return
-        start = cache.start
-        # slicing copies the array.array, so no buffer export pins the cache's storage
-        st = np.frombuffer(cache.stamps[start:], dtype=np.int64)
+        st, par, d = cache.columns()   # copies, oldest first
         m = self.m = st.shape[0]
         self.st = st
         if m == 0:
             return
-        par = np.frombuffer(cache.parents[start:], dtype=np.int32).astype(np.int64)
-        d = np.frombuffer(cache.data[7 * start:], dtype=float).reshape(m, 7)
+        par = par.astype(np.int64)
         self.par = par
         self.uniform = int(par[0]) if (par == par[0]).all() else None
         self.last_parent = int(par[m - 1])

@@ -1,4 +1,5 @@
-"""BufferCore: tf2's transform tree with the exact semantics of ROS 1 tf2 (geometry2 0.7.x).
+# cython: language_level=3, annotation_typing=False
+"""BufferCore: tf2's transform tree with the exact semantics of ROS 1 tf2 (geometry2 0.7.x), compiled.
 
 The differential tests hold this module to Debian's python3-tf2 (the "oracle"), op by op. Where
 the behaviour follows ROS 1 and ROS 2 differs, the ROS 1 choice is kept and said so in a comment:
@@ -10,13 +11,21 @@ Each frame is an integer id with one cache object (zentf.core.cache: TimeCache f
 frames, StaticCache for static ones), as tf2 keeps one TimeCacheInterface per frame. One lock
 guards everything so a listener thread may insert while user threads look up.
 
-Speed in pure Python comes from three caches, all exact under inserts: ``lookup_transform``
-remembers results by (target, source, time) while a version counter (bumped by every stored
-change) is unchanged; each frame remembers its last interpolated query; and each frame keeps the
-slerp constants of recently queried sample intervals. A lookup at a time never asked before
-still walks the tree at roughly 3 µs per link (tf2's C++ needs ~0.2 µs): see bench/lookup.py.
+This is a Cython module (built by ``pip install``; see docs/architecture.md): the walk, the
+latest common time, inserts and the caches run in C over plain arrays, and only the answer
+becomes Python objects. Errors, logging and the rarely used tools stay ordinary Python code in
+this same file. A direct-mapped table remembers recent answers by (target, source, time) while a
+version counter (bumped by every stored change) is unchanged.
 """
-from __future__ import annotations
+from libc.stdint cimport int32_t, int64_t, uint64_t
+from libc.stdlib cimport free, malloc, realloc
+from cpython.dict cimport PyDict_GetItem
+from cpython.long cimport PyLong_AsLongLongAndOverflow
+from cpython.object cimport PyObject
+from cpython.tuple cimport PyTuple_GET_ITEM, PyTuple_GET_SIZE
+from cpython.list cimport PyList_GET_ITEM
+
+from .cache cimport CacheBase, StaticCache, TimeCache
 
 import logging
 import math
@@ -24,7 +33,6 @@ import threading
 from enum import IntEnum
 from typing import Any, Callable, Iterable, Optional, Sequence, Union
 
-from .cache import StaticCache, TimeCache
 from .constants import (DEFAULT_CACHE_TIME, DEFAULT_MAX_FRAME_ID_LENGTH, DEFAULT_MAX_FRAMES, MAX_GRAPH_DEPTH,
                         MAX_STAMP_NS)
 from .constants import INSERT_OK as _OK
@@ -45,6 +53,19 @@ _INFINITIES = (math.inf, -math.inf)
 #: Handle returned by add_transformable_request when the request can never succeed (tf2 value).
 NEVER_TRANSFORMABLE = 0xFFFFFFFFFFFFFFFF
 
+cdef enum:
+    _MAX_DEPTH = 1000       # MAX_GRAPH_DEPTH (checked at import below)
+    _MEMO_SLOTS = 256       # direct-mapped answer table (a power of two)
+    # what a walk found when it did not return an answer
+    _W_OK = 0
+    _W_EXTRAP = 1           # a cache had no data at the time (frame in *bad)
+    _W_EXTRAP_TARGET = 2    # same, on the target side (tf2 raises at once, frame in *bad)
+    _W_CONNECT = 3          # not part of the same tree
+    _W_LOOP = 4             # longer than MAX_GRAPH_DEPTH
+
+assert MAX_GRAPH_DEPTH == _MAX_DEPTH
+
+cdef int64_t _MAX_STAMP = 9223372036854775807
 
 TimeArg = Union[Time, int, float]
 
@@ -84,26 +105,92 @@ def _ns(t: Any) -> int:
     return ns
 
 
-def _make_ts(target: str, source: str, stamp: int, tx: float, ty: float, tz: float,
-             qx: float, qy: float, qz: float, qw: float) -> TransformStamped:
-    """Build a TransformStamped without dataclass __init__ overhead (hot path)."""
-    tm = object.__new__(Time)
+cdef object _TimeNew = Time.__new__
+cdef object _HeaderNew = Header.__new__
+cdef object _Vector3New = Vector3.__new__
+cdef object _QuaternionNew = Quaternion.__new__
+cdef object _TransformNew = Transform.__new__
+cdef object _TransformStampedNew = TransformStamped.__new__
+cdef object _TimeT = Time, _HeaderT = Header, _Vector3T = Vector3, _QuaternionT = Quaternion
+cdef object _TransformT = Transform, _TransformStampedT = TransformStamped
+
+
+cdef object _make_ts_c(object target, object source, int64_t stamp, const double* v):
+    """A TransformStamped built without dataclass __init__ (the hot path of every lookup)."""
+    tm = _TimeNew(_TimeT)
     tm._ns = stamp
-    h = object.__new__(Header)
+    h = _HeaderNew(_HeaderT)
     h.stamp = tm
     h.frame_id = target
-    v = object.__new__(Vector3)
-    v.x, v.y, v.z = tx, ty, tz
-    q = object.__new__(Quaternion)
-    q.x, q.y, q.z, q.w = qx, qy, qz, qw
-    tr = object.__new__(Transform)
-    tr.translation = v
+    vec = _Vector3New(_Vector3T)
+    vec.x = v[0]
+    vec.y = v[1]
+    vec.z = v[2]
+    q = _QuaternionNew(_QuaternionT)
+    q.x = v[3]
+    q.y = v[4]
+    q.z = v[5]
+    q.w = v[6]
+    tr = _TransformNew(_TransformT)
+    tr.translation = vec
     tr.rotation = q
-    ts = object.__new__(TransformStamped)
+    ts = _TransformStampedNew(_TransformStampedT)
     ts.header = h
     ts.child_frame_id = source
     ts.transform = tr
     return ts
+
+
+def _make_ts(target: str, source: str, stamp: int, tx: float, ty: float, tz: float,
+             qx: float, qy: float, qz: float, qw: float) -> TransformStamped:
+    """Build a TransformStamped without dataclass __init__ overhead."""
+    cdef double v[7]
+    v[0], v[1], v[2], v[3], v[4], v[5], v[6] = tx, ty, tz, qx, qy, qz, qw
+    return _make_ts_c(target, source, stamp, v)
+
+
+cdef inline void _compose(double* acc, const double* s) noexcept nogil:
+    """acc = s ∘ acc: v = quatRotate(q, v) + p ; q_acc = q * q_acc (tf2's accumulation order)."""
+    cdef double x = s[3], y = s[4], z = s[5], w = s[6]
+    cdef double sx = acc[0], sy = acc[1], sz = acc[2]
+    cdef double qx = acc[3], qy = acc[4], qz = acc[5], qw = acc[6]
+    cdef double ax = w * sx + y * sz - z * sy
+    cdef double ay = w * sy + z * sx - x * sz
+    cdef double az = w * sz + x * sy - y * sx
+    cdef double aw = -x * sx - y * sy - z * sz
+    acc[0] = -aw * x + ax * w - ay * z + az * y + s[0]
+    acc[1] = -aw * y + ay * w - az * x + ax * z + s[1]
+    acc[2] = -aw * z + az * w - ax * y + ay * x + s[2]
+    acc[3] = w * qx + x * qw + y * qz - z * qy
+    acc[4] = w * qy + y * qw + z * qx - x * qz
+    acc[5] = w * qz + z * qw + x * qy - y * qx
+    acc[6] = w * qw - x * qx - y * qy - z * qz
+
+
+cdef inline void _invert(const double* a, double* out) noexcept nogil:
+    """Inverse of (t, q) as tf2 computes it: q⁻¹ = conjugate, t' = quatRotate(q⁻¹, −t)."""
+    cdef double x = -a[3], y = -a[4], z = -a[5], w = a[6]
+    cdef double vx = -a[0], vy = -a[1], vz = -a[2]
+    cdef double ax = w * vx + y * vz - z * vy
+    cdef double ay = w * vy + z * vx - x * vz
+    cdef double az = w * vz + x * vy - y * vx
+    cdef double aw = -x * vx - y * vy - z * vz
+    out[0] = -aw * x + ax * w - ay * z + az * y
+    out[1] = -aw * y + ay * w - az * x + ax * z
+    out[2] = -aw * z + az * w - ax * y + ay * x
+    out[3] = x
+    out[4] = y
+    out[5] = z
+    out[6] = w
+
+
+cdef struct _Memo:
+    int64_t version
+    int64_t t
+    int64_t stamp
+    int32_t target
+    int32_t source
+    double v[7]
 
 
 class _Request:
@@ -113,9 +200,16 @@ class _Request:
         self.handle, self.cb, self.target, self.source, self.time = handle, cb, target, source, time
 
 
+cdef inline bint _valid_fast(double tx, double ty, double tz, double qx, double qy, double qz,
+                             double qw) noexcept nogil:
+    """The common case of tf2's checks: a finite translation and a unit-ish quaternion (no NaN)."""
+    cdef double n = qx * qx + qy * qy + qz * qz + qw * qw - 1.0
+    return -0.01 < n < 0.01 and (tx + ty + tz) * 0.0 == 0.0
+
+
 # --------------------------------------------------------------------------- BufferCore
 
-class BufferCore:
+cdef class BufferCore:
     """tf2's BufferCore: stores the tree over time and answers lookups (thread-safe).
 
     Times are ``Time`` or float seconds everywhere (0 = latest). Beyond tf2_py's API:
@@ -130,6 +224,32 @@ class BufferCore:
     (TF_TOO_MANY_FRAMES, TF_FRAME_ID_TOO_LONG). None lifts a bound; both are plain attributes.
     """
 
+    cdef dict __dict__
+    cdef public object _lock
+    cdef object _acquire, _release
+    cdef public dict _ids, _clean
+    cdef public list _names, _caches, _requests, _insert_callbacks
+    cdef public int64_t _cache_ns
+    cdef public int64_t _version
+    cdef _Memo* _memo
+    cdef int64_t* _marks       # per frame id: the LCT walk that last saw it (membership test)
+    cdef Py_ssize_t _marks_len
+    cdef int64_t _mark_epoch
+
+    def __cinit__(self, *args, **kwargs):
+        self._memo = <_Memo*>malloc(_MEMO_SLOTS * sizeof(_Memo))
+        if self._memo == NULL:
+            raise MemoryError()
+        for i in range(_MEMO_SLOTS):
+            self._memo[i].version = -1
+        self._marks = NULL
+        self._marks_len = 0
+        self._mark_epoch = 0
+
+    def __dealloc__(self):
+        free(self._memo)
+        free(self._marks)
+
     def __init__(self, cache_time: Union[Duration, float, int] = DEFAULT_CACHE_TIME, *,
                  max_frames: Optional[int] = DEFAULT_MAX_FRAMES,
                  max_frame_id_length: Optional[int] = DEFAULT_MAX_FRAME_ID_LENGTH) -> None:
@@ -140,18 +260,19 @@ class BufferCore:
         else:
             self._cache_ns = _ns(cache_time)
         self._lock = threading.Lock()
+        self._acquire = self._lock.acquire
+        self._release = self._lock.release
         # frame id 0 is tf2's "NO_PARENT" sentinel; it never has a cache
-        self._ids: dict[str, int] = {"NO_PARENT": 0}
-        self._clean: dict[str, int] = {}  # ids of names usable as given (no leading '/')
-        self._names: list[str] = ["NO_PARENT"]
-        self._caches: list[Any] = [None]
-        self._requests: list[_Request] = []
+        self._ids = {"NO_PARENT": 0}
+        self._clean = {}  # ids of names usable as given (no leading '/')
+        self._names = ["NO_PARENT"]
+        self._caches = [None]
+        self._requests = []
         self._request_counter = 0
-        self._insert_callbacks: list[Callable[[], None]] = []
-        # lookup results by (target, source, time), valid while _version (bumped by every change
-        # of stored data or frame set) is unchanged; errors are never memoized
+        self._insert_callbacks = []
+        # answers by (target, source, time), valid while _version (bumped by every change of
+        # stored data or frame set) is unchanged; errors are never remembered
         self._version = 0
-        self._memo: dict[tuple[str, str, int], tuple[int, tuple]] = {}
         # refusals log one line per (reason, authority) per 5 s, then how many were suppressed
         # (tf2 logs every one: a flood of bad samples would write megabytes a second)
         self._warn = RateLimitedLogger(logger)
@@ -160,9 +281,19 @@ class BufferCore:
     def cache_time(self) -> Duration:
         return Duration(nanoseconds=self._cache_ns)
 
+    def set_cache_time(self, cache_time: Union[Duration, float, int]) -> None:
+        """Change how much history every dynamic frame keeps (applies to stored frames too)."""
+        ns = cache_time.nanoseconds if isinstance(cache_time, Duration) else _ns(cache_time)
+        with self._lock:
+            self._cache_ns = ns
+            for cache in self._caches:
+                if type(cache) is TimeCache:
+                    (<TimeCache>cache).max_ns = ns
+            self._version += 1
+
     # ------------------------------------------------------------------------ insert
 
-    def set_transform(self, transform: TransformStamped, authority: str, is_static: bool = False) -> bool:
+    def set_transform(self, transform: TransformStamped, authority: str, bint is_static=False) -> bool:
         """Insert one sample (tf2 setTransform); False, with a logged reason, if it was refused."""
         h = transform.header
         tr = transform.transform
@@ -170,40 +301,8 @@ class BufferCore:
         q = tr.rotation
         stamp = h.stamp
         stamp = stamp._ns if type(stamp) is Time else stamp.nanoseconds
-        parent, child = h.frame_id, transform.child_frame_id
-        tx, ty, tz, qx, qy, qz, qw = v.x, v.y, v.z, q.x, q.y, q.z, q.w
-        # hot path, the same as _store's (inlined: a call with 12 arguments costs ~7% of an insert)
-        if (-0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
-                and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0
-                and stamp <= 9223372036854775807):
-            self._lock.acquire()  # (not `with`: 0.12 µs less per call, measured)
-            try:
-                clean = self._clean
-                cid = clean.get(child)
-                pid = clean.get(parent)
-                if cid is not None and pid is not None and cid != pid:
-                    cache = self._caches[cid]
-                    if type(cache) is TimeCache and stamp > cache.newest >= 0:
-                        cache.stamps.append(stamp)
-                        cache.parents.append(pid)
-                        cache.data.extend((tx, ty, tz, qx, qy, qz, qw))
-                        cache.newest = stamp
-                        cache.latest = None
-                        if cache.oldest < stamp - cache.max_ns:
-                            cache.prune()
-                        self._version += 1
-                        cache.authority = authority
-                        ok = True
-                    else:
-                        ok = None
-                else:
-                    ok = None
-            finally:
-                self._lock.release()
-            if ok is None:
-                ok = self._store_checked(parent, child, stamp, tx, ty, tz, qx, qy, qz, qw, authority, is_static)
-        else:
-            ok = self._store_checked(parent, child, stamp, tx, ty, tz, qx, qy, qz, qw, authority, is_static)
+        ok = self._store(h.frame_id, transform.child_frame_id, stamp, v.x, v.y, v.z, q.x, q.y, q.z, q.w,
+                         authority, is_static)
         if ok and (self._requests or self._insert_callbacks):
             self._after_insert()
         return ok
@@ -214,61 +313,89 @@ class BufferCore:
 
     def set_transform_raw(self, parent: str, child: str, stamp_ns: int, tx: float, ty: float, tz: float,
                           qx: float, qy: float, qz: float, qw: float, authority: str,
-                          is_static: bool = False) -> bool:
+                          bint is_static=False) -> bool:
         """set_transform without building a message (listener fast path); same semantics."""
         ok = self._store(parent, child, stamp_ns, tx, ty, tz, qx, qy, qz, qw, authority, is_static)
         if ok and (self._requests or self._insert_callbacks):
             self._after_insert()
         return ok
 
-    def set_transforms_raw(self, samples: Iterable[Sequence[Any]], authority: str, is_static: bool = False) -> int:
+    cdef inline int _append_fast(self, object parent, object child, object stamp, object tx, object ty,
+                                 object tz, object qx, object qy, object qz, object qw,
+                                 object authority) except -1:
+        """The common case, in C: a valid float sample newer than everything stored, for an edge
+        whose frames are known by clean names. 1 if stored, 0 if it needs tf2's full path.
+        Call with the lock held."""
+        cdef double v[7]
+        cdef int64_t st
+        cdef PyObject* c
+        cdef PyObject* p
+        cdef int32_t cid, pid
+        cdef int overflow = 0
+        if not (type(tx) is float and type(ty) is float and type(tz) is float and type(qx) is float
+                and type(qy) is float and type(qz) is float and type(qw) is float and type(stamp) is int):
+            return 0
+        st = PyLong_AsLongLongAndOverflow(stamp, &overflow)
+        if overflow or st < 0:
+            return 0
+        v[0] = tx
+        v[1] = ty
+        v[2] = tz
+        v[3] = qx
+        v[4] = qy
+        v[5] = qz
+        v[6] = qw
+        if not _valid_fast(v[0], v[1], v[2], v[3], v[4], v[5], v[6]):
+            return 0
+        c = PyDict_GetItem(self._clean, child)
+        p = PyDict_GetItem(self._clean, parent)
+        if c == NULL or p == NULL:
+            return 0
+        cid = <int32_t><object>c
+        pid = <int32_t><object>p
+        if cid == pid:
+            return 0
+        cache = self._caches[cid]
+        if type(cache) is not TimeCache or not st > (<TimeCache>cache).newest >= 0:
+            return 0
+        (<TimeCache>cache).insert_c(st, pid, v)
+        (<TimeCache>cache).authority = authority
+        self._version += 1
+        return 1
+
+    def set_transforms_raw(self, samples: Iterable[Sequence[Any]], authority: str, bint is_static=False) -> int:
         """Insert many (parent, child, stamp_ns, tx, ty, tz, qx, qy, qz, qw) tuples; returns how many
         were accepted. Callbacks and transformable requests run once at the end.
 
         Same semantics as set_transform per sample, in order; the lock is taken once for the run of
-        common-case samples (_store's fast path, inlined) and released only around _store_checked.
+        common-case samples (the C fast path) and released only around tf2's full path.
         """
-        accepted = 0
-        n_fast = 0  # fast inserts not yet counted in _version
-        lock = self._lock
-        clean = self._clean
-        caches = self._caches
-        lock.acquire()
+        cdef Py_ssize_t accepted = 0
+        cdef PyObject** f
+        acquire, release = self._acquire, self._release
+        acquire()
         try:
-            for parent, child, stamp, tx, ty, tz, qx, qy, qz, qw in samples:
-                if (-0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
-                        and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0
-                        and stamp <= 9223372036854775807):
-                    cid = clean.get(child)
-                    pid = clean.get(parent)
-                    if cid is not None and pid is not None and cid != pid:
-                        cache = caches[cid]
-                        if type(cache) is TimeCache and stamp > cache.newest >= 0:
-                            cache.stamps.append(stamp)
-                            cache.parents.append(pid)
-                            cache.data.extend((tx, ty, tz, qx, qy, qz, qw))
-                            cache.newest = stamp
-                            cache.latest = None  # (memo and spans stay valid: no interval changed)
-                            if cache.oldest < stamp - cache.max_ns:
-                                cache.prune()
-                            cache.authority = authority
-                            n_fast += 1
-                            continue
+            for s in samples:
+                if type(s) is tuple and PyTuple_GET_SIZE(s) == 10:
+                    if self._append_fast(<object>PyTuple_GET_ITEM(s, 0), <object>PyTuple_GET_ITEM(s, 1),
+                                         <object>PyTuple_GET_ITEM(s, 2), <object>PyTuple_GET_ITEM(s, 3),
+                                         <object>PyTuple_GET_ITEM(s, 4), <object>PyTuple_GET_ITEM(s, 5),
+                                         <object>PyTuple_GET_ITEM(s, 6), <object>PyTuple_GET_ITEM(s, 7),
+                                         <object>PyTuple_GET_ITEM(s, 8), <object>PyTuple_GET_ITEM(s, 9),
+                                         authority):
+                        accepted += 1
+                        continue
+                parent, child, stamp, tx, ty, tz, qx, qy, qz, qw = s
                 # tf2's full path (new frames, statics, out of order, bad input): it logs, so unlocked
-                self._version += n_fast
-                accepted += n_fast
-                n_fast = 0
-                lock.release()
+                release()
                 try:
                     ok = self._store_checked(parent, child, stamp, tx, ty, tz, qx, qy, qz, qw, authority, is_static)
                 finally:
-                    lock.acquire()
+                    acquire()
                 if ok:
                     accepted += 1
         finally:
-            self._version += n_fast
-            lock.release()
-        accepted += n_fast
+            release()
         if accepted:  # _after_insert, inlined (one frame less on the listener's latency path)
             if self._requests:
                 self._test_transformable_requests()
@@ -279,37 +406,18 @@ class BufferCore:
                     logger.exception("insert callback %r failed", cb)
         return accepted
 
-    def _store(self, parent: str, child: str, stamp: int, tx: float, ty: float, tz: float,
-               qx: float, qy: float, qz: float, qw: float, authority: str, is_static: bool) -> bool:
-        # The common case first: a valid sample, newer than everything stored, for an edge whose
-        # frames are known by clean names (non-empty, no leading '/'). Anything else - new frames,
-        # statics, out-of-order stamps, bad input - takes _store_checked, tf2's full path.
-        # (tx + ty + tz) * 0.0 == 0.0: a finite translation (NaN or ±inf anywhere makes it NaN; a
-        # finite sum that overflows only sends the sample down the full path, which accepts it);
-        # 9223372036854775807 is MAX_STAMP_NS as a literal (a constant load, not a global one)
-        if (-0.01 < qx * qx + qy * qy + qz * qz + qw * qw - 1.0 < 0.01
-                and (tx + ty + tz) * 0.0 == 0.0 and type(stamp) is int and stamp >= 0
-                and stamp <= 9223372036854775807):
-            self._lock.acquire()  # (not `with`: 0.12 µs less per call, measured)
-            try:
-                clean = self._clean
-                cid = clean.get(child)
-                pid = clean.get(parent)
-                if cid is not None and pid is not None and cid != pid:
-                    cache = self._caches[cid]
-                    if type(cache) is TimeCache and stamp > cache.newest >= 0:
-                        cache.stamps.append(stamp)
-                        cache.parents.append(pid)
-                        cache.data.extend((tx, ty, tz, qx, qy, qz, qw))
-                        cache.newest = stamp
-                        cache.latest = None  # (memo and spans stay valid: no interval changed)
-                        if cache.oldest < stamp - cache.max_ns:
-                            cache.prune()
-                        self._version += 1
-                        cache.authority = authority
-                        return True
-            finally:
-                self._lock.release()
+    cdef object _store(self, object parent, object child, object stamp, object tx, object ty, object tz,
+                       object qx, object qy, object qz, object qw, object authority, bint is_static):
+        # The common case first (_append_fast); anything else - new frames, statics, out-of-order
+        # stamps, bad input - takes _store_checked, tf2's full path.
+        cdef int done
+        self._acquire()
+        try:
+            done = self._append_fast(parent, child, stamp, tx, ty, tz, qx, qy, qz, qw, authority)
+        finally:
+            self._release()
+        if done:
+            return True
         return self._store_checked(parent, child, stamp, tx, ty, tz, qx, qy, qz, qw, authority, is_static)
 
     def _store_checked(self, parent: str, child: str, stamp: Any, tx: float, ty: float, tz: float,
@@ -481,24 +589,33 @@ class BufferCore:
 
     # ------------------------------------------------------------------------ lookups
 
+    # ------------------------------------------------------------------------ lookups
+
+    cdef int32_t _clean_id(self, object frame) except -1:
+        """Id of a frame usable as given (known, non-empty, no leading '/'); 0 otherwise."""
+        cdef PyObject* p = PyDict_GetItem(self._clean, frame)
+        return 0 if p == NULL else <int32_t><object>p
+
     def lookup_transform(self, target_frame: str, source_frame: str, time: TimeArg) -> TransformStamped:
         """Transform mapping data in source_frame into target_frame at time (0 = latest common)."""
-        t = time._ns if type(time) is Time else _ns(time)
-        key = (target_frame, source_frame, t)
-        self._lock.acquire()  # (not `with`: 0.12 µs less per call, measured)
+        cdef int64_t t = time._ns if type(time) is Time else _ns(time)
+        cdef int64_t stamp
+        cdef double out[7]
+        cdef int32_t tid, sid
+        self._acquire()
         try:
-            hit = self._memo.get(key)
-            if hit is not None and hit[0] == self._version:
-                r = hit[1]
+            tid = self._clean_id(target_frame)
+            sid = self._clean_id(source_frame)
+            if tid and sid and tid != sid:
+                stamp = self._lookup_ids(tid, sid, t, out, target_frame, source_frame)
             else:
                 r = self._lookup(target_frame, source_frame, t)
-                memo = self._memo
-                if len(memo) >= 4096:
-                    memo.clear()
-                memo[key] = (self._version, r)
+                stamp = r[0]
+                for i in range(7):
+                    out[i] = r[1 + i]
         finally:
-            self._lock.release()
-        return _make_ts(target_frame, source_frame, *r)
+            self._release()
+        return _make_ts_c(target_frame, source_frame, stamp, out)
 
     def lookup_transform_core(self, target_frame: str, source_frame: str, time: TimeArg) -> TransformStamped:
         """tf2_py spelling."""
@@ -506,6 +623,8 @@ class BufferCore:
 
     def _lookup(self, target: str, source: str, t: int) -> tuple:
         """(stamp, tx, ty, tz, qx, qy, qz, qw) or a tf2 exception; call with the lock held."""
+        cdef double out[7]
+        cdef int64_t stamp
         if target == source:
             if t == 0:
                 cid = self._ids.get(target)
@@ -515,114 +634,130 @@ class BufferCore:
             return (t, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
         target_id = self._validate("lookupTransform argument target_frame", target)
         source_id = self._validate("lookupTransform argument source_frame", source)
-        if t == 0:
-            t = self._latest_common_time(target_id, source_id)
-        caches = self._caches
+        stamp = self._lookup_ids(target_id, source_id, t, out, target, source)
+        return (stamp, out[0], out[1], out[2], out[3], out[4], out[5], out[6])
 
-        # source walk: accumulate source -> top
-        frame = source_id
-        top = frame
-        depth = 0
-        sx = sy = sz = sqx = sqy = sqz = 0.0
-        sqw = 1.0
-        extrap_frame = 0
+    cdef int64_t _lookup_ids(self, int32_t target_id, int32_t source_id, int64_t t, double* out,
+                             object target, object source) except -1:
+        """The answer for two distinct valid ids into out; its stamp. Lock held."""
+        cdef _Memo* m
+        cdef int32_t bad = 0
+        cdef int res
+        if t == 0:
+            t = self._lct(target_id, source_id)
+        m = &self._memo[(<uint64_t>t * <uint64_t>0x9E3779B97F4A7C15 + <uint64_t>target_id * 40503
+                         + <uint64_t>source_id * 2654435761) >> 56]
+        if m.version == self._version and m.t == t and m.target == target_id and m.source == source_id:
+            for i in range(7):
+                out[i] = m.v[i]
+            return m.stamp
+        res = self._walk(target_id, source_id, t, out, &bad)
+        if res != _W_OK:
+            self._raise_walk(res, bad, target_id, source_id, t, target, source)
+        m.version = self._version
+        m.t = t
+        m.stamp = t
+        m.target = target_id
+        m.source = source_id
+        for i in range(7):
+            m.v[i] = out[i]
+        return t
+
+    cdef int _walk(self, int32_t target_id, int32_t source_id, int64_t t, double* out,
+                   int32_t* bad) noexcept:
+        """tf2's walk (BufferCore::walkToTopParent with TransformAccum) at time t, in C.
+
+        Source side up to the top, then target side up to the same top; the answer is
+        inverse(target -> top) ∘ (source -> top). _W_OK with out set, or what went wrong.
+        """
+        cdef list caches = self._caches
+        cdef CacheBase cache
+        cdef int32_t frame = source_id, top = source_id, p = 0, extrap_frame = 0
+        cdef int depth = 0, source_links, k
+        cdef double s[7]
+        cdef double sacc[7]
+        cdef double tacc[7]
+        cdef double inv[7]
+        sacc[0] = sacc[1] = sacc[2] = sacc[3] = sacc[4] = sacc[5] = 0.0
+        sacc[6] = 1.0
         while frame:
-            cache = caches[frame]
-            if cache is None:
+            obj = <object>PyList_GET_ITEM(caches, frame)
+            if obj is None:
                 top = frame
                 break
-            s = cache.get(t)
-            if s is None:
+            cache = <CacheBase>obj
+            if not cache.get_c(t, &p, s):
                 top = frame
                 extrap_frame = frame
                 break
             if frame == target_id:
-                return (t, sx, sy, sz, sqx, sqy, sqz, sqw)
-            p, px, py, pz, x, y, z, w = s
+                for k in range(7):
+                    out[k] = sacc[k]
+                return _W_OK
             if depth:
-                # v = quatRotate(q, v) + p ; q_acc = q * q_acc
-                ax = w * sx + y * sz - z * sy
-                ay = w * sy + z * sx - x * sz
-                az = w * sz + x * sy - y * sx
-                aw = -x * sx - y * sy - z * sz
-                sx = -aw * x + ax * w - ay * z + az * y + px
-                sy = -aw * y + ay * w - az * x + ax * z + py
-                sz = -aw * z + az * w - ax * y + ay * x + pz
-                sqx, sqy, sqz, sqw = (w * sqx + x * sqw + y * sqz - z * sqy,
-                                      w * sqy + y * sqw + z * sqx - x * sqz,
-                                      w * sqz + z * sqw + x * sqy - y * sqx,
-                                      w * sqw - x * sqx - y * sqy - z * sqz)
+                _compose(sacc, s)
             else:
-                sx, sy, sz, sqx, sqy, sqz, sqw = px, py, pz, x, y, z, w
+                for k in range(7):
+                    sacc[k] = s[k]
             top = frame
             frame = p
             depth += 1
-            if depth > MAX_GRAPH_DEPTH:
-                raise LookupException(self._loop_message())
-
+            if depth > _MAX_DEPTH:
+                return _W_LOOP
         source_links = depth
-        # target walk: accumulate target -> top
         frame = target_id
         depth = 0
-        tx = ty = tz = tqx = tqy = tqz = 0.0
-        tqw = 1.0
+        tacc[0] = tacc[1] = tacc[2] = tacc[3] = tacc[4] = tacc[5] = 0.0
+        tacc[6] = 1.0
         while frame != top:
-            cache = caches[frame]
-            if cache is None:
+            obj = <object>PyList_GET_ITEM(caches, frame)
+            if obj is None:
                 break
-            s = cache.get(t)
-            if s is None:
-                raise ExtrapolationException(
-                    f"{cache.error(t)}, when looking up transform from frame [{source}] to frame [{target}]")
-            p, px, py, pz, x, y, z, w = s
+            cache = <CacheBase>obj
+            if not cache.get_c(t, &p, s):
+                bad[0] = frame
+                return _W_EXTRAP_TARGET
             if frame == source_id:
-                # source is an ancestor of target: result = inverse(target -> source)
-                return (t, *_inverse(tx, ty, tz, tqx, tqy, tqz, tqw))
+                _invert(tacc, out)   # source is an ancestor of target: inverse(target -> source)
+                return _W_OK
             if depth:
-                ax = w * tx + y * tz - z * ty
-                ay = w * ty + z * tx - x * tz
-                az = w * tz + x * ty - y * tx
-                aw = -x * tx - y * ty - z * tz
-                tx = -aw * x + ax * w - ay * z + az * y + px
-                ty = -aw * y + ay * w - az * x + ax * z + py
-                tz = -aw * z + az * w - ax * y + ay * x + pz
-                tqx, tqy, tqz, tqw = (w * tqx + x * tqw + y * tqz - z * tqy,
-                                      w * tqy + y * tqw + z * tqx - x * tqz,
-                                      w * tqz + z * tqw + x * tqy - y * tqx,
-                                      w * tqw - x * tqx - y * tqy - z * tqz)
+                _compose(tacc, s)
             else:
-                tx, ty, tz, tqx, tqy, tqz, tqw = px, py, pz, x, y, z, w
+                for k in range(7):
+                    tacc[k] = s[k]
             frame = p
             depth += 1
-            if depth > MAX_GRAPH_DEPTH:
-                raise LookupException(self._loop_message())
+            if depth > _MAX_DEPTH:
+                return _W_LOOP
         if frame != top:
             if extrap_frame:
-                raise ExtrapolationException(
-                    f"{caches[extrap_frame].error(t)}, when looking up transform from frame [{source}] "
-                    f"to frame [{target}]")
-            raise ConnectivityException(self._connectivity_message(source_id, target_id))
-
-        # full path: inverse(target -> top) * (source -> top); when one side is empty this is
+                bad[0] = extrap_frame
+                return _W_EXTRAP
+            return _W_CONNECT
+        # full path: inverse(target -> top) ∘ (source -> top); when one side is empty this is
         # exactly the other side (identity terms add zeros), so skip the arithmetic
         if not depth:
-            return (t, sx, sy, sz, sqx, sqy, sqz, sqw)
+            for k in range(7):
+                out[k] = sacc[k]
+            return _W_OK
+        _invert(tacc, inv)
         if not source_links:
-            return (t, *_inverse(tx, ty, tz, tqx, tqy, tqz, tqw))
-        ix, iy, iz, iqx, iqy, iqz, iqw = _inverse(tx, ty, tz, tqx, tqy, tqz, tqw)
-        x, y, z, w = iqx, iqy, iqz, iqw
-        ax = w * sx + y * sz - z * sy
-        ay = w * sy + z * sx - x * sz
-        az = w * sz + x * sy - y * sx
-        aw = -x * sx - y * sy - z * sz
-        return (t,
-                -aw * x + ax * w - ay * z + az * y + ix,
-                -aw * y + ay * w - az * x + ax * z + iy,
-                -aw * z + az * w - ax * y + ay * x + iz,
-                w * sqx + x * sqw + y * sqz - z * sqy,
-                w * sqy + y * sqw + z * sqx - x * sqz,
-                w * sqz + z * sqw + x * sqy - y * sqx,
-                w * sqw - x * sqx - y * sqy - z * sqz)
+            for k in range(7):
+                out[k] = inv[k]
+            return _W_OK
+        _compose(sacc, inv)
+        for k in range(7):
+            out[k] = sacc[k]
+        return _W_OK
+
+    cdef int _raise_walk(self, int res, int32_t bad, int32_t target_id, int32_t source_id, int64_t t,
+                         object target, object source) except -1:
+        if res == _W_LOOP:
+            raise LookupException(self._loop_message())
+        if res == _W_CONNECT:
+            raise ConnectivityException(self._connectivity_message(source_id, target_id))
+        raise ExtrapolationException(
+            f"{self._caches[bad].error(t)}, when looking up transform from frame [{source}] to frame [{target}]")
 
     def lookup_transform_full(self, target_frame: str, target_time: TimeArg, source_frame: str,
                               source_time: TimeArg, fixed_frame: str) -> TransformStamped:
@@ -719,61 +854,73 @@ class BufferCore:
             return False, " ".join(parts)
         return self._can_ids(target_id, source_id, t)
 
-    def _can_ids(self, target_id: int, source_id: int, t: int) -> tuple[bool, str]:
+    def _can_ids(self, target_id: int, source_id: int, t: int) -> tuple:
         """tf2 canTransformNoLock: the lookup walk on parents only."""
+        cdef int res
+        cdef int32_t bad = 0
         if not target_id or not source_id:
             return False, ""
         if target_id == source_id:
             return True, ""
         try:
             if t == 0:
-                t = self._latest_common_time(target_id, source_id)
+                t = self._lct(target_id, source_id)
         except TransformException as e:
             return False, str(e)
-        caches = self._caches
-        frame = source_id
-        top = frame
-        depth = 0
-        extrap_frame = 0
+        res = self._walk_parents(target_id, source_id, t, &bad)
+        if res == _W_OK:
+            return True, ""
+        if res == _W_LOOP:
+            return False, self._loop_message()
+        if res == _W_CONNECT:
+            return False, self._connectivity_message(source_id, target_id)
+        return False, (f"{self._caches[bad].error(t)}, when looking up transform from frame "
+                       f"[{self._names[source_id]}] to frame [{self._names[target_id]}]")
+
+    cdef int _walk_parents(self, int32_t target_id, int32_t source_id, int64_t t, int32_t* bad) noexcept:
+        """_walk without the arithmetic: whether the chain exists at t (tf2 canTransform)."""
+        cdef list caches = self._caches
+        cdef int32_t frame = source_id, top = source_id, p, extrap_frame = 0
+        cdef int depth = 0
         while frame:
-            cache = caches[frame]
-            if cache is None:
+            obj = <object>PyList_GET_ITEM(caches, frame)
+            if obj is None:
                 top = frame
                 break
-            p = cache.parent_at(t)
+            p = (<CacheBase>obj).parent_at_c(t)
             if not p:
                 top = frame
                 extrap_frame = frame
                 break
             if frame == target_id:
-                return True, ""
+                return _W_OK
             top = frame
             frame = p
             depth += 1
-            if depth > MAX_GRAPH_DEPTH:
-                return False, self._loop_message()
+            if depth > _MAX_DEPTH:
+                return _W_LOOP
         frame = target_id
         depth = 0
         while frame != top:
-            cache = caches[frame]
-            if cache is None:
+            obj = <object>PyList_GET_ITEM(caches, frame)
+            if obj is None:
                 break
-            p = cache.parent_at(t)
+            p = (<CacheBase>obj).parent_at_c(t)
             if not p:
-                return False, (f"{cache.error(t)}, when looking up transform from frame "
-                               f"[{self._names[source_id]}] to frame [{self._names[target_id]}]")
+                bad[0] = frame
+                return _W_EXTRAP_TARGET
             if frame == source_id:
-                return True, ""
+                return _W_OK
             frame = p
             depth += 1
-            if depth > MAX_GRAPH_DEPTH:
-                return False, self._loop_message()
+            if depth > _MAX_DEPTH:
+                return _W_LOOP
         if frame != top:
             if extrap_frame:
-                return False, (f"{caches[extrap_frame].error(t)}, when looking up transform from frame "
-                               f"[{self._names[source_id]}] to frame [{self._names[target_id]}]")
-            return False, self._connectivity_message(source_id, target_id)
-        return True, ""
+                bad[0] = extrap_frame
+                return _W_EXTRAP
+            return _W_CONNECT
+        return _W_OK
 
     # ------------------------------------------------------------------------ latest common time
 
@@ -782,74 +929,108 @@ class BufferCore:
         with self._lock:
             tid = self._validate("get_latest_common_time", target_frame)
             sid = self._validate("get_latest_common_time", source_frame)
-            return Time(nanoseconds=self._latest_common_time(tid, sid))
+            return Time(nanoseconds=self._lct(tid, sid))
 
     def _latest_common_time(self, target_id: int, source_id: int) -> int:
-        caches = self._caches
+        return self._lct(target_id, source_id)
+
+    cdef int _mark_room(self) except -1:
+        cdef Py_ssize_t n = len(self._caches)
+        cdef int64_t* m
+        if n > self._marks_len:
+            m = <int64_t*>realloc(self._marks, n * 2 * sizeof(int64_t))
+            if m == NULL:
+                raise MemoryError()
+            for i in range(self._marks_len, n * 2):
+                m[i] = 0
+            self._marks = m
+            self._marks_len = n * 2
+        return 0
+
+    cdef int64_t _lct(self, int32_t target_id, int32_t source_id) except -1:
+        """tf2 getLatestCommonTime: the oldest of the newest stamps along the chain (statics ignored)."""
+        cdef list caches = self._caches
+        cdef CacheBase cache
+        cdef int64_t big = _MAX_STAMP, common, stamp   # 'no dynamic link yet' (stamps < big... see below)
+        cdef int64_t stamps[_MAX_DEPTH + 2]
+        cdef int32_t parents[_MAX_DEPTH + 2]
+        cdef int32_t frame, parent, common_parent
+        cdef int depth, n, k
+        cdef bint found
+        cdef int64_t epoch
         if source_id == target_id:
-            cache = caches[source_id]
-            return cache.newest_stamp() if cache is not None else 0
-        big = MAX_STAMP_NS + 1  # 'no dynamic link yet': above every stamp a cache can hold
+            obj = <object>PyList_GET_ITEM(caches, source_id)
+            return 0 if obj is None else obj.newest_stamp()
+        self._mark_room()
+        self._mark_epoch += 1
+        epoch = self._mark_epoch
         # walk up from the source, recording (newest stamp, parent) per link; a cache's newest
-        # stamp is -1 when empty (no parent: stop), 0 for statics (ignored in the minimum)
-        stamps: list[int] = []
-        parents: list[int] = []
+        # stamp is -1 when empty (no parent: stop), 0 for statics (ignored in the minimum).
+        # 'big' stands for no dynamic link yet: stamps equal to it are valid, so a flag keeps it apart
+        found = False
         frame = source_id
         depth = 0
+        n = 0
         common = big
         while frame:
-            cache = caches[frame]
-            if cache is None:
+            obj = <object>PyList_GET_ITEM(caches, frame)
+            if obj is None:
                 break
+            cache = <CacheBase>obj
             stamp = cache.newest
             if stamp < 0:
                 break
-            parent = cache.parents[-1]
-            if stamp and stamp < common:
+            parent = cache.latest_parent_c()
+            if stamp and (not found or stamp < common):
                 common = stamp
-            stamps.append(stamp)
-            parents.append(parent)
+                found = True
+            stamps[n] = stamp
+            parents[n] = parent
+            n += 1
+            self._marks[parent] = epoch
             frame = parent
             if frame == target_id:
-                return 0 if common == big else common
+                return common if found else 0
             depth += 1
-            if depth > MAX_GRAPH_DEPTH:
+            if depth > _MAX_DEPTH:
                 raise LookupException(self._loop_message())
         # walk up from the target until a parent is common with the source's chain
         frame = target_id
         depth = 0
+        found = False
         common = big
         common_parent = 0
-        source_parents = set(parents)
         while True:
-            cache = caches[frame]
-            if cache is None:
+            obj = <object>PyList_GET_ITEM(caches, frame)
+            if obj is None:
                 break
+            cache = <CacheBase>obj
             stamp = cache.newest
             if stamp < 0:
                 break
-            parent = cache.parents[-1]
-            if stamp and stamp < common:
+            parent = cache.latest_parent_c()
+            if stamp and (not found or stamp < common):
                 common = stamp
-            if parent in source_parents:
+                found = True
+            if self._marks[parent] == epoch:
                 common_parent = parent
                 break
             frame = parent
             if frame == source_id:
-                return 0 if common == big else common
+                return common if found else 0
             depth += 1
-            if depth > MAX_GRAPH_DEPTH:
+            if depth > _MAX_DEPTH:
                 raise LookupException(self._loop_message())
         if not common_parent:
             raise ConnectivityException(self._connectivity_message(source_id, target_id))
-        for stamp, parent in zip(stamps, parents):
-            if stamp and stamp < common:
+        for k in range(n):
+            stamp = stamps[k]
+            if stamp and (not found or stamp < common):
                 common = stamp
-            if parent == common_parent:
+                found = True
+            if parents[k] == common_parent:
                 break
-        return 0 if common == big else common
-
-    # ------------------------------------------------------------------------ helpers
+        return common if found else 0
 
     def _validate(self, what: str, frame: str) -> int:
         if not frame:
@@ -955,7 +1136,8 @@ class BufferCore:
         with self._lock:
             return self._ids.get(frame_id, 0) != 0
 
-    _frameExists = frame_exists
+    def _frameExists(self, frame_id: str) -> bool:
+        return self.frame_exists(frame_id)
 
     def get_parent(self, frame_id: str, time: TimeArg = 0) -> Optional[str]:
         """Parent of frame_id at time, or None (root, unknown frame or no data at that time)."""
@@ -992,7 +1174,9 @@ class BufferCore:
             else:
                 return chain
 
-    _chainAsVector = chain_as_vector
+    def _chainAsVector(self, target_frame: str, target_time: TimeArg, source_frame: str,
+                       source_time: TimeArg, fixed_frame: str) -> list[str]:
+        return self.chain_as_vector(target_frame, target_time, source_frame, source_time, fixed_frame)
 
     def _path(self, target_id: int, source_id: int, t: int) -> list[str]:
         """Frame names from source up to the common ancestor and down to target, at time t."""
