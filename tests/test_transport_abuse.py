@@ -9,6 +9,7 @@ import time
 import pytest
 
 from zentf.buffer import Buffer
+from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
 from zentf.core.time import Time
 from zentf.listener import DEFAULT_FUTURE_TOLERANCE, TransformListener
 from zentf.node import Node
@@ -391,3 +392,24 @@ def test_release_free_memory_gives_back_what_a_thread_freed(spawn) -> None:
     m = spawn.python("-c", ARENA).wait_for_line(r"^RESULT (\w+) (\d+) (\d+)", timeout=30)
     released, after_free, after_release = m.group(1) == "True", int(m.group(2)), int(m.group(3))
     assert released and after_free > 30 and after_release < 5, m.group(0)
+
+
+def test_a_huge_sender_attachment_is_not_kept(node_options, zenoh_session) -> None:
+    """A sender naming itself with 100 kB attachments: its transforms apply (authority: the key) and the
+    listener's authority cache keeps no such name (it kept up to 1024 of any size)."""
+    from zentf import wire
+    from zentf.listener import MAX_SENDER_KEY, wire_key
+
+    with Node("victim", options=node_options) as node:
+        buf = Buffer(node=node)
+        tl = TransformListener(buf, node)
+        pub = zenoh_session.declare_publisher(wire_key(node, "tf"),
+                                              encoding=wire.encoding_for("tf2_msgs/msg/TFMessage"))
+        now = node.get_clock().now()
+        for i in range(20):
+            payload = wire.encode_tf([TransformStamped(Header(now, "world"), f"huge_{i}", Transform(
+                Vector3(1.0, 0.0, 0.0), Quaternion(0.0, 0.0, 0.0, 1.0)))])
+            pub.put(payload, attachment=bytes([65 + i]) * 100_000)
+        assert buf.can_transform("world", "huge_19", Time(), timeout=30)
+        assert all(len(k) <= MAX_SENDER_KEY for k in tl._authorities), [len(k) for k in tl._authorities]
+        assert tl.stats()["transforms"] == 20
