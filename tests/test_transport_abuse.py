@@ -243,8 +243,9 @@ def test_frame_ids_with_control_characters_are_logged_escaped(spawn, node_option
 
 # ------------------------------------------------------------------ point 8: bounds, in a listener process
 
-LISTENER = textwrap.dedent("""
-    import json, sys
+#: The start of a listener process script: imports and rss_kb().
+LISTENER_HEAD = textwrap.dedent("""
+    import json, logging, sys, threading
     from zentf.node import Node, init_logging
     from zentf.buffer import Buffer
     from zentf.listener import TransformListener
@@ -254,6 +255,9 @@ LISTENER = textwrap.dedent("""
         for line in open("/proc/self/status"):
             if line.startswith("VmRSS:"):
                 return int(line.split()[1])
+""")
+
+LISTENER = LISTENER_HEAD + textwrap.dedent("""
     node = Node("victim")
     buf = Buffer(node=node)
     tl = TransformListener(buf, node)   # bounds from the node parameters (ZENTF_PARAMS)
@@ -286,17 +290,7 @@ def test_forged_frames_are_capped_by_node_parameter_in_a_listener_process(spawn,
 #: A listener process (default bounds) that reports, once a flood of ``distinct`` frames is handled and
 #: the listener has given the freed memory back (its debug line, with the flood's sentinel already in the
 #: buffer), its RSS above idle and how much Zenoh shared memory of other processes it maps.
-MEMORY_LISTENER = textwrap.dedent("""
-    import json, logging, sys, threading
-    from zentf.node import Node, init_logging
-    from zentf.buffer import Buffer
-    from zentf.listener import TransformListener
-    from zentf.core.time import Time
-    init_logging()
-    def rss_kb():
-        for line in open("/proc/self/status"):
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1])
+MEMORY_LISTENER = LISTENER_HEAD + textwrap.dedent("""
     def shm_kb():  # Zenoh's shared-memory segments mapped here (/dev/shm/*.zenoh)
         kb, zenoh = 0, False
         for line in open("/proc/self/smaps"):
