@@ -35,8 +35,8 @@ _TRIM = _malloc_trim()
 def release_free_memory() -> bool:
     """Return the free pages of every malloc arena to the OS (``malloc_trim(0)``, without the GIL).
 
-    True if the call exists here (glibc); it costs a walk of the arenas' free lists (~1 ms after a
-    flood), so call it when a burst is over, not per message.
+    True if the call exists here (glibc). It walks the arenas' free lists (~0.02 ms with nothing to
+    give back, ~2 ms for 35 MB), so call it when a burst is over, not per message.
     """
     if _TRIM is None:
         return False
