@@ -387,7 +387,7 @@ def read_table(path: str) -> dict[str, tuple[float | None, float | None]]:
     with open(path, encoding="utf-8") as f:
         for line in f:
             line = line.rstrip("\n")
-            if len(line) < 62 or line.startswith("case "):
+            if len(line) < 62 or line.startswith(("case ", "#")):
                 continue
             try:
                 z = float(line[50:62]) if line[50:62].strip() else None
