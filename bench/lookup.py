@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """zentf BufferCore vs the real tf2 (python3-tf2, C++ core) on the same workload, side by side.
 
-    python bench/lookup.py [--quick] [--before TABLE.txt [--tolerance 0.10]]
+    python bench/lookup.py [--quick] [--before TABLE.txt[,TABLE2.txt...] [--tolerance 0.10]]
 
 Workload (issue 2): a 1000-frame tree — f0 is the root, a 100-frame spine f1..f100 (f_i under
 f_{i-1}) and 899 leaves hung on the spine — every edge dynamic with 1 s of history at 100 Hz.
@@ -10,13 +10,15 @@ d = 1, 5, 20, 100 at time 0 (latest) and at an interpolated time, the same looku
 sample is inserted into the chain every 10 lookups (so a cache is measured honestly), a row with a
 fresh interpolated time on every call (times marching monotonically), a "cold" row with a time drawn
 uniformly at random inside every link's buffered range on every call (drawn beforehand, same seed on
-both sides: no result memo nor per-frame interpolation state can help), bytes per stored sample,
+both sides: no result memo nor per-frame interpolation state can help), bytes per stored sample (in
+the run, and in a fresh process per case: the ≤64 B target applies there),
 transform_points on 1M points, and lookup_transforms on 100k sorted stamps at each depth against a
 Python loop of single lookups at distinct times (the speed-up rows divide zentf's loop by zentf's
 vectorized call — the target — and, for reference, tf2's loop by it); plus memory once a 10 s cache is full and pruning (10 frames at 1 kHz for 15 s).
 The tf2 side runs in a /usr/bin/python3 subprocess (this same file, --tf2-side).
---before TABLE.txt (a table this script printed earlier) adds now/before factors, and a verdict on the
-cached and insert-churn rows, which must be no slower than before (issue 15).
+--before TABLE.txt (a table this script printed earlier; several, comma-separated: the best value of
+each row) adds now/before factors, and a verdict on the cached and insert-churn rows, which must be no
+slower than before (issue 15).
 Numbers are best-of-N wall times, the two sides alternated twice: on a shared machine expect noise.
 """
 from __future__ import annotations
@@ -363,6 +365,66 @@ def zentf_side(quick: bool) -> dict[str, float]:
     return measure(Zentf(), quick)
 
 
+# ============================================================================ memory, fresh process
+
+MEMORY_CASES = {"": ("all_samples", len(edges()) * SAMPLES), " 10s cache full": ("steady_samples", STEADY_STORED)}
+
+
+def memory_side(impl: str, case: str) -> None:
+    """Print RSS growth per stored sample of one buffer filled in this fresh interpreter (JSON).
+
+    A fresh process: no page freed by an earlier measurement is there to be reused, so RSS counts
+    everything the buffer holds, whatever allocates it (Python objects, numpy, C)."""
+    rows = globals()[MEMORY_CASES[case][0]]()
+    if impl == "tf2":
+        import geometry_msgs.msg
+        import rospy
+        import tf2_py
+
+        def msg(s):
+            m = geometry_msgs.msg.TransformStamped()
+            m.header.frame_id, m.child_frame_id = s[0], s[1]
+            m.header.stamp = rospy.Time(s[2] // S, s[2] % S)
+            tr, rot = m.transform.translation, m.transform.rotation
+            tr.x, tr.y, tr.z = s[3:6]
+            rot.x, rot.y, rot.z, rot.w = s[6:10]
+            return m
+        rows = [msg(s) for s in rows]
+        gc.collect()
+        before = rss_bytes()
+        buf = tf2_py.BufferCore(rospy.Duration(10))
+        for m in rows:
+            buf.set_transform(m, "bench")
+    else:
+        sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+        from zentf.core.buffer_core import BufferCore
+
+        gc.collect()
+        before = rss_bytes()
+        buf = BufferCore(10.0)
+        for s in rows:
+            buf.set_transform_raw(*s, "bench")
+    gc.collect()
+    json.dump({f"bytes/sample{case} (RSS, fresh)": (rss_bytes() - before) / MEMORY_CASES[case][1]},
+              sys.stdout)
+
+
+def fresh_memory(python: str, impl: str, reps: int) -> dict[str, float]:
+    """Median over reps of memory_side, every case in a process of its own (empty dict if one fails)."""
+    out: dict[str, float] = {}
+    for case in MEMORY_CASES:
+        got = []
+        for _ in range(reps):
+            proc = subprocess.run([python, os.path.abspath(__file__), "--memory-side", impl, case or "first"],
+                                  capture_output=True, text=True)
+            if proc.returncode != 0:
+                return {}
+            got.append(json.loads(proc.stdout))
+        for key in got[0]:
+            out[key] = sorted(g[key] for g in got)[len(got) // 2]
+    return out
+
+
 # ============================================================================ report
 
 # ratio targets (zentf / tf2, same run): issue 2's for the cached and insert-churn lookups, issue 15's
@@ -373,9 +435,11 @@ TARGETS = {
     **{f"lookup d{d} cold random time": (0.7 if d == 1 else 0.5) for d in DEPTHS},
 }
 # absolute targets on zentf's own value (issue 15: memory per stored sample <= 64 B). They apply to the
-# RSS rows: RSS counts whatever the implementation allocates (Python objects, numpy, C), where the
-# "arrays" and "tracemalloc" rows see only part of it.
-ABS_TARGETS = {"bytes/sample (RSS)": 64.0, "bytes/sample 10s cache full (RSS)": 64.0}
+# fresh-process RSS rows: RSS counts whatever the implementation allocates (Python objects, numpy, C),
+# where the "arrays" and "tracemalloc" rows see only part of it; and in a fresh process no page freed
+# by an earlier measurement is reused: the same code read 78-109 B/sample on the in-run steady row
+# over three runs, 75.5 B every time in a fresh process.
+ABS_TARGETS = {"bytes/sample (RSS, fresh)": 64.0, "bytes/sample 10s cache full (RSS, fresh)": 64.0}
 # issue 15: "every cached and insert-churn case printed today: no slower than now", checked with --before
 NO_SLOWER = ["insert", "insert_raw"] + [f"lookup{x} d{d} {k}" for x in ("", "+insert") for d in DEPTHS
                                         for k in ("latest", "interp")]
@@ -398,6 +462,17 @@ def read_table(path: str) -> dict[str, tuple[float | None, float | None]]:
     return out
 
 
+def read_tables(paths: list[str]) -> dict[str, tuple[float | None, float | None]]:
+    """read_table of several runs: per case, the best (lowest) zentf and tf2 values among them."""
+    out: dict[str, tuple[float | None, float | None]] = {}
+    for path in paths:
+        for key, pair in read_table(path).items():
+            old = out.get(key, (None, None))
+            out[key] = tuple(min(v for v in (a, b) if v is not None) if (a, b) != (None, None) else None
+                             for a, b in zip(old, pair))  # type: ignore[assignment]
+    return out
+
+
 def option(name: str) -> str | None:
     """Value of ``--name VALUE`` in argv (this script takes no other arguments than flags)."""
     if name in sys.argv:
@@ -411,10 +486,14 @@ def option(name: str) -> str | None:
 def main() -> None:
     quick = "--quick" in sys.argv
     before_path = option("--before")
-    before = read_table(before_path) if before_path else None
+    before = read_tables(before_path.split(",")) if before_path else None
     tolerance = float(option("--tolerance") or 0.10)
     if "--tf2-side" in sys.argv:
         json.dump(tf2_side(quick), sys.stdout)
+        return
+    if "--memory-side" in sys.argv:
+        i = sys.argv.index("--memory-side")
+        memory_side(sys.argv[i + 1], "" if sys.argv[i + 2] == "first" else " 10s cache full")
         return
     ref: dict[str, float] = {}
     ours: dict[str, float] = {}
@@ -437,6 +516,9 @@ def main() -> None:
             # memory: the first run counts (a second build reuses freed pages, RSS barely moves)
             first = k.startswith("bytes") or "first call" in k
             ours[k] = ours[k] if first and k in ours else min(v, ours.get(k, v))
+    ours.update(fresh_memory(sys.executable, "zentf", 1 if quick else 3))
+    if have_tf2 and not note:
+        ref.update(fresh_memory("/usr/bin/python3", "tf2", 1 if quick else 3))
 
     rows = []
     for key in list(ours) + [k for k in ref if k not in ours]:
@@ -480,7 +562,7 @@ def main() -> None:
     print(f"lookup_transforms plain-chain path: {fast_path()}"
           + ("" if fast_path() == "numba" else " (pip install 'zentf[fast]' for the numba kernel)"))
     print("targets: ratios are zentf/tf2 of this run; the ≤64B memory target (issue 15) applies to the two "
-          "(RSS) rows; cold random time = a uniformly random in-range stamp on every call")
+          "fresh-process (RSS) rows; cold random time = a uniformly random in-range stamp on every call")
     if before is not None:
         print(f"now/before: zentf's value over {before_path}'s (tf2's in brackets: the load's drift between "
               f"the runs); cached and insert-churn rows must stay ≤{1 + tolerance:g} (no slower than before, "
