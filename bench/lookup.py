@@ -212,8 +212,21 @@ def measure(side: Side, quick: bool) -> dict[str, float]:
 
 # ============================================================================ tf2 side
 
-def tf2_side(quick: bool) -> dict[str, float]:
+def tf2_msg(s: tuple):
+    """A geometry_msgs TransformStamped (ROS 1, python3-tf2's type) from a sample tuple."""
     import geometry_msgs.msg
+    import rospy
+
+    m = geometry_msgs.msg.TransformStamped()
+    m.header.frame_id, m.child_frame_id = s[0], s[1]
+    m.header.stamp = rospy.Time(s[2] // S, s[2] % S)
+    tr, rot = m.transform.translation, m.transform.rotation
+    tr.x, tr.y, tr.z = s[3:6]
+    rot.x, rot.y, rot.z, rot.w = s[6:10]
+    return m
+
+
+def tf2_side(quick: bool) -> dict[str, float]:
     import rospy
     import tf2_py
 
@@ -225,13 +238,7 @@ def tf2_side(quick: bool) -> dict[str, float]:
             return tf2_py.BufferCore(rospy.Duration(10))
 
         def make_msg(self, s):
-            m = geometry_msgs.msg.TransformStamped()
-            m.header.frame_id, m.child_frame_id = s[0], s[1]
-            m.header.stamp = rospy.Time(s[2] // S, s[2] % S)
-            tr, rot = m.transform.translation, m.transform.rotation
-            tr.x, tr.y, tr.z = s[3:6]
-            rot.x, rot.y, rot.z, rot.w = s[6:10]
-            return m
+            return tf2_msg(s)
 
         def insert(self, buf, msg):
             buf.set_transform(msg, "bench")
@@ -377,19 +384,10 @@ def memory_side(impl: str, case: str) -> None:
     everything the buffer holds, whatever allocates it (Python objects, numpy, C)."""
     rows = globals()[MEMORY_CASES[case][0]]()
     if impl == "tf2":
-        import geometry_msgs.msg
         import rospy
         import tf2_py
 
-        def msg(s):
-            m = geometry_msgs.msg.TransformStamped()
-            m.header.frame_id, m.child_frame_id = s[0], s[1]
-            m.header.stamp = rospy.Time(s[2] // S, s[2] % S)
-            tr, rot = m.transform.translation, m.transform.rotation
-            tr.x, tr.y, tr.z = s[3:6]
-            rot.x, rot.y, rot.z, rot.w = s[6:10]
-            return m
-        rows = [msg(s) for s in rows]
+        rows = [tf2_msg(s) for s in rows]
         gc.collect()
         before = rss_bytes()
         buf = tf2_py.BufferCore(rospy.Duration(10))
