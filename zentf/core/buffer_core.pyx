@@ -81,6 +81,7 @@ cdef enum:
 assert MAX_GRAPH_DEPTH == _MAX_DEPTH
 
 cdef int64_t _MAX_STAMP = 9223372036854775807
+cdef uint64_t _GOLDEN = 11400714819323198485u   # 2^64 / golden ratio: spreads times over the memo table
 
 TimeArg = Union[Time, int, float]
 
@@ -762,11 +763,12 @@ cdef class BufferCore:
         """The answer for two distinct valid ids into out; its stamp. Lock held."""
         cdef _Memo* m
         cdef int32_t bad = 0
-        cdef int res
+        cdef int res, i
+        cdef uint64_t h
         if t == 0:
             t = self._lct(target_id, source_id)
-        m = &self._memo[(<uint64_t>t * <uint64_t>0x9E3779B97F4A7C15 + <uint64_t>target_id * 40503
-                         + <uint64_t>source_id * 2654435761) >> 56]
+        h = <uint64_t>t * _GOLDEN + <uint64_t>target_id * 40503u + <uint64_t>source_id * 2654435761u
+        m = &self._memo[h >> 56]
         if m.version == self._version and m.t == t and m.target == target_id and m.source == source_id:
             for i in range(7):
                 out[i] = m.v[i]
