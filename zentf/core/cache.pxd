@@ -21,6 +21,7 @@ cdef class TimeCache(CacheBase):
     cdef int32_t* _par                  # parent per slot; NULL while every sample has parent _par0
     cdef int32_t _par0
     cdef Py_ssize_t _cap, _head, _n
+    cdef bint _steady                   # pruning has begun: the cache holds about as many samples as it will
     cdef public int64_t max_ns
     cdef int64_t oldest
     # the last interpolated query (time and answer) and the constants of the last interval asked

@@ -96,6 +96,7 @@ cdef class TimeCache(CacheBase):
     cdef void _reset(self) noexcept:
         self._head = 0
         self._n = 0
+        self._steady = False
         self._par0 = 0
         self.newest = -1
         self.oldest = -1
@@ -166,8 +167,8 @@ cdef class TimeCache(CacheBase):
     cdef int insert_c(self, int64_t stamp, int32_t parent, const double* v) except -1:
         cdef int64_t newest = self.newest
         cdef Py_ssize_t i, j, k, lo, hi, mid
-        if self._n == self._cap:
-            if self._resize(self._cap + (self._cap >> 1) + 4) < 0:
+        if self._n == self._cap:  # grow: by half while filling up, by 1/64 once pruning holds it steady
+            if self._resize(self._cap + ((self._cap >> 6) if self._steady else (self._cap >> 1)) + 4) < 0:
                 raise MemoryError()
         if self._n == 0:
             self._par0 = parent
@@ -237,8 +238,12 @@ cdef class TimeCache(CacheBase):
         self.oldest = self._st[self._head]
         self._memo_t = -1            # the memoized time may have fallen out
         n = self._n
-        if self._cap > n + (n >> 3) + 16:  # steady state after growing: give the slack back
-            self._resize(n + (n >> 5) + 16)
+        if not self._steady:  # the cache is full: from now on it holds about n samples, keep no slack
+            self._steady = True
+            if self._cap > n + 1:
+                self._resize(n + 1)
+        elif self._cap > n + (n >> 3) + 16:  # fewer samples than before (a slower rate): give room back
+            self._resize(n + (n >> 6) + 4)
 
     cdef inline void _copy(self, Py_ssize_t i, int32_t* parent, double* out) noexcept:
         cdef Py_ssize_t j = self._slot(i)
