@@ -68,8 +68,10 @@ class _FutureGuard:
         self.refused = 0
         self.limiter = limiter
 
-    def _split(self, samples: list, authority: str) -> list:
-        now = self.clock.now_ns()
+    def _split(self, samples: list, authority: str, now: int | None = None) -> list:
+        """The samples not stamped beyond now + tolerance; the rest are counted and logged."""
+        if now is None:
+            now = self.clock.now_ns()
         if not now:  # sim time before the first /clock: nothing to compare with
             return samples
         limit = now + self.tolerance_ns
@@ -89,8 +91,16 @@ class _FutureGuard:
         return keep
 
     def set_transforms_raw(self, samples: list, authority: str, is_static: bool = False) -> int:
-        samples = self._split(samples, authority)
-        return self.core.set_transforms_raw(samples, authority, is_static) if samples else 0
+        now = self.clock.now_ns()
+        if now:  # (the common case inline: nothing ahead, one clock read, no copy)
+            limit = now + self.tolerance_ns
+            for s in samples:
+                if s[2] > limit:
+                    samples = self._split(samples, authority, now)
+                    if not samples:
+                        return 0
+                    break
+        return self.core.set_transforms_raw(samples, authority, is_static)
 
     def set_transform_raw(self, *args: Any) -> bool:
         sample, authority = args[:10], args[10]
@@ -150,6 +160,7 @@ class TransformListener:
             future_tolerance = self.node.get_parameter_value("tf_future_tolerance", DEFAULT_FUTURE_TOLERANCE)
         tol = _tolerance_ns(future_tolerance)
         self._guard = _FutureGuard(buffer, self.node.get_clock(), tol, self._limiter) if tol is not None else None
+        self._tf_target = self._guard if self._guard is not None else buffer  # what tf samples go into
         self._subs: list[Any] = []
         self._tokens: list[Any] = []
         profile = self.node.wire  # zentf or ros2 (zentf.profile): key layout, payload format, authority
@@ -204,12 +215,16 @@ class TransformListener:
             except Exception:
                 return
             n = 0
-            shed: dict[bytes, int] = {}
+            shed: dict[bytes, int] | None = None
             while sample is not None:
                 att = sample.attachment
-                key = att.to_bytes() if att is not None else b""
-                if sender_of is not None:
-                    key = sender_of(key)
+                if att is None:
+                    raw = None
+                    key = b""
+                else:  # read once: handle() gets it too (the authority), with the sample
+                    key = raw = att.to_bytes()
+                    if sender_of is not None:
+                        key = sender_of(raw)
                 q = queues.get(key)
                 if q is None:
                     if len(queues) >= MAX_SENDERS:
@@ -217,14 +232,18 @@ class TransformListener:
                         q = queues.get(key)
                     if q is None:
                         q = queues[key] = deque()
-                if len(q) >= SUSPECT_QUEUE and strikes.get(key, 0) >= SUSPECT_AFTER:
+                if len(q) >= SUSPECT_QUEUE and strikes and strikes.get(key, 0) >= SUSPECT_AFTER:
                     q.popleft()  # a suspect sender: its newest SUSPECT_QUEUE wait, the oldest goes
+                    if shed is None:
+                        shed = {}
                     shed[key] = shed.get(key, 0) + 1
                     pending -= 1
-                q.append(sample)
+                q.append((sample, raw))
                 pending += 1
                 if pending > MAX_PENDING:
                     big = self._shed(queues, q, key)
+                    if shed is None:
+                        shed = {}
                     shed[big] = shed.get(big, 0) + 1
                     pending -= 1
                 n += 1
@@ -236,10 +255,11 @@ class TransformListener:
                     return
             if shed:
                 self._log_shed(shed, queues)
-            for key in list(queues):
+            for key in tuple(queues):
                 q = queues[key]
-                if handle(q.popleft()):
-                    if key in strikes:
+                sample, raw = q.popleft()
+                if handle(sample, False, raw):
+                    if strikes and key in strikes:
                         del strikes[key]
                 else:
                     k = strikes[key] = strikes.get(key, 0) + 1
@@ -271,22 +291,26 @@ class TransformListener:
                               "tf listener overloaded: dropped %d message(s) from %s unread (%d waiting from it)",
                               n, sender, len(q) if q is not None else 0)
 
-    def _on_sample(self, sample: Any, is_static: bool = False) -> bool:
-        """Decode and insert one message; True if something got into the buffer. Never raises."""
+    def _on_sample(self, sample: Any, is_static: bool = False, raw: Any = _UNSET) -> bool:
+        """Decode and insert one message; True if something got into the buffer. Never raises.
+
+        ``raw``: the attachment's bytes when the caller has read them already (the ``tf`` thread)."""
         try:
             enc = sample.encoding
             if enc != self._tf_encoding:  # cheap Rust-side compare for the common case
                 self._check_encoding(enc)
             authority = self._fixed_authority
             if authority is None:
-                att = sample.attachment
-                authority = self._authorities.get(att.to_bytes()) if att is not None else None
+                if raw is self._UNSET:
+                    att = sample.attachment
+                    raw = att.to_bytes() if att is not None else None
+                authority = self._authorities.get(raw) if raw is not None else None
                 if authority is None:
-                    authority = self._authority(att, str(sample.key_expr))
-                    if att is not None and len(self._authorities) < 1024:
-                        self._authorities[att.to_bytes()] = authority
-            target = self.buffer if is_static or self._guard is None else self._guard
-            accepted, rejected, malformed, problem = self._ingest(sample.payload.to_bytes(), target,
+                    authority = self._authority(sample.attachment, str(sample.key_expr))
+                    if raw is not None and len(self._authorities) < 1024:
+                        self._authorities[raw] = authority
+            accepted, rejected, malformed, problem = self._ingest(sample.payload.to_bytes(),
+                                                                  self.buffer if is_static else self._tf_target,
                                                                   authority, is_static)
         except Exception as e:
             self.bad_messages += 1
@@ -300,7 +324,8 @@ class TransformListener:
             return False
         # plain counters (statistics only; no lock on the hot path)
         self.messages += 1
-        self.transforms += accepted
+        if accepted:
+            self.transforms += accepted
         if rejected:
             self.rejected += rejected
         if malformed:
