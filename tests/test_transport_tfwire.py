@@ -1,0 +1,239 @@
+"""The compiled TFMessage decoders (zentf/tfwire.pyx) against the pure-Python paths they stand in front of.
+
+Whatever the compiled decoder accepts must be exactly what the Python path reads (same tuples, same
+interned names); whatever it doubts goes to the Python path, so a malformed, truncated or lying payload
+gives the same counts, the same one-line problem or the same exception as without it. Both wires:
+zentf (msgpack, wire.ingest_tf) and ROS 2 (CDR, Ros2Profile.ingest_tf / zentf.ros.tf_samples).
+"""
+from __future__ import annotations
+
+import random
+import struct
+
+import msgpack
+import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from zentf import profile, tfwire, wire
+from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
+from zentf.core.time import Time
+from zentf.ros import CdrError, encode_tf as cdr_encode_tf, tf_samples
+
+NS = 1_000_000_000
+MAX_SEC = (2**63 - 1) // NS
+
+
+def norm(samples: list | None) -> list | None:
+    """Samples comparable with ==: floats by repr (nan == nan, -0.0 != 0.0), ints and names as they are."""
+    if samples is None:
+        return None
+    return [(s[0], s[1], s[2], *(repr(v) for v in s[3:])) for s in samples]
+
+
+class Recorder:
+    """A BufferCore stand-in that keeps what the ingest paths hand over (and accepts every sample)."""
+
+    def __init__(self) -> None:
+        self.calls: list = []
+
+    def set_transforms_raw(self, samples: list, authority: str, is_static: bool) -> int:
+        self.calls.append((norm(samples), authority, is_static))
+        return len(samples)
+
+
+def ingest_all(ingest, payloads: list[bytes]) -> tuple[list, list]:
+    """(results or exception lines, what reached the core) of every payload."""
+    core = Recorder()
+    out: list = []
+    for p in payloads:
+        try:
+            out.append(ingest(p, core, "/a", False))
+        except (ValueError, CdrError) as e:
+            out.append(f"{type(e).__name__}: {e}")
+    return out, core.calls
+
+
+def python_only(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Switch the compiled decoders off (the paths a build without the extension runs)."""
+    monkeypatch.setattr(wire, "_compiled_tf", None)
+    monkeypatch.setattr(profile, "_compiled_cdr_tf", None)
+
+
+def test_the_compiled_decoders_are_built_and_used() -> None:
+    """pip install builds zentf/tfwire.pyx; the listener's paths pick it up (else these tests prove nothing)."""
+    assert wire._compiled_tf is tfwire.msgpack_tf
+    assert profile._compiled_cdr_tf is tfwire.cdr_tf
+
+
+# ------------------------------------------------------------------ well-formed messages (hypothesis)
+
+names = st.text(st.characters(codec="utf-8"), max_size=12) | st.sampled_from(["world", "base_link", "/odom", "é/π"])
+numbers = st.floats(allow_nan=True, allow_infinity=True) | st.integers(-(2**63), 2**64 - 1)
+
+
+@st.composite
+def transforms(draw, cdr: bool = False) -> dict:
+    """One TransformStamped as a plain dict, fields in any order, sometimes with extra fields (CDR: floats
+    only, int32 seconds)."""
+    num = st.floats(allow_nan=True, allow_infinity=True) if cdr else numbers
+    sec = draw(st.integers(0, 2**31 - 1 if cdr else MAX_SEC - 1) | st.sampled_from([0, 1_700_000_000]))
+    nsec = draw(st.integers(0, NS - 1))
+
+    def mapping(fields: dict) -> dict:
+        items = list(fields.items())
+        if draw(st.booleans()):
+            items.append((draw(st.sampled_from(["extra", "seq", "x_"])),
+                          draw(st.none() | st.integers() | st.text(max_size=3) | st.lists(st.integers(), max_size=2)
+                               | st.dictionaries(st.text(max_size=2), st.integers(), max_size=2))))
+        return dict(draw(st.permutations(items)))
+
+    return mapping({
+        "header": mapping({"stamp": mapping({"sec": sec, "nanosec": nsec}), "frame_id": draw(names)}),
+        "child_frame_id": draw(names),
+        "transform": mapping({"translation": mapping({k: draw(num) for k in "xyz"}),
+                              "rotation": mapping({k: draw(num) for k in "xyzw"})}),
+    })
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(items=st.lists(transforms(), max_size=8), single_float=st.booleans(), top_extra=st.booleans())
+def test_msgpack_compiled_equals_python_on_well_formed_messages(items: list, single_float: bool,
+                                                                 top_extra: bool) -> None:
+    msg = {"transforms": items, **({"meta": [1, {"a": None}]} if top_extra else {})}
+    try:
+        payload = msgpack.packb(msg, use_single_float=single_float)
+    except OverflowError:  # a double beyond float32 (the single-float variant only)
+        assume(False)
+    compiled = tfwire.msgpack_tf(payload)
+    assert compiled is not None  # well-formed: no doubt
+    core = Recorder()
+    assert wire.ingest_tf(payload, core, "/a", False) == (len(items), 0, 0, None)
+    assert core.calls == ([(norm(compiled), "/a", False)] if items else [])
+    saved = wire._compiled_tf, wire._TF_DECODER
+    try:
+        wire._compiled_tf = None                     # the msgspec path a build without the extension runs
+        ref = Recorder()
+        assert wire.ingest_tf(payload, ref, "/a", False) == (len(items), 0, 0, None)
+        assert ref.calls == core.calls
+        wire._TF_DECODER = None                      # the per-element path (msgpack raw=True, ``+ 0.0``)
+        elem = Recorder()
+        assert wire.ingest_tf(payload, elem, "/a", False) == (len(items), 0, 0, None)
+    finally:
+        wire._compiled_tf, wire._TF_DECODER = saved
+    # the same values; only the sign of a zero differs there (-0.0 + 0.0 is 0.0), as msgspec's path did
+    plus_zero = [(*s[:3], *(v + 0.0 for v in s[3:])) for s in compiled]
+    assert elem.calls == ([(norm(plus_zero), "/a", False)] if items else [])
+
+
+@settings(max_examples=300, deadline=None)
+@given(items=st.lists(transforms(cdr=True), max_size=20), tail=st.binary(max_size=9))
+def test_cdr_compiled_equals_python_on_well_formed_messages(items: list, tail: bytes) -> None:
+    payload = cdr_encode_tf(items) + tail  # bytes after the last element are ignored by both
+    compiled = tfwire.cdr_tf(payload)
+    samples, malformed, problem = tf_samples(payload)
+    assert (malformed, problem) == (0, None)
+    assert compiled is not None and norm(compiled) == norm(samples)
+
+
+def test_broadcaster_payloads_take_the_compiled_path() -> None:
+    """The bytes a zentf broadcaster writes (wire.encode_tf's template) and a ROS 2 one (CDR)."""
+    ts = [TransformStamped(Header(Time(sec=5, nanosec=7), "world"), f"f{i}",
+                           Transform(Vector3(1.0, 2.0, 3.0), Quaternion(0.0, 0.0, 0.0, 1.0))) for i in range(3)]
+    expected = [("world", f"f{i}", 5 * NS + 7, 1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0) for i in range(3)]
+    assert tfwire.msgpack_tf(wire.encode_tf(ts)) == expected
+    assert tfwire.msgpack_tf(wire.encode_tf(ts[:1])) == expected[:1]
+    assert tfwire.cdr_tf(cdr_encode_tf(ts)) == expected
+    assert tfwire.msgpack_tf(wire.encode_tf([])) == [] and tfwire.cdr_tf(cdr_encode_tf([])) == []
+
+
+def test_frame_names_are_interned_and_the_cache_is_bounded() -> None:
+    a = tfwire.msgpack_tf(msgpack.packb({"transforms": [transform_dict("map", "odom_frame")]}))[0]
+    b = tfwire.cdr_tf(cdr_encode_tf([transform_dict("map", "odom_frame")]))[0]
+    assert a[0] is b[0] and a[1] is b[1]  # one str object per name, whichever wire brought it
+    long_name = "n" * 300
+    assert tfwire.msgpack_tf(msgpack.packb({"transforms": [transform_dict(long_name, "c")]}))[0][0] == long_name
+    assert long_name.encode() not in tfwire._NAMES  # forged huge names are not kept
+    for i in range(0, 100_010, 1000):  # 100k distinct names in batches: the cache is cleared, not grown
+        payload = msgpack.packb({"transforms": [transform_dict("p", f"n{j}") for j in range(i, i + 1000)]})
+        assert len(tfwire.msgpack_tf(payload)) == 1000
+        assert len(tfwire._NAMES) <= 100_000
+
+
+# ------------------------------------------------------------------ anything else: same as before
+
+def transform_dict(parent: str = "world", child: str = "c", sec: int = 1, nsec: int = 0, x: float = 1.0) -> dict:
+    return {"header": {"stamp": {"sec": sec, "nanosec": nsec}, "frame_id": parent}, "child_frame_id": child,
+            "transform": {"translation": {"x": x, "y": 2.0, "z": 3.0},
+                          "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}
+
+
+def mutations(payload: bytes, rng: random.Random, n: int) -> list[bytes]:
+    """Truncations, flipped bytes, inserted and deleted bytes of a good payload."""
+    out = [payload[:i] for i in range(len(payload))]
+    for _ in range(n):
+        b = bytearray(payload)
+        kind = rng.randrange(4)
+        at = rng.randrange(len(b))
+        if kind == 0:
+            b[at] = rng.randrange(256)
+        elif kind == 1:
+            b[at] ^= 1 << rng.randrange(8)
+        elif kind == 2:
+            b[at:at] = bytes(rng.randrange(256) for _ in range(rng.randrange(1, 4)))
+        else:
+            del b[at:at + rng.randrange(1, 4)]
+        out.append(bytes(b))
+    return out
+
+
+def test_msgpack_malformed_payloads_give_the_same_problems(monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = random.Random(15)
+    good = msgpack.packb({"transforms": [transform_dict("world", "a", 3, 5), transform_dict("a", "bé", 4, 6, -2.5)]})
+    lying = [
+        msgpack.packb({"transforms": [transform_dict(sec=-1)]}),                      # stamp out of range
+        msgpack.packb({"transforms": [transform_dict(nsec=NS)]}),
+        msgpack.packb({"transforms": [transform_dict(sec=2**63)]}),
+        msgpack.packb({"transforms": [transform_dict(sec=True)]}),                    # a bool is not an int
+        msgpack.packb({"transforms": [transform_dict(x=True)]}),                      # ... nor a number (msgspec)
+        msgpack.packb({"transforms": [transform_dict(sec=1.0)]}),
+        msgpack.packb({"transforms": [{**transform_dict(), "child_frame_id": b"bin"}]}),
+        msgpack.packb({"transforms": [{**transform_dict(), "child_frame_id": None}]}),
+        msgpack.packb({"transforms": [{"header": {}, "child_frame_id": "c"}]}),       # missing fields
+        msgpack.packb({"transforms": [transform_dict()], "x": msgpack.ExtType(1, b"e")}),
+        msgpack.packb({b"transforms": [transform_dict()]}, use_bin_type=True),        # bin key
+        msgpack.packb({"transforms": None}), msgpack.packb([]), msgpack.packb({"transforms": {}}),
+        msgpack.packb({"transforms": [transform_dict()]}) + b"\x00",                   # trailing bytes
+        b"\x81\xaatransforms\x91" + msgpack.packb(transform_dict())[:-1],
+        msgpack.packb({"transforms": [transform_dict("\udcff", "c")]}, unicode_errors="surrogateescape"),
+    ]
+    payloads = [good, *lying, *mutations(good, rng, 3000)]
+    with_compiled = ingest_all(wire.ingest_tf, payloads)
+    python_only(monkeypatch)
+    assert ingest_all(wire.ingest_tf, payloads) == with_compiled
+    assert all("\n" not in str(r) for r in with_compiled[0])
+    problems = [r for r in with_compiled[0] if isinstance(r, str) or r[2]]
+    assert len(problems) > 1000  # the mutations did hit
+
+
+def test_cdr_malformed_payloads_give_the_same_problems(monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = random.Random(14)
+    good = cdr_encode_tf([transform_dict("world", "a", 3, 5), transform_dict("a", "bé", 4, 6, -2.5)])
+    no_nul = bytearray(good)
+    no_nul[12 + 4 + 5] = ord("!")  # 'world' + NUL: the NUL replaced (tf_samples does not look at it)
+    lying = [bytes(no_nul), good[:4] + struct.pack("<I", 10**6) + good[8:], b"\x00\x00\x00\x00" + good[4:],
+             good[:4] + struct.pack("<I", 0) + good[8:], struct.pack("<4sI", b"\x00\x01\x00\x00", 1) + b"\x00" * 72]
+    payloads = [good, *lying, *mutations(good, rng, 3000)]
+    ingest = profile.Ros2Profile().ingest_tf
+    with_compiled = ingest_all(ingest, payloads)
+    python_only(monkeypatch)
+    assert ingest_all(ingest, payloads) == with_compiled
+    assert all("\n" not in str(r) for r in with_compiled[0])
+    assert len([r for r in with_compiled[0] if isinstance(r, str) or r[2]]) > 1000
+
+
+def test_payloads_that_are_not_bytes_take_the_python_path() -> None:
+    good = msgpack.packb({"transforms": [transform_dict()]})
+    assert tfwire.msgpack_tf(bytearray(good)) is None and tfwire.cdr_tf(memoryview(cdr_encode_tf([]))) is None
+    core = Recorder()
+    assert wire.ingest_tf(bytearray(good), core, "/a", False) == (1, 0, 0, None)
