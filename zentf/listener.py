@@ -8,7 +8,7 @@ import threading
 import uuid
 import weakref
 from collections import deque
-from functools import partial
+from collections.abc import Callable
 from typing import Any
 
 from .core.messages import TFMessage
@@ -59,11 +59,12 @@ def _tolerance_ns(value: Any) -> int | None:
 class _FutureGuard:
     """What ``wire.ingest_tf`` inserts into: drops samples stamped too far ahead, passes the rest on."""
 
-    __slots__ = ("core", "clock", "tolerance_ns", "refused", "limiter")
+    __slots__ = ("core", "clock", "now_ns", "tolerance_ns", "refused", "limiter")
 
     def __init__(self, core: Any, clock: Any, tolerance_ns: int, limiter: RateLimitedLogger) -> None:
         self.core = core
         self.clock = clock
+        self.now_ns = clock.now_ns
         self.tolerance_ns = tolerance_ns
         self.refused = 0
         self.limiter = limiter
@@ -71,7 +72,7 @@ class _FutureGuard:
     def _split(self, samples: list, authority: str, now: int | None = None) -> list:
         """The samples not stamped beyond now + tolerance; the rest are counted and logged."""
         if now is None:
-            now = self.clock.now_ns()
+            now = self.now_ns()
         if not now:  # sim time before the first /clock: nothing to compare with
             return samples
         limit = now + self.tolerance_ns
@@ -91,7 +92,7 @@ class _FutureGuard:
         return keep
 
     def set_transforms_raw(self, samples: list, authority: str, is_static: bool = False) -> int:
-        now = self.clock.now_ns()
+        now = self.now_ns()
         if now:  # (the common case inline: nothing ahead, one clock read, no copy)
             limit = now + self.tolerance_ns
             for s in samples:
@@ -175,7 +176,7 @@ class TransformListener:
         session = self.node.session
         static_key = wire_key(self.node, tf_static_topic)
         self._subs.append(zx.declare_advanced_subscriber(
-            session, static_key, partial(self._on_sample, is_static=True),
+            session, static_key, self._handler(True),
             history=zx.HistoryConfig(detect_late_publishers=True)))
         self._declare_token(static_key, is_static=True)
         if not static_only:
@@ -207,7 +208,7 @@ class TransformListener:
         queues: dict[bytes, deque] = {}
         strikes: dict[bytes, int] = {}  # messages in a row that put nothing into the buffer, per sender
         pending = 0
-        handle = self._on_sample
+        handle = self._handler(False)
         sender_of = self.node.wire.sender_of  # None: the attachment bytes name the sender
         while True:
             try:  # blocks in Zenoh (GIL released) when idle; fails once undeclared
@@ -258,7 +259,7 @@ class TransformListener:
             for key in tuple(queues):
                 q = queues[key]
                 sample, raw = q.popleft()
-                if handle(sample, False, raw):
+                if handle(sample, raw):
                     if strikes and key in strikes:
                         del strikes[key]
                 else:
@@ -291,50 +292,66 @@ class TransformListener:
                               "tf listener overloaded: dropped %d message(s) from %s unread (%d waiting from it)",
                               n, sender, len(q) if q is not None else 0)
 
-    def _on_sample(self, sample: Any, is_static: bool = False, raw: Any = _UNSET) -> bool:
-        """Decode and insert one message; True if something got into the buffer. Never raises.
+    def _handler(self, is_static: bool) -> Callable[..., bool]:
+        """The function that decodes and inserts one message of a topic: ``handle(sample, raw=unread)``,
+        True if something got into the buffer; never raises. ``raw``: the attachment's bytes when the
+        caller read them already (the tf thread). Everything it uses is bound once, in locals: it runs
+        once per message."""
+        ingest = self._ingest
+        target = self.buffer if is_static else self._tf_target
+        tf_encoding = self._tf_encoding
+        check_encoding = self._check_encoding
+        fixed_authority = self._fixed_authority
+        authorities = self._authorities
+        authority_of = self._authority
+        unread = self._UNSET
 
-        ``raw``: the attachment's bytes when the caller has read them already (the ``tf`` thread)."""
-        try:
-            enc = sample.encoding
-            if enc != self._tf_encoding:  # cheap Rust-side compare for the common case
-                self._check_encoding(enc)
-            authority = self._fixed_authority
-            if authority is None:
-                if raw is self._UNSET:
-                    att = sample.attachment
-                    raw = att.to_bytes() if att is not None else None
-                authority = self._authorities.get(raw) if raw is not None else None
-                if authority is None:
-                    authority = self._authority(sample.attachment, str(sample.key_expr))
-                    if raw is not None and len(self._authorities) < 1024:
-                        self._authorities[raw] = authority
-            accepted, rejected, malformed, problem = self._ingest(sample.payload.to_bytes(),
-                                                                  self.buffer if is_static else self._tf_target,
-                                                                  authority, is_static)
-        except Exception as e:
-            self.bad_messages += 1
+        def handle(sample: Any, raw: Any = unread) -> bool:
             try:
+                enc = sample.encoding
+                if enc != tf_encoding:  # cheap Rust-side compare for the common case
+                    check_encoding(enc)
+                authority = fixed_authority
+                if authority is None:
+                    if raw is unread:
+                        att = sample.attachment
+                        raw = att.to_bytes() if att is not None else None
+                    authority = authorities.get(raw) if raw is not None else None
+                    if authority is None:
+                        authority = authority_of(sample.attachment, str(sample.key_expr))
+                        if raw is not None and len(authorities) < 1024:
+                            authorities[raw] = authority
+                accepted, rejected, malformed, problem = ingest(sample.payload.to_bytes(), target, authority,
+                                                                is_static)
+            except Exception as e:
+                self._bad_message(sample, e)
+                return False
+            # plain counters (statistics only; no lock on the hot path)
+            self.messages += 1
+            if accepted:
+                self.transforms += accepted
+            if rejected:
+                self.rejected += rejected
+            if malformed:
+                self.malformed += malformed
                 key = str(sample.key_expr)
-                sender = self._authority(sample.attachment, "unknown sender")
-            except Exception:
-                key, sender = "?", "unknown sender"
-            self._limiter.log(logging.WARNING, ("bad", key, sender), "dropped bad message on '%s' from %s: %s",
-                              key, sender, str(e))
-            return False
-        # plain counters (statistics only; no lock on the hot path)
-        self.messages += 1
-        if accepted:
-            self.transforms += accepted
-        if rejected:
-            self.rejected += rejected
-        if malformed:
-            self.malformed += malformed
+                self._limiter.log(logging.WARNING, ("malformed", key, authority),
+                                  "skipped %d malformed transform(s) on '%s' from %s: %s",
+                                  malformed, key, authority, problem or "")
+            return accepted > 0
+
+        return handle
+
+    def _bad_message(self, sample: Any, e: Exception) -> None:
+        """A payload that is not a TFMessage at all: counted and logged (rate-limited), naming the sender."""
+        self.bad_messages += 1
+        try:
             key = str(sample.key_expr)
-            self._limiter.log(logging.WARNING, ("malformed", key, authority),
-                              "skipped %d malformed transform(s) on '%s' from %s: %s",
-                              malformed, key, authority, problem or "")
-        return accepted > 0
+            sender = self._authority(sample.attachment, "unknown sender")
+        except Exception:
+            key, sender = "?", "unknown sender"
+        self._limiter.log(logging.WARNING, ("bad", key, sender), "dropped bad message on '%s' from %s: %s",
+                          key, sender, str(e))
 
     def _on_jump(self, old: Any, new: Any) -> None:
         log.warning("Detected jump back in time of %.6fs. Clearing TF buffer.", (old - new).to_sec())
