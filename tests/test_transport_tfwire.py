@@ -7,6 +7,7 @@ zentf (msgpack, wire.ingest_tf) and ROS 2 (CDR, Ros2Profile.ingest_tf / zentf.ro
 """
 from __future__ import annotations
 
+import logging
 import random
 import struct
 
@@ -16,9 +17,14 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from zentf import profile, tfwire, wire
+from zentf.clock import Clock
+from zentf.core.buffer_core import BufferCore
+from zentf.core.ratelimit import RateLimitedLogger
 from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
 from zentf.core.time import Time
+from zentf.listener import _FutureGuard
 from zentf.ros import CdrError, encode_tf as cdr_encode_tf, tf_samples
+from zentf.tfwire import TfIngest
 
 NS = 1_000_000_000
 MAX_SEC = (2**63 - 1) // NS
@@ -237,3 +243,56 @@ def test_payloads_that_are_not_bytes_take_the_python_path() -> None:
     assert tfwire.msgpack_tf(bytearray(good)) is None and tfwire.cdr_tf(memoryview(cdr_encode_tf([]))) is None
     core = Recorder()
     assert wire.ingest_tf(bytearray(good), core, "/a", False) == (1, 0, 0, None)
+
+
+# ------------------------------------------------------------------ the listener's compiled ingest
+
+def listener_ingest(wire_name: str, compiled: bool, clock: Clock, is_static: bool = False):
+    """(ingest(payload, authority), buffer, guard) as a TransformListener builds them, without Zenoh."""
+    buffer = BufferCore()
+    guard = _FutureGuard(buffer, clock, 5 * NS, RateLimitedLogger(logging.getLogger("zentf.listener")))
+    prof = profile.make_profile(wire_name)
+    target = buffer if is_static else guard
+    if compiled:
+        return TfIngest(wire_name == "ros2", prof.ingest_tf, wire._insert, target, buffer,
+                        None if is_static else guard.now_ns, guard.tolerance_ns, is_static), buffer, guard
+    return (lambda p, a: prof.ingest_tf(p, target, a, is_static)), buffer, guard
+
+
+@pytest.mark.parametrize("wire_name", ["zentf", "ros2"])
+@pytest.mark.parametrize("is_static", [False, True])
+def test_compiled_listener_ingest_equals_the_python_path(wire_name: str, is_static: bool,
+                                                         caplog: pytest.LogCaptureFixture) -> None:
+    """Decode, future-stamp guard and insert in one compiled call: same results, buffer, refusals and
+    log lines as the profile's ingest_tf through the listener's _FutureGuard."""
+    rng = random.Random(10)
+    clock = Clock(sim=True)
+    clock.set_sim_time(1000 * NS)
+    encode = cdr_encode_tf if wire_name == "ros2" else (lambda items: msgpack.packb({"transforms": items}))
+    payloads = []
+    for i in range(300):
+        sec = rng.choice([999, 1000, 1004, 1006, 2000])  # now is 1000 s, tolerance 5 s
+        items = [transform_dict("world", f"c{rng.randrange(4)}", sec, rng.randrange(NS), rng.uniform(-1, 1))
+                 for _ in range(rng.randrange(0, 4))]
+        payload = encode(items)
+        if rng.random() < 0.2 and payload:
+            payload = mutations(payload, rng, 1)[-1]
+        payloads.append(payload)
+    runs = []
+    for compiled in (True, False):
+        ingest, buffer, guard = listener_ingest(wire_name, compiled, clock, is_static)
+        caplog.clear()
+        with caplog.at_level(logging.WARNING, logger="zentf"):
+            results = []
+            for p in payloads:
+                try:
+                    results.append(ingest(p, "/a"))
+                except (ValueError, CdrError) as e:
+                    results.append(str(e))
+        frames = [(d["frame"], d["parent"], d["samples"], d["most_recent_transform"].nanoseconds,
+                   d["oldest_transform"].nanoseconds, repr(buffer.lookup_transform(d["parent"], d["frame"], 0)))
+                  for d in buffer.frame_info()]
+        runs.append((results, guard.refused, frames, [r.getMessage() for r in caplog.records]))
+    assert runs[0] == runs[1]
+    assert (runs[0][1] > 0) != is_static  # the guard did refuse samples (not on tf_static)
+    assert len(runs[0][2]) == 4 and any(isinstance(r, tuple) and r[2] for r in runs[0][0])  # stored; some malformed

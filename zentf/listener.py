@@ -16,6 +16,12 @@ from .core.ratelimit import RateLimitedLogger
 from .core.time import Duration
 from .entities import undeclare_all
 from .node import Node
+from .wire import _insert
+
+try:  # compiled decode + future check + insert (zentf/tfwire.pyx); without it the profile's Python path
+    from .tfwire import TfIngest
+except ImportError:  # pragma: no cover - a source checkout without build_ext
+    TfIngest = None
 
 __all__ = ["TransformListener", "StaticTransformListener", "DEFAULT_FUTURE_TOLERANCE"]
 
@@ -297,8 +303,8 @@ class TransformListener:
         True if something got into the buffer; never raises. ``raw``: the attachment's bytes when the
         caller read them already (the tf thread). Everything it uses is bound once, in locals: it runs
         once per message."""
-        ingest = self._ingest
         target = self.buffer if is_static else self._tf_target
+        ingest = self._ingest_of(target, is_static)
         tf_encoding = self._tf_encoding
         check_encoding = self._check_encoding
         fixed_authority = self._fixed_authority
@@ -321,8 +327,7 @@ class TransformListener:
                         authority = authority_of(sample.attachment, str(sample.key_expr))
                         if raw is not None and len(authorities) < 1024:
                             authorities[raw] = authority
-                accepted, rejected, malformed, problem = ingest(sample.payload.to_bytes(), target, authority,
-                                                                is_static)
+                accepted, rejected, malformed, problem = ingest(sample.payload.to_bytes(), authority)
             except Exception as e:
                 self._bad_message(sample, e)
                 return False
@@ -341,6 +346,22 @@ class TransformListener:
             return accepted > 0
 
         return handle
+
+    def _ingest_of(self, target: Any, is_static: bool) -> Callable[[bytes, str], tuple]:
+        """``ingest(payload, authority)`` of a topic: compiled (zentf/tfwire.pyx) for the two wires,
+        with the future guard's check folded in; else the profile's ``ingest_tf`` into ``target``."""
+        slow = self._ingest
+        wire_name = self.node.wire.name
+        if TfIngest is not None and wire_name in ("zentf", "ros2"):
+            guard = None if is_static else self._guard
+            return TfIngest(wire_name == "ros2", slow, _insert, target, self.buffer,
+                            guard.now_ns if guard is not None else None,
+                            guard.tolerance_ns if guard is not None else 0, is_static)
+
+        def ingest(payload: bytes, authority: str) -> tuple:
+            return slow(payload, target, authority, is_static)
+
+        return ingest
 
     def _bad_message(self, sample: Any, e: Exception) -> None:
         """A payload that is not a TFMessage at all: counted and logged (rate-limited), naming the sender."""

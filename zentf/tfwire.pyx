@@ -15,7 +15,7 @@ from cpython.unicode cimport PyUnicode_DecodeUTF8
 from libc.stdint cimport int32_t, int64_t, uint8_t, uint32_t, uint64_t
 from libc.string cimport memcmp, memcpy
 
-__all__ = ["msgpack_tf", "cdr_tf", "MAX_PAYLOAD"]
+__all__ = ["msgpack_tf", "cdr_tf", "TfIngest", "MAX_PAYLOAD"]
 
 #: Larger payloads are not decoded here (the Python paths refuse them with their own message).
 MAX_PAYLOAD = 64 * 1024 * 1024
@@ -431,6 +431,13 @@ cdef inline object _tuple(Sample* s):
 
 def msgpack_tf(payload):
     """Samples of a well-formed zentf (msgpack) TFMessage payload; None if anything is doubtful."""
+    cdef int64_t newest
+    return _msgpack(payload, &newest)
+
+
+cdef object _msgpack(object payload, int64_t* newest):
+    """msgpack_tf, also giving the newest stamp (-1 if none)."""
+    newest[0] = -1
     if type(payload) is not bytes:
         return None
     cdef Py_ssize_t size = PyBytes_GET_SIZE(payload)
@@ -458,6 +465,8 @@ def msgpack_tf(payload):
                 if t is None:
                     return None
                 out.append(t)
+                if s.sec * _NS + s.nsec > newest[0]:
+                    newest[0] = s.sec * _NS + s.nsec
         elif not _skip(&c, 0):
             return None
     if count < 0 or c.p != c.end:
@@ -475,6 +484,13 @@ def cdr_tf(payload):
     header), 7 float64. Strings must end in their NUL here; bytes after the last element are ignored,
     as zentf.ros.tf.tf_samples ignores them.
     """
+    cdef int64_t newest
+    return _cdr(payload, &newest)
+
+
+cdef object _cdr(object payload, int64_t* newest):
+    """cdr_tf, also giving the newest stamp (-1 if none)."""
+    newest[0] = -1
     if type(payload) is not bytes:
         return None
     cdef Py_ssize_t end = PyBytes_GET_SIZE(payload)
@@ -525,4 +541,56 @@ def cdr_tf(payload):
         if t is None:
             return None
         out.append(t)
+        if s.sec * _NS + s.nsec > newest[0]:
+            newest[0] = s.sec * _NS + s.nsec
     return out
+
+
+# ---------------------------------------------------------------- the listener's ingest
+
+cdef class TfIngest:
+    """One topic's ingest for a TransformListener: ``ingest(payload, authority)`` -> (accepted, rejected,
+    malformed, first problem), as the profile's ``ingest_tf`` returns it.
+
+    A well-formed payload with nothing stamped beyond the clock's now + tolerance is decoded here and
+    handed to ``core.set_transforms_raw`` in one call; anything else (a doubt, a stamp too far ahead,
+    which the listener's future guard logs) goes to ``slow(payload, target, authority, is_static)``,
+    the profile's Python path into ``target`` (the guard, or the buffer), so every problem is counted
+    and named there. A buffer that raises gets ``insert`` (wire._insert: one by one).
+    """
+
+    cdef bint cdr
+    cdef bint is_static
+    cdef object slow
+    cdef object insert
+    cdef object target
+    cdef object core
+    cdef object now_ns
+    cdef object tolerance_ns
+
+    def __init__(self, bint cdr, slow, insert, target, core, now_ns, tolerance_ns, bint is_static):
+        self.cdr = cdr
+        self.slow = slow
+        self.insert = insert
+        self.target = target
+        self.core = core
+        self.now_ns = now_ns            # the listener clock's now_ns, None: no future guard
+        self.tolerance_ns = tolerance_ns
+        self.is_static = is_static
+
+    def __call__(self, payload, authority):
+        cdef int64_t newest
+        samples = _cdr(payload, &newest) if self.cdr else _msgpack(payload, &newest)
+        if samples is None:
+            return self.slow(payload, self.target, authority, self.is_static)
+        if not samples:
+            return 0, 0, 0, None
+        if self.now_ns is not None:
+            now = self.now_ns()
+            if now and newest > now + self.tolerance_ns:  # (0: sim time before the first /clock)
+                return self.slow(payload, self.target, authority, self.is_static)
+        try:
+            accepted = self.core.set_transforms_raw(samples, authority, self.is_static)
+        except Exception:  # the buffer must never take the listener down: one by one
+            return self.insert(samples, self.core, authority, self.is_static, 0, None)
+        return accepted, len(samples) - accepted, 0, None
