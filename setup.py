@@ -11,7 +11,7 @@ from setuptools import Extension, setup
 
 ROOT = Path(__file__).parent
 extensions = [
-    Extension(".".join(p.with_suffix("").parts), [str(p)], extra_compile_args=["-O3"])
+    Extension(".".join(p.with_suffix("").parts), [str(p)], extra_compile_args=["-O3", "-fno-math-errno"])
     for p in sorted(Path("zentf").rglob("*.pyx"))
 ]
 setup(ext_modules=cythonize(extensions, language_level=3, nthreads=2,

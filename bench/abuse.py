@@ -12,9 +12,13 @@ A Zenoh router on loopback (like the tests' router fixture), and client processe
   edge, then valid transforms of 1000 other frames (foreign data that costs real inserts).
 Reported: staleness p50/p99 with no flood (the reference, same run) and during each flood (target
 p99 <= 100 ms); the listener's log bytes per second during the NaN flood (target <= 10 kB/s) against
-what one line per refused sample would write (tf2's behaviour); listener RSS after ``--frames``
-distinct frames were offered (target <= 50 MB above idle) against the same listener with the frame
-cap off (``max_frames=None``, tf2's unbounded buffer).
+what one line per refused sample would write (tf2's behaviour); listener RSS above idle once it has
+handled ``--frames`` distinct frames offered in 100-transform messages (target <= 50 MB), median and
+range over ``--runs`` fresh listeners, with the peak during the flood and the part that is Zenoh
+shared memory mapped from other processes, against two references measured the same way: Zenoh's
+own defaults (shared-memory transport on, in the router, listener and flooder) with no release of
+freed memory after the burst (zentf before it set both), and the frame cap off (``max_frames=None``,
+tf2's unbounded buffer).
 """
 from __future__ import annotations
 
@@ -41,18 +45,21 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def zopts(endpoint: str):
+def zopts(endpoint: str, config: str | None = None):
     from zentf.options import ZenohOptions
 
-    return ZenohOptions(connect=[endpoint], mode="client", no_multicast=True)
+    return ZenohOptions(config_file=config, connect=[endpoint], mode="client", no_multicast=True)
 
 
-def rss_kb() -> int:
+def memory_kb() -> dict[str, int]:
+    """This process's RSS, its peak (high-water mark) and the shared memory in it, in kB."""
+    out = {}
     with open("/proc/self/status") as f:
         for line in f:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1])
-    return 0
+            key, _, value = line.partition(":")
+            if key in ("VmRSS", "VmHWM", "RssShmem"):
+                out[key] = int(value.split()[0])
+    return out
 
 
 # ------------------------------------------------------------------ child roles
@@ -67,7 +74,11 @@ def role_listener(args: argparse.Namespace) -> None:
     from zentf.node import Node
     from zentf.options import NodeOptions
 
-    node = Node("abuse_listener", options=NodeOptions(namespace=NAMESPACE, zenoh=zopts(args.endpoint)),
+    if args.no_release:  # the reference: freed memory stays with the allocator after a burst
+        import zentf.listener
+
+        zentf.listener.RELEASE_AFTER = 1 << 62
+    node = Node("abuse_listener", options=NodeOptions(namespace=NAMESPACE, zenoh=zopts(args.endpoint, args.zenoh_config)),
                 check_unique=False)
     kw = {} if args.max_frames == "default" else {"max_frames": None if args.max_frames == "none" else int(args.max_frames)}
     buf = Buffer(node=node, **kw)
@@ -98,7 +109,7 @@ def role_listener(args: argparse.Namespace) -> None:
             sampling.clear()
             print("RESULT " + json.dumps({"stale_ns": stale, "stats": tl.stats()}), flush=True)
         elif cmd == "mark":
-            print("RESULT " + json.dumps({"rss_kb": rss_kb(), "stats": tl.stats(),
+            print("RESULT " + json.dumps({"mem_kb": memory_kb(), "stats": tl.stats(),
                                           "frames": len(buf.get_frames())}), flush=True)
         elif cmd == "wait_edge":
             ok = buf.can_transform(*EDGE, 0, timeout=30)
@@ -164,7 +175,7 @@ def role_flood(args: argparse.Namespace) -> None:
     from zentf import wire
     from zentf.core.messages import TFMessage
 
-    session = zopts(args.endpoint).open_session()
+    session = zopts(args.endpoint, args.zenoh_config).open_session()
     pub = session.declare_publisher(f"{NAMESPACE}/tf", encoding=wire.encoding_for(TFMessage.TYPE_NAME),
                                     congestion_control=zenoh.CongestionControl.BLOCK)
     while not pub.matching_status.matching:
@@ -239,10 +250,10 @@ class Child:
                 self.p.wait(5)
 
 
-def start_router() -> tuple[subprocess.Popen, str]:
+def start_router(config: str | None = None) -> tuple[subprocess.Popen, str]:
     ep = f"tcp/127.0.0.1:{free_port()}"
-    p = subprocess.Popen([sys.executable, "-m", "zentf.router", "--listen", ep, "--no-multicast"],
-                         stdout=subprocess.PIPE, text=True)
+    p = subprocess.Popen([sys.executable, "-m", "zentf.router", "--listen", ep, "--no-multicast",
+                          *(["--config", config] if config else [])], stdout=subprocess.PIPE, text=True)
     assert p.stdout is not None
     line = p.stdout.readline()
     if "listening" not in line:
@@ -259,8 +270,8 @@ def pct(values: list[int], q: float) -> float:
     return s[min(len(s) - 1, int(q * len(s)))] / 1e6 if s else float("nan")
 
 
-def flood(ep: str, kind: str, count: int, per_msg: int) -> dict:
-    f = Child("flood", ep, "--kind", kind, "--count", str(count), "--per-msg", str(per_msg))
+def flood(ep: str, kind: str, count: int, per_msg: int, *extra: str) -> dict:
+    f = Child("flood", ep, "--kind", kind, "--count", str(count), "--per-msg", str(per_msg), *extra)
     try:
         f.send("go")
         return json.loads(f.expect("RESULT ")[len("RESULT "):])
@@ -275,9 +286,12 @@ def main() -> None:
     ap.add_argument("--kind", default="nan")
     ap.add_argument("--count", type=int, default=0)
     ap.add_argument("--max-frames", default="default")
+    ap.add_argument("--zenoh-config")
+    ap.add_argument("--no-release", action="store_true")
     ap.add_argument("--flood", type=int, default=1_000_000, help="samples in each flood")
     ap.add_argument("--per-msg", type=int, default=1, help="samples per flood message")
     ap.add_argument("--frames", type=int, default=100_000, help="distinct frames offered in the memory case")
+    ap.add_argument("--runs", type=int, default=3, help="fresh listeners per row in the memory case")
     ap.add_argument("--only", choices=["flood", "memory"], help="run one part")
     args = ap.parse_args()
     if args.role != "main":
@@ -335,42 +349,67 @@ def main() -> None:
     finally:
         for c in children:
             c.stop()
-        children.clear()
-    if args.only == "flood":
         router.terminate()
         router.wait(5)
-        return
+    if args.only != "flood":
+        memory_table(args)  # (a router of its own per row)
 
-    rss = {}
+
+def memory_run(ep: str, frames: int, *extra: str) -> dict:
+    """One fresh listener, idle then flooded with distinct frames: memory above idle once all is handled."""
+    config = [*extra[extra.index("--zenoh-config"):][:2]] if "--zenoh-config" in extra else []
+    lis = Child("listener", ep, *extra, stderr_counter=True)
     try:
-        for cap in ("default", "none"):
-            lis = Child("listener", ep, "--max-frames", cap, stderr_counter=True)
-            children.append(lis)
-            idle = lis.ask("mark")
-            fl = flood(ep, "distinct", args.frames, 100)
-            last = -1
-            while True:  # until the listener has handled everything (messages counter stable)
-                m = lis.ask("mark")
-                if m["stats"]["messages"] + m["stats"]["bad_messages"] == last:
-                    break
-                last = m["stats"]["messages"] + m["stats"]["bad_messages"]
-                time.sleep(0.5)
-            rss[cap] = (idle, m)
-            lis.stop()
+        idle = lis.ask("mark")
+        flood(ep, "distinct", frames, 100, *config)
+        last = -1
+        while True:  # until the listener has handled everything (messages counter stable)
+            m = lis.ask("mark")
+            done = m["stats"]["messages"] + m["stats"]["bad_messages"] + m["stats"]["dropped"]
+            if done == last:
+                break
+            last = done
+            time.sleep(0.5)
     finally:
-        for c in children:
-            c.stop()
-        router.terminate()
-        router.wait(5)
+        lis.stop()
+    a, b = idle["mem_kb"], m["mem_kb"]
+    return {"after": (b["VmRSS"] - a["VmRSS"]) / 1024, "peak": (b["VmHWM"] - a["VmRSS"]) / 1024,
+            "shm": (b.get("RssShmem", 0) - a.get("RssShmem", 0)) / 1024, "frames": m["frames"]}
+
+
+def memory_table(args: argparse.Namespace) -> None:
+    import statistics
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        zenoh_defaults = os.path.join(tmp, "zenoh-defaults.json5")
+        with open(zenoh_defaults, "w") as f:  # Zenoh's own default: shared-memory transport on
+            f.write("{ transport: { shared_memory: { enabled: true } } }\n")
+        cases = [("zentf (default frame cap)", None, ()),
+                 ("Zenoh defaults (shared memory on), no release after the burst", zenoh_defaults,
+                  ("--zenoh-config", zenoh_defaults, "--no-release")),
+                 ("cap off (tf2: unbounded)", None, ("--max-frames", "none"))]
+        rows = []
+        for label, router_config, extra in cases:
+            router, ep = start_router(router_config)
+            try:
+                rows.append((label, [memory_run(ep, args.frames, *extra) for _ in range(args.runs)]))
+            finally:
+                router.terminate()
+                router.wait(5)
     print()
-    print(f"| listener after {args.frames:,} distinct frames offered | frames stored | RSS above idle (MB) |")
-    print("|---|---|---|")
-    for cap, label in (("default", "zentf (default frame cap)"), ("none", "cap off (tf2: unbounded)")):
-        idle, m = rss[cap]
-        d = (m["rss_kb"] - idle["rss_kb"]) / 1024
-        print(f"| {label} | {m['frames']:,} | {d:.1f}" + (" (target <= 50) |" if cap == "default" else " |"))
+    print(f"| listener after {args.frames:,} distinct frames offered ({args.runs} runs) | frames stored | "
+          "RSS above idle (MB): median [min-max] | peak during the flood | of which Zenoh shared memory |")
+    print("|---|---|---|---|---|")
+    for i, (label, runs) in enumerate(rows):
+        def cell(key: str) -> str:
+            v = [r[key] for r in runs]
+            return f"{statistics.median(v):.1f} [{min(v):.1f}-{max(v):.1f}]"
+        target = " (target <= 50)" if i == 0 else ""
+        print(f"| {label} | {runs[0]['frames']:,} | {cell('after')}{target} | {cell('peak')} | {cell('shm')} |")
     print()
-    print("Noisy on a shared machine; compare the columns of one run, not runs with each other.")
+    print("Peak: the listener's high-water mark above idle (the flood's messages waiting in Zenoh's ring and the")
+    print("per-sender queues). Noisy on a shared machine; compare the rows of one run, not runs with each other.")
 
 
 if __name__ == "__main__":

@@ -1,11 +1,12 @@
 """CLI start-up benchmark: `zentf --help` and `zentf tf echo` time to its first printed transform.
 
-    python bench/cli.py [--runs 7]
+    python bench/cli.py [--runs 7] [--startup]
 
 Measured in one run, as wall time of fresh processes (median and best of --runs):
   python -c pass       the interpreter's own floor on this machine (reference)
   python -c "import zenoh"  + the Zenoh extension (reference for anything that opens a session)
-  zentf --help         target < 0.3 s
+  python -c "import zentf"  the package itself (issue 15: no slower than before the compiled core)
+  zentf --help         target < 0.3 s (issue 15: and no slower than before)
   zentf tf echo        Popen -> first "At time" line, camera <- laser from two static publishers
                        already running on a local router; target < 0.5 s
   ... (local)          the same with zero configuration (the local profile, a rendezvous port of
@@ -13,6 +14,7 @@ Measured in one run, as wall time of fresh processes (median and best of --runs)
                        asks the rendezvous, docs/networking.md#security); target < 0.6 s
 Child processes may write .pyc files (as any installed package has them); the last row shows the
 same echo with zentf compiled from source at every start (PYTHONDONTWRITEBYTECODE=1, as in CI).
+--startup runs only the first four rows (no router, no publishers): quick to repeat before and after.
 Also prints the heaviest imports of `zentf tf echo` (python -X importtime), so a regression shows
 where it came from. Numbers on the shared 2-core machine are noisy: compare against the references.
 """
@@ -101,6 +103,8 @@ def top_imports(cmd: list[str], env: dict[str, str], n: int = 8) -> list[tuple[i
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=7)
+    ap.add_argument("--startup", action="store_true",
+                    help="only the start-up rows: python, import zenoh, import zentf, zentf --help")
     args = ap.parse_args()
 
     env = {k: v for k, v in os.environ.items() if not k.startswith("ZENTF_") and k != "PYTHONDONTWRITEBYTECODE"}
@@ -121,21 +125,23 @@ def main() -> int:
 
     procs: list[subprocess.Popen] = []
     try:
-        router = subprocess.Popen([PY, "-m", "zentf.router", "--listen", ep, "--no-multicast"], env=env, cwd=REPO,
-                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        procs.append(router)
-        wait_line(router, r"listening on")
-        for a in (["0.4", "0", "0.2", "0.5", "0", "0", "base_link", "laser"],
-                  ["-0.5", "0", "0.4", "0", "0", "0", "base_link", "camera"]):
-            for penv in (zenv, lenv):
-                p = subprocess.Popen([PY, "-m", "nodes.static_transform_publisher", *a], env=penv, cwd=REPO,
-                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-                procs.append(p)
-                wait_line(p, r"Spinning until stopped")
+        if not args.startup:  # the echo and listing rows need a router and two static publishers
+            router = subprocess.Popen([PY, "-m", "zentf.router", "--listen", ep, "--no-multicast"], env=env, cwd=REPO,
+                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+            procs.append(router)
+            wait_line(router, r"listening on")
+            for a in (["0.4", "0", "0.2", "0.5", "0", "0", "base_link", "laser"],
+                      ["-0.5", "0", "0.4", "0", "0", "0", "base_link", "camera"]):
+                for penv in (zenv, lenv):
+                    p = subprocess.Popen([PY, "-m", "nodes.static_transform_publisher", *a], env=penv, cwd=REPO,
+                                         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                    procs.append(p)
+                    wait_line(p, r"Spinning until stopped")
 
         cases = [
             ("python -c pass", "reference", None, lambda: wall([PY, "-c", "pass"], env)),
             ("python -c 'import zenoh'", "reference", None, lambda: wall([PY, "-c", "import zenoh"], env)),
+            ("python -c 'import zentf'", "import", None, lambda: wall([PY, "-c", "import zentf"], env)),
             ("zentf --help", "start-up", 0.3, lambda: wall([PY, "-m", "zentf.cli", "--help"], env)),
             ("zentf tf echo camera laser", "first transform", 0.5,
              lambda: first_line([PY, "-m", "zentf.cli", "tf", "echo", "camera", "laser"], zenv, r"^At time ")),
@@ -147,13 +153,16 @@ def main() -> int:
             ("zentf node list (local)", "complete list", 0.6,
              lambda: listing([PY, "-m", "zentf.cli", "node", "list"], lenv, 2)),
         ]
+        if args.startup:
+            cases = cases[:4]
         zenv_imports = dict(zenv)
         results = []
         for name, what, target, fn in cases:
             fn()  # warm the page cache
             times = [fn() for _ in range(args.runs)]
             results.append((name, what, target, statistics.median(times), min(times)))
-        imports = top_imports(["-m", "zentf.cli", "tf", "echo", "camera", "laser", "--count", "1"], zenv_imports)
+        imports = [] if args.startup else top_imports(["-m", "zentf.cli", "tf", "echo", "camera", "laser",
+                                                           "--count", "1"], zenv_imports)
     finally:
         shutil.rmtree(fresh, ignore_errors=True)
         for p in reversed(procs):
@@ -173,7 +182,8 @@ def main() -> int:
         ratio = f"{med / target:.2f}x" if target else "-"
         verdict = ("  OK" if med < target else "  MISS") if target else ""
         print(f"{name:<30} {what:<16} {med:>9.3f} {best:>8.3f} {tgt:>9} {ratio:>14} {med - floor:>+11.3f}s{verdict}")
-    print("\nheaviest imports of `zentf tf echo camera laser` (cumulative ms, .pyc cached):")
+    if imports:
+        print("\nheaviest imports of `zentf tf echo camera laser` (cumulative ms, .pyc cached):")
     for us, mod in imports:
         print(f"  {us / 1000:7.1f}  {mod}")
     return 0

@@ -9,6 +9,7 @@ import time
 import pytest
 
 from zentf.buffer import Buffer
+from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
 from zentf.core.time import Time
 from zentf.listener import DEFAULT_FUTURE_TOLERANCE, TransformListener
 from zentf.node import Node
@@ -242,8 +243,9 @@ def test_frame_ids_with_control_characters_are_logged_escaped(spawn, node_option
 
 # ------------------------------------------------------------------ point 8: bounds, in a listener process
 
-LISTENER = textwrap.dedent("""
-    import json, sys
+#: The start of a listener process script: imports and rss_kb().
+LISTENER_HEAD = textwrap.dedent("""
+    import json, logging, sys, threading
     from zentf.node import Node, init_logging
     from zentf.buffer import Buffer
     from zentf.listener import TransformListener
@@ -253,6 +255,9 @@ LISTENER = textwrap.dedent("""
         for line in open("/proc/self/status"):
             if line.startswith("VmRSS:"):
                 return int(line.split()[1])
+""")
+
+LISTENER = LISTENER_HEAD + textwrap.dedent("""
     node = Node("victim")
     buf = Buffer(node=node)
     tl = TransformListener(buf, node)   # bounds from the node parameters (ZENTF_PARAMS)
@@ -278,3 +283,136 @@ def test_forged_frames_are_capped_by_node_parameter_in_a_listener_process(spawn,
     assert res["rss_mb"] < 50, res
     out = listener.output()
     assert out.count("TF_TOO_MANY_FRAMES") <= 3 and "max_frames 3000" in out
+
+
+# ------------------------------------------------------------------ point 8: memory after a flood
+
+#: A listener process (default bounds) that reports, once a flood of ``distinct`` frames is handled and
+#: the listener has given the freed memory back (its debug line, with the flood's sentinel already in the
+#: buffer), its RSS above idle and how much Zenoh shared memory of other processes it maps.
+MEMORY_LISTENER = LISTENER_HEAD + textwrap.dedent("""
+    def shm_kb():  # Zenoh's shared-memory segments mapped here (/dev/shm/*.zenoh)
+        kb, zenoh = 0, False
+        for line in open("/proc/self/smaps"):
+            if not line.split()[0].endswith(":"):
+                zenoh = line.rstrip().endswith(".zenoh")
+            elif zenoh and line.startswith("Rss:"):
+                kb += int(line.split()[1])
+        return kb
+    node = Node(sys.argv[1])
+    buf = Buffer(node=node)
+    done = threading.Event()
+    def flood_handled():
+        try:
+            return buf.lookup_transform("world", "done_distinct", Time()).header.stamp.nanoseconds > 1
+        except Exception:
+            return False
+    class Released(logging.Handler):
+        def emit(self, record):
+            if "freed memory released" in record.getMessage() and flood_handled():
+                done.set()
+    logging.getLogger("zentf.listener").addHandler(Released(logging.DEBUG))
+    logging.getLogger("zentf.listener").setLevel(logging.DEBUG)
+    tl = TransformListener(buf, node)
+    buf.set_transform_raw("world", "done_distinct", 1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, "/seed")
+    idle = rss_kb()
+    print("ready", flush=True)
+    ok = done.wait(120)
+    print("RESULT " + json.dumps({"ok": ok, "frames": len(buf.get_frames()), "rss_mb": (rss_kb() - idle) / 1024,
+                                  "shm_mb": shm_kb() / 1024, "stats": tl.stats()}), flush=True)
+    node.shutdown()
+""")
+
+
+def test_a_flooded_listener_maps_no_shared_memory_and_gives_freed_memory_back(spawn, zenoh_env, tmp_path) -> None:
+    """100k forged frames in 1000 messages of 19 kB, through a router and from a sender that both use
+    Zenoh's shared memory (its default): a default listener maps none of it and ends a few MB above idle
+    (the 10,000 frames it keeps); a listener whose config turns shared memory on maps the senders' pools."""
+    import json
+
+    from conftest import free_port
+
+    shm_on = tmp_path / "shm-on.json5"
+    shm_on.write_text("{ transport: { shared_memory: { enabled: true } } }\n")
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    spawn.python("-m", "zentf.router", "--listen", ep, "--no-multicast", "--config", str(shm_on)).wait_for_line(
+        "listening on", timeout=20)
+    env = {**zenoh_env, "ZENTF_CONNECT": ep}
+    victim = spawn.python("-c", MEMORY_LISTENER, "victim", env=env)
+    reference = spawn.python("-c", MEMORY_LISTENER, "reference", env={**env, "ZENTF_ZENOH_CONFIG": str(shm_on)})
+    victim.wait_for_line("^ready", timeout=30)
+    reference.wait_for_line("^ready", timeout=30)
+    spawn.python("-c", ATTACKER, "distinct", "100000", "100",
+                 env={**env, "ZENTF_ZENOH_CONFIG": str(shm_on)}).wait_for_line("^sent", timeout=120)
+    res = json.loads(victim.wait_for_line(r"^RESULT (.*)", timeout=150).group(1))
+    ref = json.loads(reference.wait_for_line(r"^RESULT (.*)", timeout=150).group(1))
+    assert res["ok"] and ref["ok"] and res["frames"] == ref["frames"] == 10_000, (res, ref)
+    assert ref["shm_mb"] > 1, ref  # the flood did travel through shared memory where a listener allows it
+    assert res["shm_mb"] == 0, res
+    # ~7.5 MB of frames; the freed flood buffers (~18 MB) stay with the allocator without the release
+    assert res["rss_mb"] < 15, res  # ~7 MB: the 10,000 frames kept (Zenoh's defaults: ~45 MB, as `ref`)
+
+
+#: Frees 35 MB of 19 kB blocks that a thread allocated (as Zenoh's and the listener's threads do with a
+#: flood's messages), keeping every 50th; prints RSS above the start after the free and after the release.
+ARENA = textwrap.dedent("""
+    import ctypes, threading
+    from zentf.heap import release_free_memory
+    libc = ctypes.CDLL(None)
+    libc.malloc.restype, libc.malloc.argtypes = ctypes.c_void_p, [ctypes.c_size_t]
+    libc.free.argtypes = [ctypes.c_void_p]
+    def rss_kb():
+        for line in open("/proc/self/status"):
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    def burst():
+        blocks = [libc.malloc(19_000) for _ in range(2000)]
+        for b in blocks:
+            ctypes.memset(b, 1, 19_000)
+        for i, b in enumerate(blocks):
+            if i % 50:
+                libc.free(b)
+    start = rss_kb()
+    t = threading.Thread(target=burst)
+    t.start()
+    t.join()
+    freed = rss_kb()
+    print("RESULT", release_free_memory(), (freed - start) // 1024, (rss_kb() - start) // 1024, flush=True)
+""")
+
+
+def test_release_free_memory_gives_back_what_a_thread_freed(spawn) -> None:
+    """glibc keeps a thread's freed blocks in its arena (RSS stays); the release returns the pages."""
+    m = spawn.python("-c", ARENA).wait_for_line(r"^RESULT (\w+) (\d+) (\d+)", timeout=30)
+    released, after_free, after_release = m.group(1) == "True", int(m.group(2)), int(m.group(3))
+    assert released and after_free > 30 and after_release < 5, m.group(0)
+
+
+def test_a_huge_sender_attachment_is_not_kept(node_options, zenoh_session) -> None:
+    """A sender naming itself with 100 kB attachments: its transforms apply (authority: the key) and the
+    listener's authority cache keeps no such name (it kept up to 1024 of any size)."""
+    import threading
+
+    import zenoh
+
+    from zentf import wire
+    from zentf.listener import MAX_SENDER_KEY, wire_key
+
+    with Node("victim", options=node_options) as node:
+        buf = Buffer(node=node)
+        tl = TransformListener(buf, node)
+        pub = zenoh_session.declare_publisher(wire_key(node, "tf"),
+                                              encoding=wire.encoding_for("tf2_msgs/msg/TFMessage"),
+                                              congestion_control=zenoh.CongestionControl.BLOCK)
+        matched = threading.Event()
+        listener = pub.declare_matching_listener(lambda status: status.matching and matched.set())
+        assert matched.is_set() or pub.matching_status.matching or matched.wait(30)
+        now = node.get_clock().now()
+        for i in range(20):
+            payload = wire.encode_tf([TransformStamped(Header(now, "world"), f"huge_{i}", Transform(
+                Vector3(1.0, 0.0, 0.0), Quaternion(0.0, 0.0, 0.0, 1.0)))])
+            pub.put(payload, attachment=bytes([65 + i]) * 100_000)
+        assert buf.can_transform("world", "huge_19", Time(), timeout=30)
+        assert all(len(k) <= MAX_SENDER_KEY for k in tl._authorities), [len(k) for k in tl._authorities]
+        assert tl.stats()["transforms"] == 20
+        listener.undeclare()

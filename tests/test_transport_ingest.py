@@ -7,6 +7,7 @@ import itertools
 import logging
 import math
 import random
+import sys
 
 import msgpack
 import pytest
@@ -174,3 +175,20 @@ def test_fast_decoder_agrees_with_per_element_path(monkeypatch: pytest.MonkeyPat
     assert results_fast == results_slow
     assert fast.samples == slow.samples
     assert sum(r[2] for r in results_fast if isinstance(r, tuple)) > 100  # the mutations did hit
+
+
+def test_per_element_path_keeps_few_frame_names(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Forged names on the per-element path (a malformed element in every message sends it there) are read
+    right, but the decoded-name cache stays within FRAME_CACHE_SIZE (it kept 100,000: ~60 MB of long names)."""
+    monkeypatch.setattr(wire, "_FRAME_CACHE", {})
+    rec = Recorder()
+    n = 0
+    for m in range(30):
+        items = [wire.tf_to_plain(tsm(S, child=f"forged_{'x' * 200}_{m * 500 + i}")) for i in range(500)]
+        items.append({"header": {}})  # malformed: the whole message takes the per-element path
+        accepted, _, malformed, _ = wire.ingest_tf(wire.pack({"transforms": items}), rec, "/a", False)
+        assert (accepted, malformed) == (500, 1)
+        n += accepted
+        held = sum(sys.getsizeof(k) + sys.getsizeof(v) for k, v in wire._FRAME_CACHE.items())
+        assert len(wire._FRAME_CACHE) <= wire.FRAME_CACHE_SIZE and held < 3_000_000, (m, held)
+    assert [s[1] for batch in rec.samples for s in batch] == [f"forged_{'x' * 200}_{i}" for i in range(n)]

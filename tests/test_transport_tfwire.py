@@ -10,6 +10,7 @@ from __future__ import annotations
 import logging
 import random
 import struct
+import sys
 
 import msgpack
 import pytest
@@ -160,10 +161,15 @@ def test_frame_names_are_interned_and_the_cache_is_bounded() -> None:
     long_name = "n" * 300
     assert tfwire.msgpack_tf(msgpack.packb({"transforms": [transform_dict(long_name, "c")]}))[0][0] == long_name
     assert long_name.encode() not in tfwire._NAMES  # forged huge names are not kept
-    for i in range(0, 100_010, 1000):  # 100k distinct names in batches: the cache is cleared, not grown
-        payload = msgpack.packb({"transforms": [transform_dict("p", f"n{j}") for j in range(i, i + 1000)]})
-        assert len(tfwire.msgpack_tf(payload)) == 1000
-        assert len(tfwire._NAMES) <= 100_000
+    assert tfwire.FRAME_CACHE_SIZE == wire.FRAME_CACHE_SIZE
+    names = [f"forged_{'x' * 200}_{i}" for i in range(15_000)]
+    for i in range(0, len(names), 500):  # forged names by the thousand: read right, the cache starts over
+        batch = names[i:i + 500]
+        samples = tfwire.msgpack_tf(msgpack.packb({"transforms": [transform_dict("p", c) for c in batch]}))
+        assert [s[1] for s in samples] == batch
+        assert [s[1] for s in tfwire.cdr_tf(cdr_encode_tf([transform_dict("p", c) for c in batch]))] == batch
+        held = sum(sys.getsizeof(k) + sys.getsizeof(v) for k, v in tfwire._NAMES.items())
+        assert len(tfwire._NAMES) <= tfwire.FRAME_CACHE_SIZE and held < 3_000_000, (i, held)
 
 
 # ------------------------------------------------------------------ anything else: same as before

@@ -15,6 +15,7 @@ from .core.messages import TFMessage
 from .core.ratelimit import RateLimitedLogger
 from .core.time import Duration
 from .entities import undeclare_all
+from .heap import release_free_memory
 from .node import Node
 from .wire import _insert
 
@@ -45,6 +46,13 @@ SUSPECT_QUEUE = 100
 #: Senders with a queue of their own; messages of further senders share one.
 MAX_SENDERS = 64
 _OTHERS = b"\x00others"
+#: Sender keys (attachment bytes) are cut to this length: a forged huge attachment must not be kept
+#: as a dictionary key (a node name is at most 256 characters, a ROS 2 GID 16 bytes).
+MAX_SENDER_KEY = 1024
+#: When the ring runs empty after at least this many ``tf`` messages (a burst is over), the memory the
+#: process freed meanwhile goes back to the OS (zentf.heap; measured: 197 releases, 97 ms in all, in
+#: bench/abuse.py's two 1M-sample floods, ~1% of the listener thread's time).
+RELEASE_AFTER = 256
 
 
 def _tolerance_ns(value: Any) -> int | None:
@@ -129,7 +137,7 @@ class TransformListener:
     (wall or sim; node parameter ``tf_future_tolerance``; None turns it off) are refused and logged.
     ``tf`` is read by one thread from a Zenoh ring buffer, one message per sender in turn, so a sender
     flooding the topic delays only its own data (docs/protocol.md, "Limits"); ``tf_static`` is handled
-    in Zenoh's callback.
+    in Zenoh's callback. When a burst has been handled, the memory it freed goes back to the OS.
     ``max_frames`` and ``max_frame_id_length`` (node parameters ``tf_max_frames``,
     ``tf_max_frame_id_length``), when given, set the buffer's bounds. Log lines are rate-limited per
     reason and sender, names escaped. Without a node, a hidden one is created from the env.
@@ -214,11 +222,22 @@ class TransformListener:
         queues: dict[bytes, deque] = {}
         strikes: dict[bytes, int] = {}  # messages in a row that put nothing into the buffer, per sender
         pending = 0
+        burst = 0  # messages taken from the ring since memory was last released
         handle = self._handler(False)
         sender_of = self.node.wire.sender_of  # None: the attachment bytes name the sender
         while True:
             try:  # blocks in Zenoh (GIL released) when idle; fails once undeclared
-                sample = try_recv() if pending else recv()
+                if pending:
+                    sample = try_recv()
+                else:
+                    sample = try_recv() if burst >= RELEASE_AFTER else None
+                    if sample is None:
+                        if burst >= RELEASE_AFTER:
+                            # a burst is over: glibc would keep the memory it freed (docs/protocol.md)
+                            release_free_memory()
+                            log.debug("a burst of %d tf messages is over: freed memory released", burst)
+                            burst = 0
+                        sample = recv()
             except Exception:
                 return
             n = 0
@@ -232,6 +251,8 @@ class TransformListener:
                     key = raw = att.to_bytes()
                     if sender_of is not None:
                         key = sender_of(raw)
+                    if len(key) > MAX_SENDER_KEY:
+                        key = key[:MAX_SENDER_KEY]
                 q = queues.get(key)
                 if q is None:
                     if len(queues) >= MAX_SENDERS:
@@ -260,6 +281,7 @@ class TransformListener:
                     sample = try_recv()
                 except Exception:
                     return
+            burst += n
             if shed:
                 self._log_shed(shed, queues)
             for key in tuple(queues):
@@ -325,7 +347,7 @@ class TransformListener:
                     authority = authorities.get(raw) if raw is not None else None
                     if authority is None:
                         authority = authority_of(sample.attachment, str(sample.key_expr))
-                        if raw is not None and len(authorities) < 1024:
+                        if raw is not None and len(raw) <= MAX_SENDER_KEY and len(authorities) < 1024:
                             authorities[raw] = authority
                 accepted, rejected, malformed, problem = ingest(sample.payload.to_bytes(), authority)
             except Exception as e:

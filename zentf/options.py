@@ -87,7 +87,8 @@ class ZenohOptions:
     Three profiles (docs/networking.md, Security): *local* (the default: loopback only, no multicast,
     processes of this machine meet at ``tcp/127.0.0.1:LOCAL_PORT``), *lan* (``--lan`` /
     ``ZENTF_LAN=1``: Zenoh's own defaults, i.e. every interface and multicast scouting) and *file*
-    (``--zenoh-config``: the file decides). Flags override each profile.
+    (``--zenoh-config``: the file decides). Flags override each profile. Zenoh's shared-memory
+    transport is off in *local* and *lan* (as in rmw_zenoh); a file decides for itself.
     """
 
     config_file: str | None = None
@@ -173,6 +174,12 @@ class ZenohOptions:
         try:
             if self.profile == "local":
                 self._local_defaults(cfg, hold)
+            if self.profile != "file":
+                # Zenoh's default puts every message of 3 kB or more into a 16 MiB shared-memory pool and
+                # has each receiver on the machine map the sender's pool: a listener flooded with big
+                # messages counted ~35 MB of such mappings in its RSS, kept after the flood (bench/abuse.py).
+                # Off, as in rmw_zenoh's default session; a config file may turn it back on.
+                cfg.insert_json5("transport/shared_memory/enabled", "false")
             if self.mode:
                 cfg.insert_json5("mode", json.dumps(self.mode))
             if self.connect:

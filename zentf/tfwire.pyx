@@ -29,11 +29,13 @@ cdef extern from "Python.h":
 
 # ---------------------------------------------------------------- frame names
 
-#: Interned frame names, raw UTF-8 bytes -> str (a tree has few distinct names); bounded like
-#: zentf.wire._FRAME_CACHE: cleared past 100,000 entries, names over 256 bytes not kept.
+#: Interned frame names, raw UTF-8 bytes -> str (a tree has tens to hundreds); bounded as
+#: zentf.wire._FRAME_CACHE is (FRAME_CACHE_SIZE): started over when full, names over 256 bytes not
+#: kept, so forged names cost at most ~4096 x 0.6 kB (+ the 1024-slot memo in front of it).
+FRAME_CACHE_SIZE = 4096
 _NAMES = {}
 cdef dict _names = _NAMES
-cdef Py_ssize_t _NAMES_MAX = 100000
+cdef Py_ssize_t _NAMES_MAX = FRAME_CACHE_SIZE
 # a direct-mapped memo in front of it, so a hit costs a hash and a memcmp (no bytes object)
 cdef enum:
     SLOTS = 1024

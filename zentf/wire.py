@@ -199,6 +199,9 @@ def _num(v: Any) -> float:
     raise TypeError(f"expected a number, got {type(v).__name__}")
 
 
+#: Frame names the per-element path decodes once (a tree has tens to hundreds); when full it starts over,
+#: so forged names cost at most ~4096 x 0.6 kB (100,000 kept up to ~60 MB of 256-byte names).
+FRAME_CACHE_SIZE = 4096
 _FRAME_CACHE: dict[bytes, str] = {}
 
 
@@ -211,7 +214,7 @@ def _frame(b: Any) -> str:
         name = b.decode("utf-8")
         if len(b) > 256:  # (a forged huge name is not kept: the buffer refuses it anyway)
             return name
-        if len(_FRAME_CACHE) > 100_000:
+        if len(_FRAME_CACHE) >= FRAME_CACHE_SIZE:
             _FRAME_CACHE.clear()
         _FRAME_CACHE[b] = name
     return name

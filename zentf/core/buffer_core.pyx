@@ -24,6 +24,21 @@ from cpython.long cimport PyLong_AsLongLongAndOverflow
 from cpython.object cimport PyObject
 from cpython.tuple cimport PyTuple_GET_ITEM, PyTuple_GET_SIZE
 from cpython.list cimport PyList_GET_ITEM
+from cpython.object cimport PyTypeObject
+from cpython.pythread cimport (NOWAIT_LOCK, WAIT_LOCK, PyThread_acquire_lock, PyThread_allocate_lock,
+                               PyThread_free_lock, PyThread_release_lock, PyThread_type_lock)
+from cpython.ref cimport Py_INCREF
+
+
+cdef extern from "Python.h":
+    object PyType_GenericAlloc(object tp, Py_ssize_t nitems)
+    ctypedef struct PyMemberDef:
+        Py_ssize_t offset
+    ctypedef struct PyMemberDescrObject:
+        PyMemberDef* d_member
+    PyTypeObject PyMemberDescr_Type
+    int PyThread_acquire_lock_timed(PyThread_type_lock lock, long long microseconds, int intr_flag) nogil
+    enum: PY_LOCK_ACQUIRED
 
 from .cache cimport CacheBase, StaticCache, TimeCache
 
@@ -66,6 +81,7 @@ cdef enum:
 assert MAX_GRAPH_DEPTH == _MAX_DEPTH
 
 cdef int64_t _MAX_STAMP = 9223372036854775807
+cdef uint64_t _GOLDEN = 11400714819323198485u   # 2^64 / golden ratio: spreads times over the memo table
 
 TimeArg = Union[Time, int, float]
 
@@ -105,39 +121,80 @@ def _ns(t: Any) -> int:
     return ns
 
 
-cdef object _TimeNew = Time.__new__
-cdef object _HeaderNew = Header.__new__
-cdef object _Vector3New = Vector3.__new__
-cdef object _QuaternionNew = Quaternion.__new__
-cdef object _TransformNew = Transform.__new__
-cdef object _TransformStampedNew = TransformStamped.__new__
+cdef Py_ssize_t _slot_offset(object cls, str name) except? -2:
+    """Byte offset of a __slots__ field (the messages are slotted dataclasses); -1 if not a slot."""
+    for klass in cls.__mro__:
+        d = klass.__dict__.get(name)
+        if d is not None:
+            td = type(d)
+            if <PyObject*>td != <PyObject*>&PyMemberDescr_Type:
+                return -1
+            return (<PyMemberDescrObject*><PyObject*>d).d_member.offset
+    return -1
+
+
+cdef Py_ssize_t _O_NS = _slot_offset(Time, "_ns")
+cdef Py_ssize_t _O_STAMP = _slot_offset(Header, "stamp")
+cdef Py_ssize_t _O_FRAME = _slot_offset(Header, "frame_id")
+cdef Py_ssize_t _O_X = _slot_offset(Vector3, "x")
+cdef Py_ssize_t _O_Y = _slot_offset(Vector3, "y")
+cdef Py_ssize_t _O_Z = _slot_offset(Vector3, "z")
+cdef Py_ssize_t _O_QX = _slot_offset(Quaternion, "x")
+cdef Py_ssize_t _O_QY = _slot_offset(Quaternion, "y")
+cdef Py_ssize_t _O_QZ = _slot_offset(Quaternion, "z")
+cdef Py_ssize_t _O_QW = _slot_offset(Quaternion, "w")
+cdef Py_ssize_t _O_TRANS = _slot_offset(Transform, "translation")
+cdef Py_ssize_t _O_ROT = _slot_offset(Transform, "rotation")
+cdef Py_ssize_t _O_HEADER = _slot_offset(TransformStamped, "header")
+cdef Py_ssize_t _O_CHILD = _slot_offset(TransformStamped, "child_frame_id")
+cdef Py_ssize_t _O_TF = _slot_offset(TransformStamped, "transform")
+#: every field a slot: answers are built by filling slots of freshly allocated objects directly
+cdef bint _SLOTS = min(_O_NS, _O_STAMP, _O_FRAME, _O_X, _O_Y, _O_Z, _O_QX, _O_QY, _O_QZ, _O_QW, _O_TRANS,
+                       _O_ROT, _O_HEADER, _O_CHILD, _O_TF) >= 0
 cdef object _TimeT = Time, _HeaderT = Header, _Vector3T = Vector3, _QuaternionT = Quaternion
 cdef object _TransformT = Transform, _TransformStampedT = TransformStamped
 
 
+cdef inline void _put(object o, Py_ssize_t offset, object v) noexcept:
+    """Store v in the (empty) slot at offset of a freshly allocated object."""
+    Py_INCREF(v)
+    (<PyObject**>((<char*><PyObject*>o) + offset))[0] = <PyObject*>v
+
+
 cdef object _make_ts_c(object target, object source, int64_t stamp, const double* v):
-    """A TransformStamped built without dataclass __init__ (the hot path of every lookup)."""
-    tm = _TimeNew(_TimeT)
-    tm._ns = stamp
-    h = _HeaderNew(_HeaderT)
-    h.stamp = tm
-    h.frame_id = target
-    vec = _Vector3New(_Vector3T)
-    vec.x = v[0]
-    vec.y = v[1]
-    vec.z = v[2]
-    q = _QuaternionNew(_QuaternionT)
-    q.x = v[3]
-    q.y = v[4]
-    q.z = v[5]
-    q.w = v[6]
-    tr = _TransformNew(_TransformT)
-    tr.translation = vec
-    tr.rotation = q
-    ts = _TransformStampedNew(_TransformStampedT)
-    ts.header = h
-    ts.child_frame_id = source
-    ts.transform = tr
+    """A TransformStamped built without dataclass __init__ (the hot path of every lookup).
+
+    Same objects as TransformStamped(header=Header(stamp=Time(...), ...), ...) would give:
+    allocated as object.__new__ does, each slot filled once (tf2_ros users get plain messages).
+    """
+    if not _SLOTS:  # (messages without __slots__: the generic way)
+        tm = _TimeT.__new__(_TimeT)
+        tm._ns = stamp
+        ts = TransformStamped(header=Header(stamp=tm, frame_id=target), child_frame_id=source,
+                              transform=Transform(translation=Vector3(x=v[0], y=v[1], z=v[2]),
+                                                  rotation=Quaternion(x=v[3], y=v[4], z=v[5], w=v[6])))
+        return ts
+    tm = PyType_GenericAlloc(_TimeT, 0)
+    _put(tm, _O_NS, stamp)
+    h = PyType_GenericAlloc(_HeaderT, 0)
+    _put(h, _O_STAMP, tm)
+    _put(h, _O_FRAME, target)
+    vec = PyType_GenericAlloc(_Vector3T, 0)
+    _put(vec, _O_X, v[0])
+    _put(vec, _O_Y, v[1])
+    _put(vec, _O_Z, v[2])
+    q = PyType_GenericAlloc(_QuaternionT, 0)
+    _put(q, _O_QX, v[3])
+    _put(q, _O_QY, v[4])
+    _put(q, _O_QZ, v[5])
+    _put(q, _O_QW, v[6])
+    tr = PyType_GenericAlloc(_TransformT, 0)
+    _put(tr, _O_TRANS, vec)
+    _put(tr, _O_ROT, q)
+    ts = PyType_GenericAlloc(_TransformStampedT, 0)
+    _put(ts, _O_HEADER, h)
+    _put(ts, _O_CHILD, source)
+    _put(ts, _O_TF, tr)
     return ts
 
 
@@ -207,6 +264,73 @@ cdef inline bint _valid_fast(double tx, double ty, double tz, double qx, double 
     return -0.01 < n < 0.01 and (tx + ty + tz) * 0.0 == 0.0
 
 
+cdef class _Lock:
+    """A plain (non-reentrant) lock like threading.Lock, which the compiled paths take without a
+    Python call; Python code uses it as usual (``with core._lock:``, acquire/release)."""
+
+    cdef PyThread_type_lock _lk
+    cdef bint _held
+
+    def __cinit__(self):
+        self._lk = PyThread_allocate_lock()
+        if self._lk == NULL:
+            raise MemoryError()
+        self._held = False
+
+    def __dealloc__(self):
+        if self._lk != NULL:
+            PyThread_free_lock(self._lk)
+
+    cdef inline int acquire_c(self) except -1:
+        if not PyThread_acquire_lock(self._lk, NOWAIT_LOCK):
+            with nogil:  # held by another thread: wait without the GIL
+                PyThread_acquire_lock(self._lk, WAIT_LOCK)
+        self._held = True
+        return 0
+
+    cdef inline void release_c(self) noexcept:
+        self._held = False
+        PyThread_release_lock(self._lk)
+
+    def acquire(self, blocking: bool = True, timeout: float = -1) -> bool:
+        cdef long long us
+        cdef int r
+        if not blocking:
+            if timeout != -1:
+                raise ValueError("can't specify a timeout for a non-blocking call")
+            if not PyThread_acquire_lock(self._lk, NOWAIT_LOCK):
+                return False
+        elif timeout is None or timeout < 0:
+            if timeout is not None and timeout != -1:
+                raise ValueError("timeout value must be a non-negative number")
+            self.acquire_c()
+            return True
+        else:
+            us = <long long>(timeout * 1e6)
+            if not PyThread_acquire_lock(self._lk, NOWAIT_LOCK):
+                with nogil:
+                    r = PyThread_acquire_lock_timed(self._lk, us, 0)
+                if r != PY_LOCK_ACQUIRED:
+                    return False
+        self._held = True
+        return True
+
+    def release(self) -> None:
+        if not self._held:
+            raise RuntimeError("release unlocked lock")
+        self.release_c()
+
+    def locked(self) -> bool:
+        return self._held
+
+    def __enter__(self) -> bool:
+        self.acquire_c()
+        return True
+
+    def __exit__(self, *exc) -> None:
+        self.release_c()
+
+
 # --------------------------------------------------------------------------- BufferCore
 
 cdef class BufferCore:
@@ -225,8 +349,7 @@ cdef class BufferCore:
     """
 
     cdef dict __dict__
-    cdef public object _lock
-    cdef object _acquire, _release
+    cdef readonly _Lock _lock
     cdef public dict _ids, _clean
     cdef public list _names, _caches, _requests, _insert_callbacks
     cdef public int64_t _cache_ns
@@ -259,9 +382,7 @@ cdef class BufferCore:
             self._cache_ns = cache_time.nanoseconds
         else:
             self._cache_ns = _ns(cache_time)
-        self._lock = threading.Lock()
-        self._acquire = self._lock.acquire
-        self._release = self._lock.release
+        self._lock = _Lock()
         # frame id 0 is tf2's "NO_PARENT" sentinel; it never has a cache
         self._ids = {"NO_PARENT": 0}
         self._clean = {}  # ids of names usable as given (no leading '/')
@@ -372,8 +493,8 @@ cdef class BufferCore:
         """
         cdef Py_ssize_t accepted = 0
         cdef PyObject** f
-        acquire, release = self._acquire, self._release
-        acquire()
+        lock = self._lock
+        lock.acquire_c()
         try:
             for s in samples:
                 if type(s) is tuple and PyTuple_GET_SIZE(s) == 10:
@@ -387,15 +508,15 @@ cdef class BufferCore:
                         continue
                 parent, child, stamp, tx, ty, tz, qx, qy, qz, qw = s
                 # tf2's full path (new frames, statics, out of order, bad input): it logs, so unlocked
-                release()
+                lock.release_c()
                 try:
                     ok = self._store_checked(parent, child, stamp, tx, ty, tz, qx, qy, qz, qw, authority, is_static)
                 finally:
-                    acquire()
+                    lock.acquire_c()
                 if ok:
                     accepted += 1
         finally:
-            release()
+            lock.release_c()
         if accepted:  # _after_insert, inlined (one frame less on the listener's latency path)
             if self._requests:
                 self._test_transformable_requests()
@@ -411,11 +532,11 @@ cdef class BufferCore:
         # The common case first (_append_fast); anything else - new frames, statics, out-of-order
         # stamps, bad input - takes _store_checked, tf2's full path.
         cdef int done
-        self._acquire()
+        self._lock.acquire_c()
         try:
             done = self._append_fast(parent, child, stamp, tx, ty, tz, qx, qy, qz, qw, authority)
         finally:
-            self._release()
+            self._lock.release_c()
         if done:
             return True
         return self._store_checked(parent, child, stamp, tx, ty, tz, qx, qy, qz, qw, authority, is_static)
@@ -602,7 +723,7 @@ cdef class BufferCore:
         cdef int64_t stamp
         cdef double out[7]
         cdef int32_t tid, sid
-        self._acquire()
+        self._lock.acquire_c()
         try:
             tid = self._clean_id(target_frame)
             sid = self._clean_id(source_frame)
@@ -614,7 +735,7 @@ cdef class BufferCore:
                 for i in range(7):
                     out[i] = r[1 + i]
         finally:
-            self._release()
+            self._lock.release_c()
         return _make_ts_c(target_frame, source_frame, stamp, out)
 
     def lookup_transform_core(self, target_frame: str, source_frame: str, time: TimeArg) -> TransformStamped:
@@ -642,11 +763,12 @@ cdef class BufferCore:
         """The answer for two distinct valid ids into out; its stamp. Lock held."""
         cdef _Memo* m
         cdef int32_t bad = 0
-        cdef int res
+        cdef int res, i
+        cdef uint64_t h
         if t == 0:
             t = self._lct(target_id, source_id)
-        m = &self._memo[(<uint64_t>t * <uint64_t>0x9E3779B97F4A7C15 + <uint64_t>target_id * 40503
-                         + <uint64_t>source_id * 2654435761) >> 56]
+        h = <uint64_t>t * _GOLDEN + <uint64_t>target_id * 40503u + <uint64_t>source_id * 2654435761u
+        m = &self._memo[h >> 56]
         if m.version == self._version and m.t == t and m.target == target_id and m.source == source_id:
             for i in range(7):
                 out[i] = m.v[i]
@@ -671,7 +793,7 @@ cdef class BufferCore:
         inverse(target -> top) ∘ (source -> top). _W_OK with out set, or what went wrong.
         """
         cdef list caches = self._caches
-        cdef CacheBase cache
+        cdef PyObject* o
         cdef int32_t frame = source_id, top = source_id, p = 0, extrap_frame = 0
         cdef int depth = 0, source_links, k
         cdef double s[7]
@@ -681,12 +803,11 @@ cdef class BufferCore:
         sacc[0] = sacc[1] = sacc[2] = sacc[3] = sacc[4] = sacc[5] = 0.0
         sacc[6] = 1.0
         while frame:
-            obj = <object>PyList_GET_ITEM(caches, frame)
-            if obj is None:
+            o = PyList_GET_ITEM(caches, frame)    # borrowed: the list holds it, the lock is held
+            if o == <PyObject*>None:
                 top = frame
                 break
-            cache = <CacheBase>obj
-            if not cache.get_c(t, &p, s):
+            if not (<CacheBase>o).get_c(t, &p, s):
                 top = frame
                 extrap_frame = frame
                 break
@@ -710,11 +831,10 @@ cdef class BufferCore:
         tacc[0] = tacc[1] = tacc[2] = tacc[3] = tacc[4] = tacc[5] = 0.0
         tacc[6] = 1.0
         while frame != top:
-            obj = <object>PyList_GET_ITEM(caches, frame)
-            if obj is None:
+            o = PyList_GET_ITEM(caches, frame)
+            if o == <PyObject*>None:
                 break
-            cache = <CacheBase>obj
-            if not cache.get_c(t, &p, s):
+            if not (<CacheBase>o).get_c(t, &p, s):
                 bad[0] = frame
                 return _W_EXTRAP_TARGET
             if frame == source_id:

@@ -1,4 +1,5 @@
 # Declarations of the per-frame caches (cache.pyx), cimported by buffer_core.pyx for the C-level walk.
+cimport cython
 from libc.stdint cimport int32_t, int64_t
 
 
@@ -13,6 +14,7 @@ cdef class CacheBase:
     cdef void clear_c(self) noexcept
 
 
+@cython.final
 cdef class TimeCache(CacheBase):
     cdef int64_t* _st                   # stamps (ns), a ring of _cap slots, logical 0 = oldest
     cdef double* _d                     # tx, ty, tz, qx, qy, qz, qw per slot
@@ -40,6 +42,7 @@ cdef class TimeCache(CacheBase):
     cdef inline void _copy(self, Py_ssize_t i, int32_t* parent, double* out) noexcept
 
 
+@cython.final
 cdef class StaticCache(CacheBase):
     cdef int32_t _parent
     cdef double _v[7]

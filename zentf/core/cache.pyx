@@ -246,15 +246,26 @@ cdef class TimeCache(CacheBase):
         memcpy(out, &self._d[7 * j], 7 * sizeof(double))
 
     cdef Py_ssize_t _floor(self, int64_t t) noexcept:
-        """Logical index of the newest sample at or before t (bisect_right - 1)."""
-        cdef Py_ssize_t lo = 0, hi = self._n, mid
+        """Logical index of the newest sample at or before t (bisect_right - 1), t inside the range."""
+        cdef Py_ssize_t head = self._head, n = self._n, lo, hi, mid, seg, base
+        cdef int64_t* st = self._st
+        # the ring is at most two contiguous runs: [head, cap) then [0, head + n - cap)
+        if head + n > self._cap and t >= st[0]:
+            seg = self._cap - head
+            lo = 0
+            hi = n - seg
+            base = seg                 # logical = physical + seg
+        else:
+            lo = head
+            hi = head + n if head + n <= self._cap else self._cap
+            base = -head
         while lo < hi:
             mid = (lo + hi) >> 1
-            if t < self._st[self._slot(mid)]:
+            if t < st[mid]:
                 hi = mid
             else:
                 lo = mid + 1
-        return lo - 1
+        return lo - 1 + base
 
     cdef void _span(self, Py_ssize_t i) noexcept:
         """Constants to interpolate between samples i and i+1 exactly like tf2.
@@ -268,7 +279,7 @@ cdef class TimeCache(CacheBase):
         cdef double* a = &self._d[7 * j0]
         cdef double* b = &self._d[7 * j1]
         cdef double* sp = self._sp
-        cdef double x1, y1, z1, w1, dot, c, theta, ct, inv
+        cdef double x1, y1, z1, w1, dot, c, theta, inv
         cdef int k
         self._sp_t0 = self._st[j0]
         self._sp_t1 = self._st[j1]
@@ -291,12 +302,13 @@ cdef class TimeCache(CacheBase):
         if theta != 0.0:
             if dot < 0:
                 x1, y1, z1, w1 = -x1, -y1, -z1, -w1
-            ct = cos(theta)
-            inv = 1.0 / sin(theta)
-            sp[11] = (x1 - a[3] * ct) * inv
-            sp[12] = (y1 - a[4] * ct) * inv
-            sp[13] = (z1 - a[5] * ct) * inv
-            sp[14] = (w1 - a[6] * ct) * inv
+            if c > 1.0:
+                c = 1.0
+            inv = 1.0 / sqrt((1.0 - c) * (1.0 + c))  # 1 / sin θ; cos θ is c itself
+            sp[11] = (x1 - a[3] * c) * inv
+            sp[12] = (y1 - a[4] * c) * inv
+            sp[13] = (z1 - a[5] * c) * inv
+            sp[14] = (w1 - a[6] * c) * inv
         else:
             sp[11] = sp[12] = sp[13] = sp[14] = 0.0
         sp[15] = theta

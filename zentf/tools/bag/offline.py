@@ -21,15 +21,6 @@ _LOAD_CACHE_NS = 1 << 62  # nothing is pruned while loading
 _BATCH = 4096
 
 
-def _set_cache_time(core: Any, ns: int) -> None:
-    """Cache time of a loaded core set to ``ns`` (BufferCore has no public setter for it yet)."""
-    with core._lock:
-        core._cache_ns = ns
-        for cache in core._caches:
-            if cache is not None and hasattr(cache, "max_ns"):
-                cache.max_ns = ns
-
-
 def load_buffer(path: str | os.PathLike, *, topics: Collection[str] | None = None,
                 on_problem: Callable[[str], None] | None = None) -> Any:
     """A Buffer holding every transform of the bag at ``path`` (any format zentf reads).
@@ -72,7 +63,7 @@ def load_buffer(path: str | os.PathLike, *, topics: Collection[str] | None = Non
         n, o = f["most_recent_transform"].nanoseconds, f["oldest_transform"].nanoseconds
         newest = n if newest is None else max(newest, n)
         oldest = o if oldest is None else min(oldest, o)
-    _set_cache_time(buf, max(1, (newest - oldest) if newest is not None else 1))
+    buf.set_cache_time(Duration(nanoseconds=max(1, (newest - oldest) if newest is not None else 1)))
     if bag.problem:
         line = f"{bag.display}: {bag.problem}; loaded the readable part"
         if on_problem is not None:

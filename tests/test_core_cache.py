@@ -1,0 +1,184 @@
+"""The compiled per-frame caches (zentf/core/cache.pyx) against a plain model of tf2's TimeCache.
+
+The ring storage (wrap-around, out-of-order inserts into a wrapped ring, growth, the slack given
+back once pruning starts, a parent switch that gives the frame a per-sample parent column) is new
+in the compiled core: these tests drive it through random operation sequences and compare every
+answer with a sorted-list model written from tf2's cache.cpp (findClosest + interpolate, the
+textbook slerp form), and check the compiled modules are the ones imported.
+"""
+from __future__ import annotations
+
+import importlib.machinery
+import math
+import threading
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from zentf.core import buffer_core, cache
+from zentf.core.cache import StaticCache, TimeCache
+from zentf.core.constants import INSERT_OK, INSERT_OLD, INSERT_REPEATED
+
+
+def test_the_core_is_the_compiled_extension() -> None:
+    """A stale .py beside the extension, or a missing build, must not go unnoticed."""
+    for mod in (cache, buffer_core):
+        assert mod.__file__.endswith(tuple(importlib.machinery.EXTENSION_SUFFIXES)), mod.__file__
+
+
+class Model:
+    """tf2 0.7 TimeCache semantics on a sorted list (ROS 1 order: prune right after an insert)."""
+
+    def __init__(self, max_ns: int) -> None:
+        self.max_ns = max_ns
+        self.s: list[tuple[int, int, tuple]] = []
+
+    def insert(self, stamp: int, parent: int, v: tuple) -> int:
+        if self.s and self.s[-1][0] - stamp > self.max_ns:
+            return INSERT_OLD
+        if any(x[0] == stamp for x in self.s):
+            return INSERT_REPEATED
+        self.s.append((stamp, parent, v))
+        self.s.sort(key=lambda x: x[0])
+        newest = self.s[-1][0]
+        self.s = [x for x in self.s if not x[0] < newest - self.max_ns]
+        return INSERT_OK
+
+    def get(self, t: int):
+        s = self.s
+        if not s:
+            return None
+        if t == 0 or t == s[-1][0]:
+            return (s[-1][1], *s[-1][2])
+        if len(s) == 1 or t > s[-1][0] or t < s[0][0]:
+            return None
+        if t == s[0][0]:
+            return (s[0][1], *s[0][2])
+        i = max(k for k in range(len(s)) if s[k][0] <= t)
+        (t0, p0, a), (t1, p1, b) = s[i], s[i + 1]
+        if p0 != p1:
+            return (p0, *a)
+        r = (t - t0) / (t1 - t0)
+        tr = tuple(a[k] + r * (b[k] - a[k]) for k in range(3))
+        qa, qb = a[3:], b[3:]
+        dot = sum(x * y for x, y in zip(qa, qb))
+        theta = math.acos(min(1.0, abs(dot) / math.sqrt(sum(x * x for x in qa) * sum(x * x for x in qb))))
+        if theta == 0.0:
+            return (p0, *tr, *qa)
+        sign = -1.0 if dot < 0 else 1.0
+        w0 = math.sin((1 - r) * theta) / math.sin(theta)
+        w1 = sign * math.sin(r * theta) / math.sin(theta)
+        return (p0, *tr, *(w0 * x + w1 * y for x, y in zip(qa, qb)))
+
+    def parent_at(self, t: int) -> int:
+        got = self.get(t)
+        return 0 if got is None else got[0]
+
+
+def _quat(seed: int) -> tuple:
+    a = 0.37 * seed
+    n = math.sqrt(0.2 ** 2 + 0.3 ** 2 + 0.933 ** 2)
+    s = math.sin(a / 2) / n
+    return (0.2 * s, 0.3 * s, 0.933 * s, math.cos(a / 2))
+
+
+ops = st.lists(st.one_of(
+    st.tuples(st.just("ins"), st.integers(1, 60), st.integers(1, 3), st.integers(0, 50)),
+    st.tuples(st.just("get"), st.integers(0, 70)),
+    st.tuples(st.just("clear"))), min_size=1, max_size=120)
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(ops, st.integers(3, 40))
+def test_time_cache_equals_the_model(seq, max_units) -> None:
+    unit = 1000
+    c, m = TimeCache(max_units * unit), Model(max_units * unit)
+    for op in seq:
+        if op[0] == "ins":
+            _, k, parent, seed = op
+            v = (0.1 * seed, -0.2 * k, 0.01 * seed * k, *_quat(seed))
+            assert c.insert(k * unit, parent, v) == m.insert(k * unit, parent, v)
+        elif op[0] == "get":
+            t = op[1] * unit + (unit // 3 if op[1] % 2 else 0)
+            want, got = m.get(t), c.get(t)
+            assert (want is None) == (got is None), (t, want, got)
+            if want is not None:
+                assert got[0] == want[0]
+                assert max(abs(x - y) for x, y in zip(got[1:], want[1:])) < 1e-12, (t, want, got)
+            assert c.parent_at(t) == m.parent_at(t)
+        else:
+            c.clear()
+            m.s.clear()
+        assert len(c) == len(m.s)
+        assert c.newest_stamp() == (m.s[-1][0] if m.s else 0)
+        assert c.oldest_stamp() == (m.s[0][0] if m.s else 0)
+
+
+def test_ring_wraps_grows_and_gives_slack_back() -> None:
+    """Steady state (pruning every insert) keeps capacity near the samples held; a burst grows it."""
+    c = TimeCache(1000)
+    for k in range(5000):                     # 1001 samples held once pruning starts
+        assert c.insert(k, 1, (k, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)) == INSERT_OK
+    assert len(c) == 1001
+    assert c.nbytes() <= 64 * (1001 + 1001 // 16 + 32)
+    # out-of-order inserts into the wrapped ring land in order
+    for k in range(4990, 4000, -3):
+        c.insert(k * 1 + 0, 1, (0.0,) * 6 + (1.0,))  # repeated stamps: refused
+    assert c.insert(4500, 2, (1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0)) == INSERT_REPEATED
+    st_, par, d = c.columns()
+    assert list(st_) == list(range(3999, 5000)) and set(par) == {1}
+    assert d[0][0] == 3999.0
+
+
+def test_parent_switch_keeps_each_samples_parent() -> None:
+    c = TimeCache(10_000)
+    ident = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+    for k in range(1, 11):
+        c.insert(k * 100, 1 if k <= 5 else 2, ident)
+    assert [c.parent_at(k * 100) for k in range(1, 11)] == [1] * 5 + [2] * 5
+    assert c.get(550)[0] == 1                 # across the switch: the older sample, as tf2
+    assert c.insert(250, 3, ident) == INSERT_OK  # out of order, a third parent
+    assert c.parent_at(250) == 3 and c.parent_at(299) == 3 and c.parent_at(300) == 1
+
+
+def test_static_cache_holds_one_sample_at_every_time() -> None:
+    s = StaticCache()
+    s.insert(5, 7, (1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0))
+    assert s.get(0) == s.get(123456789) == (7, 1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0)
+    s.clear()                                  # statics survive clear() in tf2
+    assert s.parent_at(1) == 7 and len(s) == 1
+
+
+def test_buffer_lock_behaves_like_threading_lock() -> None:
+    lock = buffer_core.BufferCore()._lock
+    assert lock.acquire() and lock.locked()
+    assert not lock.acquire(False)
+    assert not lock.acquire(True, 0.05)        # times out while held
+    got = []
+    t = threading.Thread(target=lambda: got.append(lock.acquire(timeout=5)))
+    t.start()
+    lock.release()                             # the waiting thread gets it
+    t.join(10)
+    assert got == [True] and lock.locked()
+    lock.release()
+    with pytest.raises(RuntimeError):
+        lock.release()
+    with lock:
+        assert lock.locked()
+    assert not lock.locked()
+
+
+@pytest.mark.parametrize("max_units", [3, 5, 17])
+def test_stream_through_the_wrapped_ring_equals_the_model(max_units) -> None:
+    """A stream pruned on every insert wraps the ring over and over: every time in range is asked."""
+    c, m = TimeCache(max_units * 1000), Model(max_units * 1000)
+    for k in range(1, 120):
+        v = ((k * k) % 7 * 1.0, (k * 3) % 5 * 1.0, 0.5, *_quat((k * k) % 11))
+        c.insert(k * 1000, 1 + (k // 40) % 2, v)
+        m.insert(k * 1000, 1 + (k // 40) % 2, v)
+        for t in range((k - max_units - 1) * 1000, k * 1000 + 1, 250):
+            want, got = m.get(t), c.get(t)
+            assert (want is None) == (got is None), (k, t)
+            if want is not None:
+                assert got[0] == want[0] and max(abs(x - y) for x, y in zip(got[1:], want[1:])) < 1e-12, (k, t)
