@@ -11,6 +11,7 @@ import logging
 import random
 import struct
 import sys
+from pathlib import Path
 
 import msgpack
 import pytest
@@ -302,3 +303,24 @@ def test_compiled_listener_ingest_equals_the_python_path(wire_name: str, is_stat
     assert runs[0] == runs[1]
     assert (runs[0][1] > 0) != is_static  # the guard did refuse samples (not on tf_static)
     assert len(runs[0][2]) == 4 and any(isinstance(r, tuple) and r[2] for r in runs[0][0])  # stored; some malformed
+
+
+# ------------------------------------------------------------------ interop: a real ROS 2 bag
+
+def test_every_tf_message_of_a_real_bag_decodes_like_rosbags() -> None:
+    """tests/data/nav2_turtlebot.mcap (a nav2 TurtleBot run recorded by ROS 2, tests/data/README.md): every /tf and
+    /tf_static payload is read by the compiled decoder (no doubt) to the values rosbags deserializes."""
+    typesys = pytest.importorskip("rosbags.typesys")
+    reader_mod = pytest.importorskip("mcap.reader")
+    store = typesys.get_typestore(typesys.Stores.ROS2_JAZZY)
+    transforms = 0
+    with (Path(__file__).parent / "data" / "nav2_turtlebot.mcap").open("rb") as f:
+        for _, _, message in reader_mod.make_reader(f).iter_messages(topics=["/tf", "/tf_static"]):
+            ref = store.deserialize_cdr(message.data, "tf2_msgs/msg/TFMessage")
+            expected = [(t.header.frame_id, t.child_frame_id, t.header.stamp.sec * NS + t.header.stamp.nanosec,
+                         t.transform.translation.x, t.transform.translation.y, t.transform.translation.z,
+                         t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
+                         t.transform.rotation.w) for t in ref.transforms]
+            assert tfwire.cdr_tf(bytes(message.data)) == expected
+            transforms += len(expected)
+    assert transforms == 7313
