@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PKG = ROOT / "zentf"
 SUBPACKAGES = {"core": 0, "ros": 1, "urdf": 1, "tools": 3, "launch": 4, "cli": 4}
 TRANSPORT = {"options", "names", "wire", "entities", "heap", "node", "clock", "buffer", "listener", "broadcaster", "profile",
-             "message_filter", "graph", "router", "service", "parameters", "buffer_server"}
+             "message_filter", "graph", "router", "service", "parameters", "buffer_server", "tfwire"}
 #: Old module paths kept for one release; each only forwards to its new home (zentf/_moved.py).
 MOVED = {"time", "messages", "math3d", "exceptions", "buffer_core", "geometry", "_chain_kernel", "bag", "view",
          "_moved"}

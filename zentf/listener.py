@@ -8,7 +8,7 @@ import threading
 import uuid
 import weakref
 from collections import deque
-from functools import partial
+from collections.abc import Callable
 from typing import Any
 
 from .core.messages import TFMessage
@@ -17,6 +17,12 @@ from .core.time import Duration
 from .entities import undeclare_all
 from .heap import release_free_memory
 from .node import Node
+from .wire import _insert
+
+try:  # compiled decode + future check + insert (zentf/tfwire.pyx); without it the profile's Python path
+    from .tfwire import TfIngest
+except ImportError:  # pragma: no cover - a source checkout without build_ext
+    TfIngest = None
 
 __all__ = ["TransformListener", "StaticTransformListener", "DEFAULT_FUTURE_TOLERANCE"]
 
@@ -67,17 +73,20 @@ def _tolerance_ns(value: Any) -> int | None:
 class _FutureGuard:
     """What ``wire.ingest_tf`` inserts into: drops samples stamped too far ahead, passes the rest on."""
 
-    __slots__ = ("core", "clock", "tolerance_ns", "refused", "limiter")
+    __slots__ = ("core", "clock", "now_ns", "tolerance_ns", "refused", "limiter")
 
     def __init__(self, core: Any, clock: Any, tolerance_ns: int, limiter: RateLimitedLogger) -> None:
         self.core = core
         self.clock = clock
+        self.now_ns = clock.now_ns
         self.tolerance_ns = tolerance_ns
         self.refused = 0
         self.limiter = limiter
 
-    def _split(self, samples: list, authority: str) -> list:
-        now = self.clock.now_ns()
+    def _split(self, samples: list, authority: str, now: int | None = None) -> list:
+        """The samples not stamped beyond now + tolerance; the rest are counted and logged."""
+        if now is None:
+            now = self.now_ns()
         if not now:  # sim time before the first /clock: nothing to compare with
             return samples
         limit = now + self.tolerance_ns
@@ -97,8 +106,16 @@ class _FutureGuard:
         return keep
 
     def set_transforms_raw(self, samples: list, authority: str, is_static: bool = False) -> int:
-        samples = self._split(samples, authority)
-        return self.core.set_transforms_raw(samples, authority, is_static) if samples else 0
+        now = self.now_ns()
+        if now:  # (the common case inline: nothing ahead, one clock read, no copy)
+            limit = now + self.tolerance_ns
+            for s in samples:
+                if s[2] > limit:
+                    samples = self._split(samples, authority, now)
+                    if not samples:
+                        return 0
+                    break
+        return self.core.set_transforms_raw(samples, authority, is_static)
 
     def set_transform_raw(self, *args: Any) -> bool:
         sample, authority = args[:10], args[10]
@@ -158,6 +175,7 @@ class TransformListener:
             future_tolerance = self.node.get_parameter_value("tf_future_tolerance", DEFAULT_FUTURE_TOLERANCE)
         tol = _tolerance_ns(future_tolerance)
         self._guard = _FutureGuard(buffer, self.node.get_clock(), tol, self._limiter) if tol is not None else None
+        self._tf_target = self._guard if self._guard is not None else buffer  # what tf samples go into
         self._subs: list[Any] = []
         self._tokens: list[Any] = []
         profile = self.node.wire  # zentf or ros2 (zentf.profile): key layout, payload format, authority
@@ -172,7 +190,7 @@ class TransformListener:
         session = self.node.session
         static_key = wire_key(self.node, tf_static_topic)
         self._subs.append(zx.declare_advanced_subscriber(
-            session, static_key, partial(self._on_sample, is_static=True),
+            session, static_key, self._handler(True),
             history=zx.HistoryConfig(detect_late_publishers=True)))
         self._declare_token(static_key, is_static=True)
         if not static_only:
@@ -205,7 +223,7 @@ class TransformListener:
         strikes: dict[bytes, int] = {}  # messages in a row that put nothing into the buffer, per sender
         pending = 0
         burst = 0  # messages taken from the ring since memory was last released
-        handle = self._on_sample
+        handle = self._handler(False)
         sender_of = self.node.wire.sender_of  # None: the attachment bytes name the sender
         while True:
             try:  # blocks in Zenoh (GIL released) when idle; fails once undeclared
@@ -223,14 +241,18 @@ class TransformListener:
             except Exception:
                 return
             n = 0
-            shed: dict[bytes, int] = {}
+            shed: dict[bytes, int] | None = None
             while sample is not None:
                 att = sample.attachment
-                key = att.to_bytes() if att is not None else b""
-                if sender_of is not None:
-                    key = sender_of(key)
-                if len(key) > MAX_SENDER_KEY:
-                    key = key[:MAX_SENDER_KEY]
+                if att is None:
+                    raw = None
+                    key = b""
+                else:  # read once: handle() gets it too (the authority), with the sample
+                    key = raw = att.to_bytes()
+                    if sender_of is not None:
+                        key = sender_of(raw)
+                    if len(key) > MAX_SENDER_KEY:
+                        key = key[:MAX_SENDER_KEY]
                 q = queues.get(key)
                 if q is None:
                     if len(queues) >= MAX_SENDERS:
@@ -238,14 +260,18 @@ class TransformListener:
                         q = queues.get(key)
                     if q is None:
                         q = queues[key] = deque()
-                if len(q) >= SUSPECT_QUEUE and strikes.get(key, 0) >= SUSPECT_AFTER:
+                if len(q) >= SUSPECT_QUEUE and strikes and strikes.get(key, 0) >= SUSPECT_AFTER:
                     q.popleft()  # a suspect sender: its newest SUSPECT_QUEUE wait, the oldest goes
+                    if shed is None:
+                        shed = {}
                     shed[key] = shed.get(key, 0) + 1
                     pending -= 1
-                q.append(sample)
+                q.append((sample, raw))
                 pending += 1
                 if pending > MAX_PENDING:
                     big = self._shed(queues, q, key)
+                    if shed is None:
+                        shed = {}
                     shed[big] = shed.get(big, 0) + 1
                     pending -= 1
                 n += 1
@@ -258,10 +284,11 @@ class TransformListener:
             burst += n
             if shed:
                 self._log_shed(shed, queues)
-            for key in list(queues):
+            for key in tuple(queues):
                 q = queues[key]
-                if handle(q.popleft()):
-                    if key in strikes:
+                sample, raw = q.popleft()
+                if handle(sample, raw):
+                    if strikes and key in strikes:
                         del strikes[key]
                 else:
                     k = strikes[key] = strikes.get(key, 0) + 1
@@ -293,46 +320,81 @@ class TransformListener:
                               "tf listener overloaded: dropped %d message(s) from %s unread (%d waiting from it)",
                               n, sender, len(q) if q is not None else 0)
 
-    def _on_sample(self, sample: Any, is_static: bool = False) -> bool:
-        """Decode and insert one message; True if something got into the buffer. Never raises."""
-        try:
-            enc = sample.encoding
-            if enc != self._tf_encoding:  # cheap Rust-side compare for the common case
-                self._check_encoding(enc)
-            authority = self._fixed_authority
-            if authority is None:
-                att = sample.attachment
-                authority = self._authorities.get(att.to_bytes()) if att is not None else None
-                if authority is None:
-                    authority = self._authority(att, str(sample.key_expr))
-                    raw = att.to_bytes() if att is not None else None
-                    if raw is not None and len(raw) <= MAX_SENDER_KEY and len(self._authorities) < 1024:
-                        self._authorities[raw] = authority
-            target = self.buffer if is_static or self._guard is None else self._guard
-            accepted, rejected, malformed, problem = self._ingest(sample.payload.to_bytes(), target,
-                                                                  authority, is_static)
-        except Exception as e:
-            self.bad_messages += 1
+    def _handler(self, is_static: bool) -> Callable[..., bool]:
+        """The function that decodes and inserts one message of a topic: ``handle(sample, raw=unread)``,
+        True if something got into the buffer; never raises. ``raw``: the attachment's bytes when the
+        caller read them already (the tf thread). Everything it uses is bound once, in locals: it runs
+        once per message."""
+        target = self.buffer if is_static else self._tf_target
+        ingest = self._ingest_of(target, is_static)
+        tf_encoding = self._tf_encoding
+        check_encoding = self._check_encoding
+        fixed_authority = self._fixed_authority
+        authorities = self._authorities
+        authority_of = self._authority
+        unread = self._UNSET
+
+        def handle(sample: Any, raw: Any = unread) -> bool:
             try:
+                enc = sample.encoding
+                if enc != tf_encoding:  # cheap Rust-side compare for the common case
+                    check_encoding(enc)
+                authority = fixed_authority
+                if authority is None:
+                    if raw is unread:
+                        att = sample.attachment
+                        raw = att.to_bytes() if att is not None else None
+                    authority = authorities.get(raw) if raw is not None else None
+                    if authority is None:
+                        authority = authority_of(sample.attachment, str(sample.key_expr))
+                        if raw is not None and len(raw) <= MAX_SENDER_KEY and len(authorities) < 1024:
+                            authorities[raw] = authority
+                accepted, rejected, malformed, problem = ingest(sample.payload.to_bytes(), authority)
+            except Exception as e:
+                self._bad_message(sample, e)
+                return False
+            # plain counters (statistics only; no lock on the hot path)
+            self.messages += 1
+            if accepted:
+                self.transforms += accepted
+            if rejected:
+                self.rejected += rejected
+            if malformed:
+                self.malformed += malformed
                 key = str(sample.key_expr)
-                sender = self._authority(sample.attachment, "unknown sender")
-            except Exception:
-                key, sender = "?", "unknown sender"
-            self._limiter.log(logging.WARNING, ("bad", key, sender), "dropped bad message on '%s' from %s: %s",
-                              key, sender, str(e))
-            return False
-        # plain counters (statistics only; no lock on the hot path)
-        self.messages += 1
-        self.transforms += accepted
-        if rejected:
-            self.rejected += rejected
-        if malformed:
-            self.malformed += malformed
+                self._limiter.log(logging.WARNING, ("malformed", key, authority),
+                                  "skipped %d malformed transform(s) on '%s' from %s: %s",
+                                  malformed, key, authority, problem or "")
+            return accepted > 0
+
+        return handle
+
+    def _ingest_of(self, target: Any, is_static: bool) -> Callable[[bytes, str], tuple]:
+        """``ingest(payload, authority)`` of a topic: compiled (zentf/tfwire.pyx) for the two wires,
+        with the future guard's check folded in; else the profile's ``ingest_tf`` into ``target``."""
+        slow = self._ingest
+        wire_name = self.node.wire.name
+        if TfIngest is not None and wire_name in ("zentf", "ros2"):
+            guard = None if is_static else self._guard
+            return TfIngest(wire_name == "ros2", slow, _insert, target, self.buffer,
+                            guard.now_ns if guard is not None else None,
+                            guard.tolerance_ns if guard is not None else 0, is_static)
+
+        def ingest(payload: bytes, authority: str) -> tuple:
+            return slow(payload, target, authority, is_static)
+
+        return ingest
+
+    def _bad_message(self, sample: Any, e: Exception) -> None:
+        """A payload that is not a TFMessage at all: counted and logged (rate-limited), naming the sender."""
+        self.bad_messages += 1
+        try:
             key = str(sample.key_expr)
-            self._limiter.log(logging.WARNING, ("malformed", key, authority),
-                              "skipped %d malformed transform(s) on '%s' from %s: %s",
-                              malformed, key, authority, problem or "")
-        return accepted > 0
+            sender = self._authority(sample.attachment, "unknown sender")
+        except Exception:
+            key, sender = "?", "unknown sender"
+        self._limiter.log(logging.WARNING, ("bad", key, sender), "dropped bad message on '%s' from %s: %s",
+                          key, sender, str(e))
 
     def _on_jump(self, old: Any, new: Any) -> None:
         log.warning("Detected jump back in time of %.6fs. Clearing TF buffer.", (old - new).to_sec())

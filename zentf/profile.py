@@ -32,6 +32,11 @@ from .ros import CdrError, UnknownTypeError, dds_type_name, ros_type_name, tf_sa
 from .ros import codec as cdr_codec
 from .ros.tf import encode_tf as cdr_encode_tf
 
+try:  # the compiled decoder (zentf/tfwire.pyx, built by setup.py); without it tf_samples reads every payload
+    from .tfwire import cdr_tf as _compiled_cdr_tf
+except ImportError:  # pragma: no cover - a source checkout without build_ext
+    _compiled_cdr_tf = None
+
 __all__ = ["WireProfile", "ZentfProfile", "Ros2Profile", "make_profile", "PROFILES", "qos_string",
            "parse_ros2_token", "ros2_attachment", "parse_ros2_attachment", "ROS2_DEFAULT_DEPTH",
            "ROS2_AUTHORITY", "ROS2_ROUTER", "ROS2_SERVICE_DEPTH", "ROS2_PARAMETER_SERVICE_DEPTH",
@@ -106,8 +111,9 @@ class WireProfile:
         type_name, value = wire.decode_any(payload, encoding)
         return type_name, value, known
 
-    def ingest_tf(self, payload: bytes, core: Any, authority: str, is_static: bool) -> tuple[int, int, int, str | None]:
-        return wire.ingest_tf(payload, core, authority, is_static)
+    #: (payload, core, authority, is_static) -> (accepted, rejected, malformed, problem); wire.ingest_tf
+    #: itself, not a method around it (one call less per message on the listener's thread)
+    ingest_tf = staticmethod(wire.ingest_tf)
 
     def check_tf_encoding(self, encoding: Any) -> None:
         type_name = wire.type_name_from_encoding(encoding)
@@ -330,6 +336,10 @@ class Ros2Profile(WireProfile):
         return type_name, cdr_codec.decode(payload, type_name), True
 
     def ingest_tf(self, payload: bytes, core: Any, authority: str, is_static: bool) -> tuple[int, int, int, str | None]:
+        # compiled first; None (anything doubtful) sends the payload to tf_samples, which names the problem
+        samples = _compiled_cdr_tf(payload) if _compiled_cdr_tf is not None else None
+        if samples is not None:
+            return wire._insert(samples, core, authority, is_static, 0, None)
         samples, malformed, problem = tf_samples(payload)
         return wire._insert(samples, core, authority, is_static, malformed, problem)
 

@@ -245,16 +245,33 @@ def _tf_decoder() -> Any:
 
 _TF_DECODER = _tf_decoder()
 
+try:  # the compiled decoder (zentf/tfwire.pyx, built by setup.py); without it msgspec's path below runs
+    from .tfwire import msgpack_tf as _compiled_tf
+except ImportError:  # pragma: no cover - a source checkout without build_ext
+    _compiled_tf = None
+
 
 def ingest_tf(payload: bytes, core: Any, authority: str, is_static: bool) -> tuple[int, int, int, str | None]:
     """Insert every transform of a TFMessage payload into ``core`` (a BufferCore).
 
     Returns (accepted, rejected_by_buffer, malformed, first_problem). Raises ValueError only if the
     whole payload is unusable (not msgpack, not a TFMessage). A well-formed message is decoded by
-    msgspec (fast path); otherwise msgpack unpacks with raw=True and each element is validated on
+    the compiled decoder (zentf/tfwire.pyx) or, without it, by msgspec (fast paths); otherwise msgpack unpacks with raw=True and each element is validated on
     its own (``+ 0.0`` is the number check), so one bad element costs only itself. Either way
     ``set_transforms_raw`` inserts the message under one lock and wakes waiters once.
     """
+    if _compiled_tf is not None:
+        # fastest path: compiled, bytes straight to sample tuples; None on any doubt (then the paths
+        # below read the message again and name what was wrong)
+        samples = _compiled_tf(payload)
+        if samples is not None:
+            if not samples:
+                return 0, 0, 0, None
+            try:
+                accepted = core.set_transforms_raw(samples, authority, is_static)
+            except Exception:  # the buffer failed: _insert retries one by one
+                return _insert(samples, core, authority, is_static, 0, None)
+            return accepted, len(samples) - accepted, 0, None
     if len(payload) > MAX_PAYLOAD:
         raise ValueError(f"payload of {len(payload)} bytes exceeds the {MAX_PAYLOAD} byte limit")
     if _TF_DECODER is not None:

@@ -32,14 +32,20 @@ def rows_of(msg: Any) -> list[Row]:
 
 
 def _zentf_codec() -> Callable[[bytes], list[Row]] | None:
-    """zentf.ros' hand-laid TFMessage decoder (elements it refuses are dropped, as the buffer would)."""
+    """zentf's TFMessage decoder: compiled (zentf/tfwire.pyx) for a well-formed payload, else zentf.ros'
+    hand-laid one (elements it refuses are dropped, as the buffer would)."""
     try:
         from zentf.ros.tf import tf_samples
     except ImportError:  # pragma: no cover - zentf.ros ships with zentf; kept so this stays one switch
         return None
+    try:
+        from zentf.tfwire import cdr_tf
+    except ImportError:  # pragma: no cover - a source checkout without build_ext
+        cdr_tf = None
 
     def decode(raw: bytes) -> list[Row]:
-        return tf_samples(raw)[0]
+        rows = cdr_tf(raw) if cdr_tf is not None else None  # None: anything doubtful, read again below
+        return rows if rows is not None else tf_samples(raw)[0]
     return decode
 
 

@@ -1,0 +1,326 @@
+"""The compiled TFMessage decoders (zentf/tfwire.pyx) against the pure-Python paths they stand in front of.
+
+Whatever the compiled decoder accepts must be exactly what the Python path reads (same tuples, same
+interned names); whatever it doubts goes to the Python path, so a malformed, truncated or lying payload
+gives the same counts, the same one-line problem or the same exception as without it. Both wires:
+zentf (msgpack, wire.ingest_tf) and ROS 2 (CDR, Ros2Profile.ingest_tf / zentf.ros.tf_samples).
+"""
+from __future__ import annotations
+
+import logging
+import random
+import struct
+import sys
+from pathlib import Path
+
+import msgpack
+import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from zentf import profile, tfwire, wire
+from zentf.clock import Clock
+from zentf.core.buffer_core import BufferCore
+from zentf.core.ratelimit import RateLimitedLogger
+from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
+from zentf.core.time import Time
+from zentf.listener import _FutureGuard
+from zentf.ros import CdrError, encode_tf as cdr_encode_tf, tf_samples
+from zentf.tfwire import TfIngest
+
+NS = 1_000_000_000
+MAX_SEC = (2**63 - 1) // NS
+
+
+def norm(samples: list | None) -> list | None:
+    """Samples comparable with ==: floats by repr (nan == nan, -0.0 != 0.0), ints and names as they are."""
+    if samples is None:
+        return None
+    return [(s[0], s[1], s[2], *(repr(v) for v in s[3:])) for s in samples]
+
+
+class Recorder:
+    """A BufferCore stand-in that keeps what the ingest paths hand over (and accepts every sample)."""
+
+    def __init__(self) -> None:
+        self.calls: list = []
+
+    def set_transforms_raw(self, samples: list, authority: str, is_static: bool) -> int:
+        self.calls.append((norm(samples), authority, is_static))
+        return len(samples)
+
+
+def ingest_all(ingest, payloads: list[bytes]) -> tuple[list, list]:
+    """(results or exception lines, what reached the core) of every payload."""
+    core = Recorder()
+    out: list = []
+    for p in payloads:
+        try:
+            out.append(ingest(p, core, "/a", False))
+        except (ValueError, CdrError) as e:
+            out.append(f"{type(e).__name__}: {e}")
+    return out, core.calls
+
+
+def python_only(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Switch the compiled decoders off (the paths a build without the extension runs)."""
+    monkeypatch.setattr(wire, "_compiled_tf", None)
+    monkeypatch.setattr(profile, "_compiled_cdr_tf", None)
+
+
+def test_the_compiled_decoders_are_built_and_used() -> None:
+    """pip install builds zentf/tfwire.pyx; the listener's paths pick it up (else these tests prove nothing)."""
+    assert wire._compiled_tf is tfwire.msgpack_tf
+    assert profile._compiled_cdr_tf is tfwire.cdr_tf
+
+
+# ------------------------------------------------------------------ well-formed messages (hypothesis)
+
+names = st.text(st.characters(codec="utf-8"), max_size=12) | st.sampled_from(["world", "base_link", "/odom", "é/π"])
+numbers = st.floats(allow_nan=True, allow_infinity=True) | st.integers(-(2**63), 2**64 - 1)
+
+
+@st.composite
+def transforms(draw, cdr: bool = False) -> dict:
+    """One TransformStamped as a plain dict, fields in any order, sometimes with extra fields (CDR: floats
+    only, int32 seconds)."""
+    num = st.floats(allow_nan=True, allow_infinity=True) if cdr else numbers
+    sec = draw(st.integers(0, 2**31 - 1 if cdr else MAX_SEC - 1) | st.sampled_from([0, 1_700_000_000]))
+    nsec = draw(st.integers(0, NS - 1))
+
+    def mapping(fields: dict) -> dict:
+        items = list(fields.items())
+        if draw(st.booleans()):
+            items.append((draw(st.sampled_from(["extra", "seq", "x_"])),
+                          draw(st.none() | st.integers() | st.text(max_size=3) | st.lists(st.integers(), max_size=2)
+                               | st.dictionaries(st.text(max_size=2), st.integers(), max_size=2))))
+        return dict(draw(st.permutations(items)))
+
+    return mapping({
+        "header": mapping({"stamp": mapping({"sec": sec, "nanosec": nsec}), "frame_id": draw(names)}),
+        "child_frame_id": draw(names),
+        "transform": mapping({"translation": mapping({k: draw(num) for k in "xyz"}),
+                              "rotation": mapping({k: draw(num) for k in "xyzw"})}),
+    })
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(items=st.lists(transforms(), max_size=8), single_float=st.booleans(), top_extra=st.booleans())
+def test_msgpack_compiled_equals_python_on_well_formed_messages(items: list, single_float: bool,
+                                                                 top_extra: bool) -> None:
+    msg = {"transforms": items, **({"meta": [1, {"a": None}]} if top_extra else {})}
+    try:
+        payload = msgpack.packb(msg, use_single_float=single_float)
+    except OverflowError:  # a double beyond float32 (the single-float variant only)
+        assume(False)
+    compiled = tfwire.msgpack_tf(payload)
+    assert compiled is not None  # well-formed: no doubt
+    core = Recorder()
+    assert wire.ingest_tf(payload, core, "/a", False) == (len(items), 0, 0, None)
+    assert core.calls == ([(norm(compiled), "/a", False)] if items else [])
+    saved = wire._compiled_tf, wire._TF_DECODER
+    try:
+        wire._compiled_tf = None                     # the msgspec path a build without the extension runs
+        ref = Recorder()
+        assert wire.ingest_tf(payload, ref, "/a", False) == (len(items), 0, 0, None)
+        assert ref.calls == core.calls
+        wire._TF_DECODER = None                      # the per-element path (msgpack raw=True, ``+ 0.0``)
+        elem = Recorder()
+        assert wire.ingest_tf(payload, elem, "/a", False) == (len(items), 0, 0, None)
+    finally:
+        wire._compiled_tf, wire._TF_DECODER = saved
+    # the same values; only the sign of a zero differs there (-0.0 + 0.0 is 0.0), as msgspec's path did
+    plus_zero = [(*s[:3], *(v + 0.0 for v in s[3:])) for s in compiled]
+    assert elem.calls == ([(norm(plus_zero), "/a", False)] if items else [])
+
+
+@settings(max_examples=300, deadline=None)
+@given(items=st.lists(transforms(cdr=True), max_size=20), tail=st.binary(max_size=9))
+def test_cdr_compiled_equals_python_on_well_formed_messages(items: list, tail: bytes) -> None:
+    payload = cdr_encode_tf(items) + tail  # bytes after the last element are ignored by both
+    compiled = tfwire.cdr_tf(payload)
+    samples, malformed, problem = tf_samples(payload)
+    assert (malformed, problem) == (0, None)
+    assert compiled is not None and norm(compiled) == norm(samples)
+
+
+def test_broadcaster_payloads_take_the_compiled_path() -> None:
+    """The bytes a zentf broadcaster writes (wire.encode_tf's template) and a ROS 2 one (CDR)."""
+    ts = [TransformStamped(Header(Time(sec=5, nanosec=7), "world"), f"f{i}",
+                           Transform(Vector3(1.0, 2.0, 3.0), Quaternion(0.0, 0.0, 0.0, 1.0))) for i in range(3)]
+    expected = [("world", f"f{i}", 5 * NS + 7, 1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0) for i in range(3)]
+    assert tfwire.msgpack_tf(wire.encode_tf(ts)) == expected
+    assert tfwire.msgpack_tf(wire.encode_tf(ts[:1])) == expected[:1]
+    assert tfwire.cdr_tf(cdr_encode_tf(ts)) == expected
+    assert tfwire.msgpack_tf(wire.encode_tf([])) == [] and tfwire.cdr_tf(cdr_encode_tf([])) == []
+
+
+def test_frame_names_are_interned_and_the_cache_is_bounded() -> None:
+    a = tfwire.msgpack_tf(msgpack.packb({"transforms": [transform_dict("map", "odom_frame")]}))[0]
+    b = tfwire.cdr_tf(cdr_encode_tf([transform_dict("map", "odom_frame")]))[0]
+    assert a[0] is b[0] and a[1] is b[1]  # one str object per name, whichever wire brought it
+    long_name = "n" * 300
+    assert tfwire.msgpack_tf(msgpack.packb({"transforms": [transform_dict(long_name, "c")]}))[0][0] == long_name
+    assert long_name.encode() not in tfwire._NAMES  # forged huge names are not kept
+    assert tfwire.FRAME_CACHE_SIZE == wire.FRAME_CACHE_SIZE
+    names = [f"forged_{'x' * 200}_{i}" for i in range(15_000)]
+    for i in range(0, len(names), 500):  # forged names by the thousand: read right, the cache starts over
+        batch = names[i:i + 500]
+        samples = tfwire.msgpack_tf(msgpack.packb({"transforms": [transform_dict("p", c) for c in batch]}))
+        assert [s[1] for s in samples] == batch
+        assert [s[1] for s in tfwire.cdr_tf(cdr_encode_tf([transform_dict("p", c) for c in batch]))] == batch
+        held = sum(sys.getsizeof(k) + sys.getsizeof(v) for k, v in tfwire._NAMES.items())
+        assert len(tfwire._NAMES) <= tfwire.FRAME_CACHE_SIZE and held < 3_000_000, (i, held)
+
+
+# ------------------------------------------------------------------ anything else: same as before
+
+def transform_dict(parent: str = "world", child: str = "c", sec: int = 1, nsec: int = 0, x: float = 1.0) -> dict:
+    return {"header": {"stamp": {"sec": sec, "nanosec": nsec}, "frame_id": parent}, "child_frame_id": child,
+            "transform": {"translation": {"x": x, "y": 2.0, "z": 3.0},
+                          "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}
+
+
+def mutations(payload: bytes, rng: random.Random, n: int) -> list[bytes]:
+    """Truncations, flipped bytes, inserted and deleted bytes of a good payload."""
+    out = [payload[:i] for i in range(len(payload))]
+    for _ in range(n):
+        b = bytearray(payload)
+        kind = rng.randrange(4)
+        at = rng.randrange(len(b))
+        if kind == 0:
+            b[at] = rng.randrange(256)
+        elif kind == 1:
+            b[at] ^= 1 << rng.randrange(8)
+        elif kind == 2:
+            b[at:at] = bytes(rng.randrange(256) for _ in range(rng.randrange(1, 4)))
+        else:
+            del b[at:at + rng.randrange(1, 4)]
+        out.append(bytes(b))
+    return out
+
+
+def test_msgpack_malformed_payloads_give_the_same_problems(monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = random.Random(15)
+    good = msgpack.packb({"transforms": [transform_dict("world", "a", 3, 5), transform_dict("a", "bé", 4, 6, -2.5)]})
+    lying = [
+        msgpack.packb({"transforms": [transform_dict(sec=-1)]}),                      # stamp out of range
+        msgpack.packb({"transforms": [transform_dict(nsec=NS)]}),
+        msgpack.packb({"transforms": [transform_dict(sec=2**63)]}),
+        msgpack.packb({"transforms": [transform_dict(sec=True)]}),                    # a bool is not an int
+        msgpack.packb({"transforms": [transform_dict(x=True)]}),                      # ... nor a number (msgspec)
+        msgpack.packb({"transforms": [transform_dict(sec=1.0)]}),
+        msgpack.packb({"transforms": [{**transform_dict(), "child_frame_id": b"bin"}]}),
+        msgpack.packb({"transforms": [{**transform_dict(), "child_frame_id": None}]}),
+        msgpack.packb({"transforms": [{"header": {}, "child_frame_id": "c"}]}),       # missing fields
+        msgpack.packb({"transforms": [transform_dict()], "x": msgpack.ExtType(1, b"e")}),
+        msgpack.packb({b"transforms": [transform_dict()]}, use_bin_type=True),        # bin key
+        msgpack.packb({"transforms": None}), msgpack.packb([]), msgpack.packb({"transforms": {}}),
+        msgpack.packb({"transforms": [transform_dict()]}) + b"\x00",                   # trailing bytes
+        b"\x81\xaatransforms\x91" + msgpack.packb(transform_dict())[:-1],
+        msgpack.packb({"transforms": [transform_dict("\udcff", "c")]}, unicode_errors="surrogateescape"),
+    ]
+    payloads = [good, *lying, *mutations(good, rng, 3000)]
+    with_compiled = ingest_all(wire.ingest_tf, payloads)
+    python_only(monkeypatch)
+    assert ingest_all(wire.ingest_tf, payloads) == with_compiled
+    assert all("\n" not in str(r) for r in with_compiled[0])
+    problems = [r for r in with_compiled[0] if isinstance(r, str) or r[2]]
+    assert len(problems) > 1000  # the mutations did hit
+
+
+def test_cdr_malformed_payloads_give_the_same_problems(monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = random.Random(14)
+    good = cdr_encode_tf([transform_dict("world", "a", 3, 5), transform_dict("a", "bé", 4, 6, -2.5)])
+    no_nul = bytearray(good)
+    no_nul[12 + 4 + 5] = ord("!")  # 'world' + NUL: the NUL replaced (tf_samples does not look at it)
+    lying = [bytes(no_nul), good[:4] + struct.pack("<I", 10**6) + good[8:], b"\x00\x00\x00\x00" + good[4:],
+             good[:4] + struct.pack("<I", 0) + good[8:], struct.pack("<4sI", b"\x00\x01\x00\x00", 1) + b"\x00" * 72]
+    payloads = [good, *lying, *mutations(good, rng, 3000)]
+    ingest = profile.Ros2Profile().ingest_tf
+    with_compiled = ingest_all(ingest, payloads)
+    python_only(monkeypatch)
+    assert ingest_all(ingest, payloads) == with_compiled
+    assert all("\n" not in str(r) for r in with_compiled[0])
+    assert len([r for r in with_compiled[0] if isinstance(r, str) or r[2]]) > 1000
+
+
+def test_payloads_that_are_not_bytes_take_the_python_path() -> None:
+    good = msgpack.packb({"transforms": [transform_dict()]})
+    assert tfwire.msgpack_tf(bytearray(good)) is None and tfwire.cdr_tf(memoryview(cdr_encode_tf([]))) is None
+    core = Recorder()
+    assert wire.ingest_tf(bytearray(good), core, "/a", False) == (1, 0, 0, None)
+
+
+# ------------------------------------------------------------------ the listener's compiled ingest
+
+def listener_ingest(wire_name: str, compiled: bool, clock: Clock, is_static: bool = False):
+    """(ingest(payload, authority), buffer, guard) as a TransformListener builds them, without Zenoh."""
+    buffer = BufferCore()
+    guard = _FutureGuard(buffer, clock, 5 * NS, RateLimitedLogger(logging.getLogger("zentf.listener")))
+    prof = profile.make_profile(wire_name)
+    target = buffer if is_static else guard
+    if compiled:
+        return TfIngest(wire_name == "ros2", prof.ingest_tf, wire._insert, target, buffer,
+                        None if is_static else guard.now_ns, guard.tolerance_ns, is_static), buffer, guard
+    return (lambda p, a: prof.ingest_tf(p, target, a, is_static)), buffer, guard
+
+
+@pytest.mark.parametrize("wire_name", ["zentf", "ros2"])
+@pytest.mark.parametrize("is_static", [False, True])
+def test_compiled_listener_ingest_equals_the_python_path(wire_name: str, is_static: bool,
+                                                         caplog: pytest.LogCaptureFixture) -> None:
+    """Decode, future-stamp guard and insert in one compiled call: same results, buffer, refusals and
+    log lines as the profile's ingest_tf through the listener's _FutureGuard."""
+    rng = random.Random(10)
+    clock = Clock(sim=True)
+    clock.set_sim_time(1000 * NS)
+    encode = cdr_encode_tf if wire_name == "ros2" else (lambda items: msgpack.packb({"transforms": items}))
+    payloads = []
+    for i in range(300):
+        sec = rng.choice([999, 1000, 1004, 1006, 2000])  # now is 1000 s, tolerance 5 s
+        items = [transform_dict("world", f"c{rng.randrange(4)}", sec, rng.randrange(NS), rng.uniform(-1, 1))
+                 for _ in range(rng.randrange(0, 4))]
+        payload = encode(items)
+        if rng.random() < 0.2 and payload:
+            payload = mutations(payload, rng, 1)[-1]
+        payloads.append(payload)
+    runs = []
+    for compiled in (True, False):
+        ingest, buffer, guard = listener_ingest(wire_name, compiled, clock, is_static)
+        caplog.clear()
+        with caplog.at_level(logging.WARNING, logger="zentf"):
+            results = []
+            for p in payloads:
+                try:
+                    results.append(ingest(p, "/a"))
+                except (ValueError, CdrError) as e:
+                    results.append(str(e))
+        frames = [(d["frame"], d["parent"], d["samples"], d["most_recent_transform"].nanoseconds,
+                   d["oldest_transform"].nanoseconds, repr(buffer.lookup_transform(d["parent"], d["frame"], 0)))
+                  for d in buffer.frame_info()]
+        runs.append((results, guard.refused, frames, [r.getMessage() for r in caplog.records]))
+    assert runs[0] == runs[1]
+    assert (runs[0][1] > 0) != is_static  # the guard did refuse samples (not on tf_static)
+    assert len(runs[0][2]) == 4 and any(isinstance(r, tuple) and r[2] for r in runs[0][0])  # stored; some malformed
+
+
+# ------------------------------------------------------------------ interop: a real ROS 2 bag
+
+def test_every_tf_message_of_a_real_bag_decodes_like_rosbags() -> None:
+    """tests/data/nav2_turtlebot.mcap (a nav2 TurtleBot run recorded by ROS 2, tests/data/README.md): every /tf and
+    /tf_static payload is read by the compiled decoder (no doubt) to the values rosbags deserializes."""
+    typesys = pytest.importorskip("rosbags.typesys")
+    reader_mod = pytest.importorskip("mcap.reader")
+    store = typesys.get_typestore(typesys.Stores.ROS2_JAZZY)
+    transforms = 0
+    with (Path(__file__).parent / "data" / "nav2_turtlebot.mcap").open("rb") as f:
+        for _, _, message in reader_mod.make_reader(f).iter_messages(topics=["/tf", "/tf_static"]):
+            ref = store.deserialize_cdr(message.data, "tf2_msgs/msg/TFMessage")
+            expected = [(t.header.frame_id, t.child_frame_id, t.header.stamp.sec * NS + t.header.stamp.nanosec,
+                         t.transform.translation.x, t.transform.translation.y, t.transform.translation.z,
+                         t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
+                         t.transform.rotation.w) for t in ref.transforms]
+            assert tfwire.cdr_tf(bytes(message.data)) == expected
+            transforms += len(expected)
+    assert transforms == 7313

@@ -1,0 +1,598 @@
+# cython: language_level=3, boundscheck=False, wraparound=False, cdivision=True
+"""Compiled TFMessage decoders: the listener's hot path, payload bytes straight to samples.
+
+``msgpack_tf`` (zentf wire) and ``cdr_tf`` (ROS 2 wire) turn a well-formed TFMessage payload into the
+list of ``(parent, child, stamp_ns, tx, ty, tz, qx, qy, qz, qw)`` tuples ``BufferCore.set_transforms_raw``
+takes, without building any intermediate object. They are strict on purpose: anything doubtful (a bad
+shape, a duplicate or missing field, a stamp out of range, a name that is not UTF-8, a truncated payload)
+returns None, and the caller re-reads the payload with its pure-Python path, which finds, counts and
+names each problem (zentf/wire.py ``ingest_tf``, zentf/ros/tf.py ``tf_samples``). So the compiled path
+only ever gives the samples the Python path would give, never a message of its own.
+"""
+from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes_GET_SIZE
+from cpython.object cimport PyObject
+from cpython.unicode cimport PyUnicode_DecodeUTF8
+from libc.stdint cimport int32_t, int64_t, uint8_t, uint32_t, uint64_t
+from libc.string cimport memcmp, memcpy
+
+__all__ = ["msgpack_tf", "cdr_tf", "TfIngest", "MAX_PAYLOAD"]
+
+#: Larger payloads are not decoded here (the Python paths refuse them with their own message).
+MAX_PAYLOAD = 64 * 1024 * 1024
+cdef Py_ssize_t _MAX_PAYLOAD = MAX_PAYLOAD
+cdef int64_t _NS = 1000000000
+cdef int64_t _MAX_SEC = 9223372036  # (2**63 - 1) // 1e9: stamps are int64 nanoseconds
+cdef int _MAX_DEPTH = 16            # nesting skipped inside unknown fields
+
+cdef extern from "Python.h":
+    void PyObject_GC_UnTrack(object)
+
+# ---------------------------------------------------------------- frame names
+
+#: Interned frame names, raw UTF-8 bytes -> str (a tree has tens to hundreds); bounded as
+#: zentf.wire._FRAME_CACHE is (FRAME_CACHE_SIZE): started over when full, names over 256 bytes not
+#: kept, so forged names cost at most ~4096 x 0.6 kB (+ the 1024-slot memo in front of it).
+FRAME_CACHE_SIZE = 4096
+_NAMES = {}
+cdef dict _names = _NAMES
+cdef Py_ssize_t _NAMES_MAX = FRAME_CACHE_SIZE
+# a direct-mapped memo in front of it, so a hit costs a hash and a memcmp (no bytes object)
+cdef enum:
+    SLOTS = 1024
+cdef list _slot_raw = [None] * SLOTS
+cdef list _slot_name = [None] * SLOTS
+
+
+cdef object _name(const uint8_t* p, Py_ssize_t n):
+    """UTF-8 bytes -> interned str; None if not valid UTF-8 (the Python path names that)."""
+    cdef uint32_t h = 2166136261u
+    cdef Py_ssize_t i
+    cdef object raw
+    for i in range(n):
+        h = (h ^ p[i]) * 16777619u
+    cdef Py_ssize_t slot = h & (SLOTS - 1)
+    raw = _slot_raw[slot]
+    if raw is not None and PyBytes_GET_SIZE(raw) == n and memcmp(PyBytes_AS_STRING(raw), p, n) == 0:
+        return _slot_name[slot]
+    raw = PyBytes_FromStringAndSize(<const char*>p, n)
+    name = _names.get(raw)
+    if name is None:
+        try:
+            name = PyUnicode_DecodeUTF8(<const char*>p, n, "strict")
+        except UnicodeDecodeError:
+            return None
+        if n > 256:  # a forged huge name is not kept (the buffer refuses it anyway)
+            return name
+        if len(_names) >= _NAMES_MAX:
+            _names.clear()
+        _names[raw] = name
+    _slot_raw[slot] = raw
+    _slot_name[slot] = name
+    return name
+
+
+cdef inline double _f64le(const uint8_t* p) noexcept nogil:
+    cdef uint64_t u = 0
+    cdef int i
+    for i in range(8):
+        u |= (<uint64_t>p[i]) << (8 * i)
+    cdef double d
+    memcpy(&d, &u, 8)
+    return d
+
+
+cdef inline uint32_t _u32le(const uint8_t* p) noexcept nogil:
+    return p[0] | (<uint32_t>p[1] << 8) | (<uint32_t>p[2] << 16) | (<uint32_t>p[3] << 24)
+
+
+cdef inline uint64_t _be(const uint8_t* p, int n) noexcept nogil:
+    cdef uint64_t u = 0
+    cdef int i
+    for i in range(n):
+        u = (u << 8) | p[i]
+    return u
+
+
+# ---------------------------------------------------------------- msgpack
+
+cdef struct Cur:
+    const uint8_t* p
+    const uint8_t* end
+
+
+cdef struct Sample:
+    int64_t sec
+    int64_t nsec
+    const uint8_t* parent
+    Py_ssize_t parent_len
+    const uint8_t* child
+    Py_ssize_t child_len
+    double v[7]
+
+
+cdef inline bint _take(Cur* c, Py_ssize_t n) noexcept nogil:
+    """Advance by n bytes if they are there."""
+    if c.end - c.p < n:
+        return False
+    c.p += n
+    return True
+
+
+cdef bint _container(Cur* c, uint8_t fix, uint8_t op16, Py_ssize_t* n) noexcept nogil:
+    """Length of a map (fix=0x80, op16=0xde) or array (fix=0x90, op16=0xdc); False if not one."""
+    if c.p >= c.end:
+        return False
+    cdef uint8_t t = c.p[0]
+    if (t & 0xf0) == fix:
+        n[0] = t & 0x0f
+        c.p += 1
+        return True
+    if t == op16 and c.end - c.p >= 3:
+        n[0] = <Py_ssize_t>_be(c.p + 1, 2)
+        c.p += 3
+        return True
+    if t == op16 + 1 and c.end - c.p >= 5:
+        n[0] = <Py_ssize_t>_be(c.p + 1, 4)
+        c.p += 5
+        return True
+    return False
+
+
+cdef bint _str(Cur* c, const uint8_t** s, Py_ssize_t* n) noexcept nogil:
+    """A msgpack str (not bin: the Python fast path wants str) -> its bytes."""
+    if c.p >= c.end:
+        return False
+    cdef uint8_t t = c.p[0]
+    cdef Py_ssize_t ln, head
+    if (t & 0xe0) == 0xa0:
+        ln = t & 0x1f
+        head = 1
+    elif t == 0xd9 and c.end - c.p >= 2:
+        ln = c.p[1]
+        head = 2
+    elif t == 0xda and c.end - c.p >= 3:
+        ln = <Py_ssize_t>_be(c.p + 1, 2)
+        head = 3
+    elif t == 0xdb and c.end - c.p >= 5:
+        ln = <Py_ssize_t>_be(c.p + 1, 4)
+        head = 5
+    else:
+        return False
+    if c.end - c.p - head < ln:
+        return False
+    s[0] = c.p + head
+    n[0] = ln
+    c.p += head + ln
+    return True
+
+
+cdef bint _int(Cur* c, int64_t* v) noexcept nogil:
+    """A msgpack integer that fits int64 (not a bool, not a float)."""
+    if c.p >= c.end:
+        return False
+    cdef uint8_t t = c.p[0]
+    cdef uint64_t u
+    if t <= 0x7f:
+        v[0] = t
+        c.p += 1
+        return True
+    if t >= 0xe0:
+        v[0] = <int64_t>t - 256
+        c.p += 1
+        return True
+    cdef int size
+    if 0xcc <= t <= 0xcf:
+        size = 1 << (t - 0xcc)
+        if c.end - c.p < 1 + size:
+            return False
+        u = _be(c.p + 1, size)
+        if u > 9223372036854775807ULL:
+            return False
+        v[0] = <int64_t>u
+    elif 0xd0 <= t <= 0xd3:
+        size = 1 << (t - 0xd0)
+        if c.end - c.p < 1 + size:
+            return False
+        u = _be(c.p + 1, size)
+        if size < 8 and (u >> (8 * size - 1)) & 1:  # sign-extend
+            u |= ~((<uint64_t>1 << (8 * size)) - 1)
+        v[0] = <int64_t>u
+    else:
+        return False
+    c.p += 1 + size
+    return True
+
+
+cdef bint _float(Cur* c, double* v) noexcept nogil:
+    """A msgpack float64/float32, or an integer as a float (as msgspec and ``+ 0.0`` take it)."""
+    if c.p >= c.end:
+        return False
+    cdef uint8_t t = c.p[0]
+    cdef uint64_t u
+    cdef uint32_t u32
+    cdef float f
+    cdef int64_t i
+    if t == 0xcb:
+        if c.end - c.p < 9:
+            return False
+        u = _be(c.p + 1, 8)
+        memcpy(v, &u, 8)
+        c.p += 9
+        return True
+    if t == 0xca:
+        if c.end - c.p < 5:
+            return False
+        u32 = <uint32_t>_be(c.p + 1, 4)
+        memcpy(&f, &u32, 4)
+        v[0] = f
+        c.p += 5
+        return True
+    if t == 0xcf:  # uint64 beyond int64
+        if c.end - c.p < 9:
+            return False
+        v[0] = <double>_be(c.p + 1, 8)
+        c.p += 9
+        return True
+    if not _int(c, &i):
+        return False
+    v[0] = <double>i
+    return True
+
+
+cdef bint _skip(Cur* c, int depth) noexcept nogil:
+    """Step over one value of an unknown field; False for anything the Python paths might read
+    differently (ext types, container map keys, deep nesting, truncation)."""
+    if c.p >= c.end or depth > _MAX_DEPTH:
+        return False
+    cdef uint8_t t = c.p[0]
+    cdef Py_ssize_t n, i
+    cdef const uint8_t* s
+    if t <= 0x7f or t >= 0xe0 or t == 0xc0 or t == 0xc2 or t == 0xc3:
+        c.p += 1
+        return True
+    if (t & 0xe0) == 0xa0 or 0xd9 <= t <= 0xdb:
+        return _str(c, &s, &n)
+    if 0xc4 <= t <= 0xc6:  # bin 8/16/32
+        n = 1 << (t - 0xc4)
+        if c.end - c.p < 1 + n:
+            return False
+        i = <Py_ssize_t>_be(c.p + 1, <int>n)
+        return _take(c, 1 + n + i)
+    if t == 0xca:
+        return _take(c, 5)
+    if t == 0xcb:
+        return _take(c, 9)
+    if 0xcc <= t <= 0xcf:
+        return _take(c, 1 + (1 << (t - 0xcc)))
+    if 0xd0 <= t <= 0xd3:
+        return _take(c, 1 + (1 << (t - 0xd0)))
+    if (t & 0xf0) == 0x90 or t == 0xdc or t == 0xdd:
+        if not _container(c, 0x90, 0xdc, &n):
+            return False
+        for i in range(n):
+            if not _skip(c, depth + 1):
+                return False
+        return True
+    if (t & 0xf0) == 0x80 or t == 0xde or t == 0xdf:
+        if not _container(c, 0x80, 0xde, &n):
+            return False
+        for i in range(n):
+            if c.p >= c.end:
+                return False
+            t = c.p[0]
+            if (t & 0xf0) == 0x90 or (t & 0xf0) == 0x80 or 0xdc <= t <= 0xdf:
+                return False  # unhashable as a dict key: msgpack fails the whole payload
+            if not _skip(c, depth + 1) or not _skip(c, depth + 1):
+                return False
+        return True
+    return False  # ext types and 0xc1: leave them to msgpack
+
+
+cdef inline bint _is(const uint8_t* k, Py_ssize_t n, const char* name, Py_ssize_t m) noexcept nogil:
+    return n == m and memcmp(k, name, m) == 0
+
+
+cdef bint _key(Cur* c, const uint8_t** k, Py_ssize_t* n) noexcept nogil:
+    """A field name: str keys only (a bin key matches in the raw per-element path, not in msgspec)."""
+    return _str(c, k, n)
+
+
+cdef bint _vec(Cur* c, double* v, int count) noexcept nogil:
+    """Map {x, y, z[, w]} of numbers into v[0..count-1], each once, unknown fields skipped."""
+    cdef Py_ssize_t n, i, kn
+    cdef const uint8_t* k
+    cdef int seen = 0, bit
+    if not _container(c, 0x80, 0xde, &n):
+        return False
+    for i in range(n):
+        if not _key(c, &k, &kn):
+            return False
+        bit = -1
+        if kn == 1:
+            if k[0] == b'x':
+                bit = 0
+            elif k[0] == b'y':
+                bit = 1
+            elif k[0] == b'z':
+                bit = 2
+            elif k[0] == b'w' and count == 4:
+                bit = 3
+        if bit < 0:
+            if not _skip(c, 0):
+                return False
+            continue
+        if seen & (1 << bit) or not _float(c, &v[bit]):
+            return False
+        seen |= 1 << bit
+    return seen == (1 << count) - 1
+
+
+cdef bint _stamp(Cur* c, Sample* s) noexcept nogil:
+    cdef Py_ssize_t n, i, kn
+    cdef const uint8_t* k
+    cdef int seen = 0
+    if not _container(c, 0x80, 0xde, &n):
+        return False
+    for i in range(n):
+        if not _key(c, &k, &kn):
+            return False
+        if _is(k, kn, b"sec", 3):
+            if seen & 1 or not _int(c, &s.sec):
+                return False
+            seen |= 1
+        elif _is(k, kn, b"nanosec", 7):
+            if seen & 2 or not _int(c, &s.nsec):
+                return False
+            seen |= 2
+        elif not _skip(c, 0):
+            return False
+    return seen == 3 and 0 <= s.sec < _MAX_SEC and 0 <= s.nsec < _NS
+
+
+cdef bint _header(Cur* c, Sample* s) noexcept nogil:
+    cdef Py_ssize_t n, i, kn
+    cdef const uint8_t* k
+    cdef int seen = 0
+    if not _container(c, 0x80, 0xde, &n):
+        return False
+    for i in range(n):
+        if not _key(c, &k, &kn):
+            return False
+        if _is(k, kn, b"stamp", 5):
+            if seen & 1 or not _stamp(c, s):
+                return False
+            seen |= 1
+        elif _is(k, kn, b"frame_id", 8):
+            if seen & 2 or not _str(c, &s.parent, &s.parent_len):
+                return False
+            seen |= 2
+        elif not _skip(c, 0):
+            return False
+    return seen == 3
+
+
+cdef bint _transform(Cur* c, Sample* s) noexcept nogil:
+    cdef Py_ssize_t n, i, kn
+    cdef const uint8_t* k
+    cdef int seen = 0
+    if not _container(c, 0x80, 0xde, &n):
+        return False
+    for i in range(n):
+        if not _key(c, &k, &kn):
+            return False
+        if _is(k, kn, b"translation", 11):
+            if seen & 1 or not _vec(c, &s.v[0], 3):
+                return False
+            seen |= 1
+        elif _is(k, kn, b"rotation", 8):
+            if seen & 2 or not _vec(c, &s.v[3], 4):
+                return False
+            seen |= 2
+        elif not _skip(c, 0):
+            return False
+    return seen == 3
+
+
+cdef bint _stamped(Cur* c, Sample* s) noexcept nogil:
+    """One TransformStamped map into s; False on any doubt."""
+    cdef Py_ssize_t n, i, kn
+    cdef const uint8_t* k
+    cdef int seen = 0
+    if not _container(c, 0x80, 0xde, &n):
+        return False
+    for i in range(n):
+        if not _key(c, &k, &kn):
+            return False
+        if _is(k, kn, b"header", 6):
+            if seen & 1 or not _header(c, s):
+                return False
+            seen |= 1
+        elif _is(k, kn, b"child_frame_id", 14):
+            if seen & 2 or not _str(c, &s.child, &s.child_len):
+                return False
+            seen |= 2
+        elif _is(k, kn, b"transform", 9):
+            if seen & 4 or not _transform(c, s):
+                return False
+            seen |= 4
+        elif not _skip(c, 0):
+            return False
+    return seen == 7
+
+
+cdef inline object _tuple(Sample* s):
+    """The sample tuple; None if a frame name is not UTF-8."""
+    parent = _name(s.parent, s.parent_len)
+    child = _name(s.child, s.child_len)
+    if parent is None or child is None:
+        return None
+    t = (parent, child, s.sec * _NS + s.nsec, s.v[0], s.v[1], s.v[2], s.v[3], s.v[4], s.v[5], s.v[6])
+    PyObject_GC_UnTrack(t)  # str, int and floats only: it can hold no cycle (CPython's gc would untrack it too)
+    return t
+
+
+def msgpack_tf(payload):
+    """Samples of a well-formed zentf (msgpack) TFMessage payload; None if anything is doubtful."""
+    cdef int64_t newest
+    return _msgpack(payload, &newest)
+
+
+cdef object _msgpack(object payload, int64_t* newest):
+    """msgpack_tf, also giving the newest stamp (-1 if none)."""
+    newest[0] = -1
+    if type(payload) is not bytes:
+        return None
+    cdef Py_ssize_t size = PyBytes_GET_SIZE(payload)
+    if size > _MAX_PAYLOAD:
+        return None
+    cdef Cur c
+    c.p = <const uint8_t*>PyBytes_AS_STRING(payload)
+    c.end = c.p + size
+    cdef Py_ssize_t n, i, j, kn, count = -1
+    cdef const uint8_t* k
+    cdef Sample s
+    out = []
+    if not _container(&c, 0x80, 0xde, &n):
+        return None
+    for i in range(n):  # top level: "transforms" once, other fields skipped
+        if not _key(&c, &k, &kn):
+            return None
+        if _is(k, kn, b"transforms", 10):
+            if count >= 0 or not _container(&c, 0x90, 0xdc, &count):
+                return None
+            for j in range(count):
+                if not _stamped(&c, &s):
+                    return None
+                t = _tuple(&s)
+                if t is None:
+                    return None
+                out.append(t)
+                if s.sec * _NS + s.nsec > newest[0]:
+                    newest[0] = s.sec * _NS + s.nsec
+        elif not _skip(&c, 0):
+            return None
+    if count < 0 or c.p != c.end:
+        return None
+    return out
+
+
+# ---------------------------------------------------------------- CDR (XCDR1 little-endian)
+
+def cdr_tf(payload):
+    """Samples of a well-formed ROS 2 CDR TFMessage payload; None if anything is doubtful.
+
+    Layout per element: int32 sec, uint32 nanosec, frame_id and child_frame_id (uint32 length with the
+    NUL, bytes, NUL; padding to 4 after frame_id), padding to 8 (counted after the 4-byte encapsulation
+    header), 7 float64. Strings must end in their NUL here; bytes after the last element are ignored,
+    as zentf.ros.tf.tf_samples ignores them.
+    """
+    cdef int64_t newest
+    return _cdr(payload, &newest)
+
+
+cdef object _cdr(object payload, int64_t* newest):
+    """cdr_tf, also giving the newest stamp (-1 if none)."""
+    newest[0] = -1
+    if type(payload) is not bytes:
+        return None
+    cdef Py_ssize_t end = PyBytes_GET_SIZE(payload)
+    if end > _MAX_PAYLOAD or end < 8:
+        return None
+    cdef const uint8_t* p = <const uint8_t*>PyBytes_AS_STRING(payload)
+    if p[0] != 0 or p[1] != 1:
+        return None
+    cdef uint32_t n = _u32le(p + 4)
+    if <uint64_t>n * 72 > <uint64_t>(end - 8):
+        return None
+    cdef Py_ssize_t off = 8, ln, i, j
+    cdef int32_t sec
+    cdef uint32_t nsec, u32
+    cdef Sample s
+    out = []
+    for i in range(n):
+        if end - off < 12:
+            return None
+        u32 = _u32le(p + off)
+        memcpy(&sec, &u32, 4)
+        nsec = _u32le(p + off + 4)
+        ln = _u32le(p + off + 8)
+        off += 12
+        if sec < 0 or nsec >= _NS or ln < 1 or end - off < ln or p[off + ln - 1] != 0:
+            return None
+        s.parent = p + off
+        s.parent_len = ln - 1
+        off = (off + ln + 3) & ~(<Py_ssize_t>3)
+        if end - off < 4:
+            return None
+        ln = _u32le(p + off)
+        off += 4
+        if ln < 1 or end - off < ln or p[off + ln - 1] != 0:
+            return None
+        s.child = p + off
+        s.child_len = ln - 1
+        off += ln
+        off += (4 - off) & 7
+        if end - off < 56:
+            return None
+        for j in range(7):
+            s.v[j] = _f64le(p + off + 8 * j)
+        off += 56
+        s.sec = sec
+        s.nsec = nsec
+        t = _tuple(&s)
+        if t is None:
+            return None
+        out.append(t)
+        if s.sec * _NS + s.nsec > newest[0]:
+            newest[0] = s.sec * _NS + s.nsec
+    return out
+
+
+# ---------------------------------------------------------------- the listener's ingest
+
+cdef class TfIngest:
+    """One topic's ingest for a TransformListener: ``ingest(payload, authority)`` -> (accepted, rejected,
+    malformed, first problem), as the profile's ``ingest_tf`` returns it.
+
+    A well-formed payload with nothing stamped beyond the clock's now + tolerance is decoded here and
+    handed to ``core.set_transforms_raw`` in one call; anything else (a doubt, a stamp too far ahead,
+    which the listener's future guard logs) goes to ``slow(payload, target, authority, is_static)``,
+    the profile's Python path into ``target`` (the guard, or the buffer), so every problem is counted
+    and named there. A buffer that raises gets ``insert`` (wire._insert: one by one).
+    """
+
+    cdef bint cdr
+    cdef bint is_static
+    cdef object slow
+    cdef object insert
+    cdef object target
+    cdef object core
+    cdef object now_ns
+    cdef object tolerance_ns
+
+    def __init__(self, bint cdr, slow, insert, target, core, now_ns, tolerance_ns, bint is_static):
+        self.cdr = cdr
+        self.slow = slow
+        self.insert = insert
+        self.target = target
+        self.core = core
+        self.now_ns = now_ns            # the listener clock's now_ns, None: no future guard
+        self.tolerance_ns = tolerance_ns
+        self.is_static = is_static
+
+    def __call__(self, payload, authority):
+        cdef int64_t newest
+        samples = _cdr(payload, &newest) if self.cdr else _msgpack(payload, &newest)
+        if samples is None:
+            return self.slow(payload, self.target, authority, self.is_static)
+        if not samples:
+            return 0, 0, 0, None
+        if self.now_ns is not None:
+            now = self.now_ns()
+            if now and newest > now + self.tolerance_ns:  # (0: sim time before the first /clock)
+                return self.slow(payload, self.target, authority, self.is_static)
+        try:
+            accepted = self.core.set_transforms_raw(samples, authority, self.is_static)
+        except Exception:  # the buffer must never take the listener down: one by one
+            return self.insert(samples, self.core, authority, self.is_static, 0, None)
+        return accepted, len(samples) - accepted, 0, None
