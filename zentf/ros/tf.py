@@ -24,16 +24,20 @@ _HEAD = struct.Struct("<4sI")          # encapsulation, transform count
 _U32 = struct.Struct("<I")
 _STAMP_LEN = struct.Struct("<iII")     # sec, nanosec, frame_id length
 _SEVEN = struct.Struct("<7d")
+#: Decoded frame names by their bytes; bounded like zentf.wire's cache (4096): forged names cost at most
+#: a few MB, and a robot has far fewer frames.
 _FRAMES: dict[bytes, str] = {}
+_FRAMES_MAX = 4096
 
 
 def _name(raw: bytes) -> str:
     name = _FRAMES.get(raw)
     if name is None:
         name = raw.decode("utf-8")
-        if len(_FRAMES) > 100_000:
+        if len(_FRAMES) >= _FRAMES_MAX:
             _FRAMES.clear()
-        _FRAMES[raw] = name
+        if len(raw) <= 256:
+            _FRAMES[raw] = name
     return name
 
 
