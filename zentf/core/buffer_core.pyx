@@ -348,7 +348,8 @@ cdef class BufferCore:
     (TF_TOO_MANY_FRAMES, TF_FRAME_ID_TOO_LONG). None lifts a bound; both are plain attributes.
     """
 
-    cdef dict __dict__
+    cdef dict __dict__          # attributes beyond these, as on the Python class it was
+    cdef object __weakref__
     cdef readonly _Lock _lock
     cdef public dict _ids, _clean
     cdef public list _names, _caches, _requests, _insert_callbacks
