@@ -228,9 +228,11 @@ def run_publisher_case(impl: str, urdf: Path, joints: int, rate: float, seconds:
                     p.wait()
 
 
-def in_process_costs(joints: int, n: int = 2000) -> tuple[float, float, int]:
-    """Per message, no network: (robot_state_publisher decode + kinematics + encoding, listener insert) in us,
-    and the size of the TFMessage."""
+def in_process_costs(joints: int, rate: float, n: int = 2000, n_paced: int = 200) -> dict:
+    """Per message, no network, in us: robot_state_publisher decode + kinematics + encoding, and the listener
+    inserting the result; back to back (warm caches) and paced at ``rate`` (a sleep of 1/rate before each, as
+    in the run: the caches are cold again, which makes each stage several times slower). Also the size of
+    the TFMessage."""
     from zentf import wire
     from zentf.buffer import Buffer
     from zentf.core.messages import Header, JointState
@@ -247,19 +249,36 @@ def in_process_costs(joints: int, n: int = 2000) -> tuple[float, float, int]:
         dec = _joint_state_decoder()
         names = [f"j{i}" for i in range(1, joints + 1)]
         payloads = [wire.encode(JointState(Header(), names, [0.1 + 1e-4 * i] * joints, [], [])) for i in range(n)]
-        t0 = time.perf_counter()
-        for i, p in enumerate(payloads):
+
+        def rsp_one(p: bytes, i: int) -> None:
             m = dec.decode(p)
             rsp.process(m.name, m.position, 1, i + 1)
+
+        t0 = time.perf_counter()
+        for i, p in enumerate(payloads):
+            rsp_one(p, i)
         t_rsp = (time.perf_counter() - t0) / n
         buf = Buffer()
         t0 = time.perf_counter()
         for p in out:
             wire.ingest_tf(p, buf, "/bench", False)
         t_ingest = (time.perf_counter() - t0) / len(out)
+        paced_rsp, paced_ingest = [], []
+        for i, p in enumerate(payloads[:n_paced]):
+            time.sleep(1 / rate)
+            t0 = time.perf_counter()
+            rsp_one(p, n + i)
+            paced_rsp.append(time.perf_counter() - t0)
+        buf = Buffer()
+        for p in out[:n_paced]:
+            time.sleep(1 / rate)
+            t0 = time.perf_counter()
+            wire.ingest_tf(p, buf, "/bench", False)
+            paced_ingest.append(time.perf_counter() - t0)
     finally:
         node.shutdown()
-    return 1e6 * t_rsp, 1e6 * t_ingest, len(out[-1])
+    return {"rsp": 1e6 * t_rsp, "ingest": 1e6 * t_ingest, "rsp_paced": 1e6 * statistics.median(paced_rsp),
+            "ingest_paced": 1e6 * statistics.median(paced_ingest), "size": len(out[-1])}
 
 
 def pct(sorted_values: list[float], q: float) -> float:
@@ -305,7 +324,8 @@ def main() -> None:
 
     print(f"# zentf urdf bench  (python {sys.version.split()[0]}, {os.cpu_count()} cpus, "
           f"load {os.getloadavg()[0]:.2f}; loopback, peer to peer)")
-    t_rsp, t_ingest, out_size = in_process_costs(args.joints)
+    costs = in_process_costs(args.joints, args.rate)
+    out_size = costs["size"]
     with tempfile.TemporaryDirectory() as tmp:
         urdf = Path(tmp) / "chain.urdf"
         urdf.write_text(chain_urdf(args.joints))
@@ -323,8 +343,10 @@ def main() -> None:
               + ("   target p50 <= 500 us" if q == 0.5 else ""))
     print(f"{'samples':28}{z['n']:>12}{r['n']:>12}")
     print(f"TFMessage of {args.joints} transforms: {out_size} bytes (the relay sends as many)")
-    print(f"where the time goes, per message, in process (no network): robot_state_publisher decode + kinematics"
-          f" + encoding {t_rsp:.0f} us; the listener inserting its {args.joints} transforms {t_ingest:.0f} us")
+    print(f"where the time goes, per message, in process (no network), back to back | paced at {args.rate:g} Hz as in"
+          f" the run (cold caches, median): robot_state_publisher decode + kinematics + encoding {costs['rsp']:.0f} |"
+          f" {costs['rsp_paced']:.0f} us; the listener inserting its {args.joints} transforms {costs['ingest']:.0f} |"
+          f" {costs['ingest_paced']:.0f} us")
 
     print(f"\n## forward kinematics of {args.vectors} joint vectors")
     print(f"{'model':28}{'batch, ms':>12}{'loop, ms':>12}{'speed-up':>10}")
