@@ -13,7 +13,10 @@ from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes
 from cpython.object cimport PyObject
 from cpython.unicode cimport PyUnicode_DecodeUTF8
 from libc.stdint cimport int32_t, int64_t, uint8_t, uint32_t, uint64_t
+from libc.stdlib cimport free, realloc
 from libc.string cimport memcmp, memcpy
+
+from .core.buffer_core cimport BufferCore
 
 __all__ = ["msgpack_tf", "cdr_tf", "TfIngest", "MAX_PAYLOAD"]
 
@@ -108,6 +111,55 @@ cdef struct Sample:
     const uint8_t* child
     Py_ssize_t child_len
     double v[7]
+
+
+cdef class _Batch:
+    """Decoded samples kept in C (stamps, values) with their frame names, for BufferCore.ingest_one_c:
+    no tuple and no float object per transform."""
+
+    cdef list names             # parent, child per sample
+    cdef int64_t* stamps
+    cdef double* v              # 7 per sample
+    cdef Py_ssize_t n, cap
+
+    def __cinit__(self):
+        self.names = []
+        self.stamps = NULL
+        self.v = NULL
+        self.n = 0
+        self.cap = 0
+
+    def __dealloc__(self):
+        free(self.stamps)
+        free(self.v)
+
+    cdef void reset(self) noexcept:
+        self.n = 0
+        del self.names[:]
+
+    cdef int push(self, Sample* s) except -1:
+        """Add a decoded sample; 0 if a frame name is not UTF-8 (the payload is then doubtful)."""
+        cdef void* p
+        parent = _name(s.parent, s.parent_len)
+        child = _name(s.child, s.child_len)
+        if parent is None or child is None:
+            return 0
+        if self.n == self.cap:
+            p = realloc(self.stamps, (self.cap * 2 + 16) * sizeof(int64_t))
+            if p == NULL:
+                raise MemoryError()
+            self.stamps = <int64_t*>p
+            p = realloc(self.v, (self.cap * 2 + 16) * 7 * sizeof(double))
+            if p == NULL:
+                raise MemoryError()
+            self.v = <double*>p
+            self.cap = self.cap * 2 + 16
+        self.names.append(parent)
+        self.names.append(child)
+        self.stamps[self.n] = s.sec * _NS + s.nsec
+        memcpy(&self.v[7 * self.n], s.v, 7 * sizeof(double))
+        self.n += 1
+        return 1
 
 
 cdef inline bint _take(Cur* c, Py_ssize_t n) noexcept nogil:
@@ -434,11 +486,12 @@ cdef inline object _tuple(Sample* s):
 def msgpack_tf(payload):
     """Samples of a well-formed zentf (msgpack) TFMessage payload; None if anything is doubtful."""
     cdef int64_t newest
-    return _msgpack(payload, &newest)
+    return _msgpack(payload, &newest, None)
 
 
-cdef object _msgpack(object payload, int64_t* newest):
-    """msgpack_tf, also giving the newest stamp (-1 if none)."""
+cdef object _msgpack(object payload, int64_t* newest, _Batch batch):
+    """msgpack_tf, also giving the newest stamp (-1 if none); with a batch, the samples go into it
+    (True returned) instead of a list of tuples."""
     newest[0] = -1
     if type(payload) is not bytes:
         return None
@@ -463,17 +516,21 @@ cdef object _msgpack(object payload, int64_t* newest):
             for j in range(count):
                 if not _stamped(&c, &s):
                     return None
-                t = _tuple(&s)
-                if t is None:
-                    return None
-                out.append(t)
+                if batch is not None:
+                    if not batch.push(&s):
+                        return None
+                else:
+                    t = _tuple(&s)
+                    if t is None:
+                        return None
+                    out.append(t)
                 if s.sec * _NS + s.nsec > newest[0]:
                     newest[0] = s.sec * _NS + s.nsec
         elif not _skip(&c, 0):
             return None
     if count < 0 or c.p != c.end:
         return None
-    return out
+    return True if batch is not None else out
 
 
 # ---------------------------------------------------------------- CDR (XCDR1 little-endian)
@@ -487,11 +544,11 @@ def cdr_tf(payload):
     as zentf.ros.tf.tf_samples ignores them.
     """
     cdef int64_t newest
-    return _cdr(payload, &newest)
+    return _cdr(payload, &newest, None)
 
 
-cdef object _cdr(object payload, int64_t* newest):
-    """cdr_tf, also giving the newest stamp (-1 if none)."""
+cdef object _cdr(object payload, int64_t* newest, _Batch batch):
+    """cdr_tf, also giving the newest stamp (-1 if none); with a batch, as _msgpack."""
     newest[0] = -1
     if type(payload) is not bytes:
         return None
@@ -539,13 +596,17 @@ cdef object _cdr(object payload, int64_t* newest):
         off += 56
         s.sec = sec
         s.nsec = nsec
-        t = _tuple(&s)
-        if t is None:
-            return None
-        out.append(t)
+        if batch is not None:
+            if not batch.push(&s):
+                return None
+        else:
+            t = _tuple(&s)
+            if t is None:
+                return None
+            out.append(t)
         if s.sec * _NS + s.nsec > newest[0]:
             newest[0] = s.sec * _NS + s.nsec
-    return out
+    return True if batch is not None else out
 
 
 # ---------------------------------------------------------------- the listener's ingest
@@ -569,8 +630,10 @@ cdef class TfIngest:
     cdef object core
     cdef object now_ns
     cdef object tolerance_ns
+    cdef _Batch batch           # a compiled BufferCore: samples go in from C (no tuples)
 
     def __init__(self, bint cdr, slow, insert, target, core, now_ns, tolerance_ns, bint is_static):
+        self.batch = _Batch() if isinstance(core, BufferCore) else None
         self.cdr = cdr
         self.slow = slow
         self.insert = insert
@@ -582,7 +645,9 @@ cdef class TfIngest:
 
     def __call__(self, payload, authority):
         cdef int64_t newest
-        samples = _cdr(payload, &newest) if self.cdr else _msgpack(payload, &newest)
+        if self.batch is not None:
+            return self._direct(payload, authority)
+        samples = _cdr(payload, &newest, None) if self.cdr else _msgpack(payload, &newest, None)
         if samples is None:
             return self.slow(payload, self.target, authority, self.is_static)
         if not samples:
@@ -596,3 +661,37 @@ cdef class TfIngest:
         except Exception:  # the buffer must never take the listener down: one by one
             return self.insert(samples, self.core, authority, self.is_static, 0, None)
         return accepted, len(samples) - accepted, 0, None
+
+    cdef object _direct(self, object payload, object authority):
+        """__call__ for a compiled BufferCore: decoded into the batch, inserted sample by sample from C
+        under one lock (BufferCore.ingest_*_c: set_transforms_raw's semantics, without tuples)."""
+        cdef int64_t newest
+        cdef _Batch b = self.batch
+        cdef BufferCore core = <BufferCore>self.core
+        cdef Py_ssize_t i = 0, accepted = 0
+        b.reset()
+        ok = _cdr(payload, &newest, b) if self.cdr else _msgpack(payload, &newest, b)
+        if ok is None:
+            return self.slow(payload, self.target, authority, self.is_static)
+        if b.n == 0:
+            return 0, 0, 0, None
+        if self.now_ns is not None:
+            now = self.now_ns()
+            if now and newest > now + self.tolerance_ns:  # (0: sim time before the first /clock)
+                return self.slow(payload, self.target, authority, self.is_static)
+        names = b.names
+        try:
+            core.ingest_begin_c()
+            try:
+                while i < b.n:
+                    accepted += core.ingest_one_c(names[2 * i], names[2 * i + 1], b.stamps[i], &b.v[7 * i],
+                                                  authority, self.is_static)
+                    i += 1
+            finally:
+                core.ingest_end_c(accepted)
+        except Exception:  # the buffer must never take the listener down: the rest one by one
+            rest = [(names[2 * k], names[2 * k + 1], b.stamps[k], b.v[7 * k], b.v[7 * k + 1], b.v[7 * k + 2],
+                     b.v[7 * k + 3], b.v[7 * k + 4], b.v[7 * k + 5], b.v[7 * k + 6]) for k in range(i, b.n)]
+            got, rejected, malformed, problem = self.insert(rest, self.core, authority, self.is_static, 0, None)
+            return accepted + got, b.n - accepted - got, malformed, problem
+        return accepted, b.n - accepted, 0, None

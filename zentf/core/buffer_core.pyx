@@ -241,14 +241,6 @@ cdef inline void _invert(const double* a, double* out) noexcept nogil:
     out[6] = w
 
 
-cdef struct _Memo:
-    int64_t version
-    int64_t t
-    int64_t stamp
-    int32_t target
-    int32_t source
-    double v[7]
-
 
 class _Request:
     __slots__ = ("handle", "cb", "target", "source", "time")
@@ -268,9 +260,6 @@ cdef class _Lock:
     """A plain (non-reentrant) lock like threading.Lock, which the compiled paths take without a
     Python call; Python code uses it as usual (``with core._lock:``, acquire/release)."""
 
-    cdef PyThread_type_lock _lk
-    cdef bint _held
-
     def __cinit__(self):
         self._lk = PyThread_allocate_lock()
         if self._lk == NULL:
@@ -281,14 +270,14 @@ cdef class _Lock:
         if self._lk != NULL:
             PyThread_free_lock(self._lk)
 
-    cdef inline int acquire_c(self) except -1:
+    cdef int acquire_c(self) except -1:
         if not PyThread_acquire_lock(self._lk, NOWAIT_LOCK):
             with nogil:  # held by another thread: wait without the GIL
                 PyThread_acquire_lock(self._lk, WAIT_LOCK)
         self._held = True
         return 0
 
-    cdef inline void release_c(self) noexcept:
+    cdef void release_c(self) noexcept:
         self._held = False
         PyThread_release_lock(self._lk)
 
@@ -348,17 +337,6 @@ cdef class BufferCore:
     (TF_TOO_MANY_FRAMES, TF_FRAME_ID_TOO_LONG). None lifts a bound; both are plain attributes.
     """
 
-    cdef dict __dict__          # attributes beyond these, as on the Python class it was
-    cdef object __weakref__
-    cdef readonly _Lock _lock
-    cdef public dict _ids, _clean
-    cdef public list _names, _caches, _requests, _insert_callbacks
-    cdef public int64_t _cache_ns
-    cdef public int64_t _version
-    cdef _Memo* _memo
-    cdef int64_t* _marks       # per frame id: the LCT walk that last saw it (membership test)
-    cdef Py_ssize_t _marks_len
-    cdef int64_t _mark_epoch
 
     def __cinit__(self, *args, **kwargs):
         self._memo = <_Memo*>malloc(_MEMO_SLOTS * sizeof(_Memo))
@@ -442,17 +420,11 @@ cdef class BufferCore:
             self._after_insert()
         return ok
 
-    cdef inline int _append_fast(self, object parent, object child, object stamp, object tx, object ty,
-                                 object tz, object qx, object qy, object qz, object qw,
-                                 object authority) except -1:
-        """The common case, in C: a valid float sample newer than everything stored, for an edge
-        whose frames are known by clean names. 1 if stored, 0 if it needs tf2's full path.
-        Call with the lock held."""
+    cdef int _append_fast(self, object parent, object child, object stamp, object tx, object ty,
+                          object tz, object qx, object qy, object qz, object qw, object authority) except -1:
+        """The common case from Python objects: floats and an int stamp go to _append_c; 0 otherwise."""
         cdef double v[7]
         cdef int64_t st
-        cdef PyObject* c
-        cdef PyObject* p
-        cdef int32_t cid, pid
         cdef int overflow = 0
         if not (type(tx) is float and type(ty) is float and type(tz) is float and type(qx) is float
                 and type(qy) is float and type(qz) is float and type(qw) is float and type(stamp) is int):
@@ -467,7 +439,16 @@ cdef class BufferCore:
         v[4] = qy
         v[5] = qz
         v[6] = qw
-        if not _valid_fast(v[0], v[1], v[2], v[3], v[4], v[5], v[6]):
+        return self._append_c(parent, child, st, v, authority)
+
+    cdef int _append_c(self, object parent, object child, int64_t st, const double* v,
+                       object authority) except -1:
+        """The common case, in C: a valid sample newer than everything stored, for an edge whose
+        frames are known by clean names. 1 if stored, 0 if it needs tf2's full path. Lock held."""
+        cdef PyObject* c
+        cdef PyObject* p
+        cdef int32_t cid, pid
+        if st < 0 or not _valid_fast(v[0], v[1], v[2], v[3], v[4], v[5], v[6]):
             return 0
         c = PyDict_GetItem(self._clean, child)
         p = PyDict_GetItem(self._clean, parent)
@@ -484,6 +465,38 @@ cdef class BufferCore:
         (<TimeCache>cache).authority = authority
         self._version += 1
         return 1
+
+    # decoded samples straight from a payload (zentf/tfwire.pyx): set_transforms_raw without tuples
+    cdef int ingest_begin_c(self) except -1:
+        """Take the lock for a run of ingest_one_c calls."""
+        self._lock.acquire_c()
+        return 0
+
+    cdef int ingest_one_c(self, object parent, object child, int64_t stamp, const double* v,
+                          object authority, bint is_static) except -1:
+        """One sample, as set_transforms_raw takes it (lock held on entry and on exit): 1 if stored."""
+        if self._append_c(parent, child, stamp, v, authority):
+            return 1
+        self._lock.release_c()  # tf2's full path logs: unlocked
+        try:
+            ok = self._store_checked(parent, child, stamp, v[0], v[1], v[2], v[3], v[4], v[5], v[6],
+                                     authority, is_static)
+        finally:
+            self._lock.acquire_c()
+        return 1 if ok else 0
+
+    cdef int ingest_end_c(self, Py_ssize_t accepted) except -1:
+        """Release the lock; then, if anything was stored, what set_transforms_raw does after a batch."""
+        self._lock.release_c()
+        if accepted:
+            if self._requests:
+                self._test_transformable_requests()
+            for cb in tuple(self._insert_callbacks):
+                try:
+                    cb()
+                except Exception:  # a broken callback must not break inserts
+                    logger.exception("insert callback %r failed", cb)
+        return 0
 
     def set_transforms_raw(self, samples: Iterable[Sequence[Any]], authority: str, bint is_static=False) -> int:
         """Insert many (parent, child, stamp_ns, tx, ty, tz, qx, qy, qz, qw) tuples; returns how many

@@ -1,0 +1,57 @@
+# Declarations of BufferCore (buffer_core.pyx) for compiled callers: the listener's decoder
+# (zentf/tfwire.pyx) inserts decoded samples through ingest_*_c without building tuples.
+cimport cython
+from cpython.pythread cimport PyThread_type_lock
+from libc.stdint cimport int32_t, int64_t
+
+
+cdef struct _Memo:
+    int64_t version
+    int64_t t
+    int64_t stamp
+    int32_t target
+    int32_t source
+    double v[7]
+
+
+@cython.final
+cdef class _Lock:
+    cdef PyThread_type_lock _lk
+    cdef bint _held
+    cdef int acquire_c(self) except -1
+    cdef void release_c(self) noexcept
+
+
+cdef class BufferCore:
+    cdef dict __dict__          # attributes beyond these, as on the Python class it was
+    cdef object __weakref__
+    cdef readonly _Lock _lock
+    cdef public dict _ids, _clean
+    cdef public list _names, _caches, _requests, _insert_callbacks
+    cdef public int64_t _cache_ns
+    cdef public int64_t _version
+    cdef _Memo* _memo
+    cdef int64_t* _marks       # per frame id: the LCT walk that last saw it (membership test)
+    cdef Py_ssize_t _marks_len
+    cdef int64_t _mark_epoch
+
+    cdef int _append_fast(self, object parent, object child, object stamp, object tx, object ty,
+                          object tz, object qx, object qy, object qz, object qw, object authority) except -1
+    cdef int _append_c(self, object parent, object child, int64_t st, const double* v,
+                       object authority) except -1
+    cdef int ingest_begin_c(self) except -1
+    cdef int ingest_one_c(self, object parent, object child, int64_t stamp, const double* v,
+                          object authority, bint is_static) except -1
+    cdef int ingest_end_c(self, Py_ssize_t accepted) except -1
+    cdef object _store(self, object parent, object child, object stamp, object tx, object ty, object tz,
+                       object qx, object qy, object qz, object qw, object authority, bint is_static)
+    cdef int32_t _clean_id(self, object frame) except -1
+    cdef int64_t _lookup_ids(self, int32_t target_id, int32_t source_id, int64_t t, double* out,
+                             object target, object source) except -1
+    cdef int _walk(self, int32_t target_id, int32_t source_id, int64_t t, double* out,
+                   int32_t* bad) noexcept
+    cdef int _raise_walk(self, int res, int32_t bad, int32_t target_id, int32_t source_id, int64_t t,
+                         object target, object source) except -1
+    cdef int _walk_parents(self, int32_t target_id, int32_t source_id, int64_t t, int32_t* bad) noexcept
+    cdef int _mark_room(self) except -1
+    cdef int64_t _lct(self, int32_t target_id, int32_t source_id) except -1
