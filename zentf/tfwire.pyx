@@ -483,6 +483,21 @@ cdef inline object _tuple(Sample* s):
     return t
 
 
+cdef int _emit(Sample* s, list out, _Batch batch, int64_t* newest) except -1:
+    """A decoded sample into the batch, or as a tuple into out; 0 if a frame name is not UTF-8."""
+    if batch is not None:
+        if not batch.push(s):
+            return 0
+    else:
+        t = _tuple(s)
+        if t is None:
+            return 0
+        out.append(t)
+    if s.sec * _NS + s.nsec > newest[0]:
+        newest[0] = s.sec * _NS + s.nsec
+    return 1
+
+
 def msgpack_tf(payload):
     """Samples of a well-formed zentf (msgpack) TFMessage payload; None if anything is doubtful."""
     cdef int64_t newest
@@ -504,7 +519,7 @@ cdef object _msgpack(object payload, int64_t* newest, _Batch batch):
     cdef Py_ssize_t n, i, j, kn, count = -1
     cdef const uint8_t* k
     cdef Sample s
-    out = []
+    out = [] if batch is None else None
     if not _container(&c, 0x80, 0xde, &n):
         return None
     for i in range(n):  # top level: "transforms" once, other fields skipped
@@ -516,16 +531,8 @@ cdef object _msgpack(object payload, int64_t* newest, _Batch batch):
             for j in range(count):
                 if not _stamped(&c, &s):
                     return None
-                if batch is not None:
-                    if not batch.push(&s):
-                        return None
-                else:
-                    t = _tuple(&s)
-                    if t is None:
-                        return None
-                    out.append(t)
-                if s.sec * _NS + s.nsec > newest[0]:
-                    newest[0] = s.sec * _NS + s.nsec
+                if not _emit(&s, out, batch, newest):
+                    return None
         elif not _skip(&c, 0):
             return None
     if count < 0 or c.p != c.end:
@@ -565,7 +572,7 @@ cdef object _cdr(object payload, int64_t* newest, _Batch batch):
     cdef int32_t sec
     cdef uint32_t nsec, u32
     cdef Sample s
-    out = []
+    out = [] if batch is None else None
     for i in range(n):
         if end - off < 12:
             return None
@@ -596,16 +603,8 @@ cdef object _cdr(object payload, int64_t* newest, _Batch batch):
         off += 56
         s.sec = sec
         s.nsec = nsec
-        if batch is not None:
-            if not batch.push(&s):
-                return None
-        else:
-            t = _tuple(&s)
-            if t is None:
-                return None
-            out.append(t)
-        if s.sec * _NS + s.nsec > newest[0]:
-            newest[0] = s.sec * _NS + s.nsec
+        if not _emit(&s, out, batch, newest):
+            return None
     return True if batch is not None else out
 
 
@@ -652,15 +651,20 @@ cdef class TfIngest:
             return self.slow(payload, self.target, authority, self.is_static)
         if not samples:
             return 0, 0, 0, None
-        if self.now_ns is not None:
-            now = self.now_ns()
-            if now and newest > now + self.tolerance_ns:  # (0: sim time before the first /clock)
-                return self.slow(payload, self.target, authority, self.is_static)
+        if self._too_new(newest):
+            return self.slow(payload, self.target, authority, self.is_static)
         try:
             accepted = self.core.set_transforms_raw(samples, authority, self.is_static)
         except Exception:  # the buffer must never take the listener down: one by one
             return self.insert(samples, self.core, authority, self.is_static, 0, None)
         return accepted, len(samples) - accepted, 0, None
+
+    cdef bint _too_new(self, int64_t newest) except -1:
+        """A stamp beyond the clock's now + tolerance: the listener's future guard must see it."""
+        if self.now_ns is None:
+            return False
+        now = self.now_ns()
+        return now and newest > now + self.tolerance_ns  # (0: sim time before the first /clock)
 
     cdef object _direct(self, object payload, object authority):
         """__call__ for a compiled BufferCore: decoded into the batch, inserted sample by sample from C
@@ -675,10 +679,8 @@ cdef class TfIngest:
             return self.slow(payload, self.target, authority, self.is_static)
         if b.n == 0:
             return 0, 0, 0, None
-        if self.now_ns is not None:
-            now = self.now_ns()
-            if now and newest > now + self.tolerance_ns:  # (0: sim time before the first /clock)
-                return self.slow(payload, self.target, authority, self.is_static)
+        if self._too_new(newest):
+            return self.slow(payload, self.target, authority, self.is_static)
         names = b.names
         try:
             core.ingest_begin_c()
