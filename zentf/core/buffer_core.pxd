@@ -43,6 +43,7 @@ cdef class BufferCore:
     cdef int ingest_one_c(self, object parent, object child, int64_t stamp, const double* v,
                           object authority, bint is_static) except -1
     cdef int ingest_end_c(self, Py_ssize_t accepted) except -1
+    cdef int _after_insert(self) except -1
     cdef object _store(self, object parent, object child, object stamp, object tx, object ty, object tz,
                        object qx, object qy, object qz, object qw, object authority, bint is_static)
     cdef int32_t _clean_id(self, object frame) except -1
@@ -52,6 +53,5 @@ cdef class BufferCore:
                    int32_t* bad) noexcept
     cdef int _raise_walk(self, int res, int32_t bad, int32_t target_id, int32_t source_id, int64_t t,
                          object target, object source) except -1
-    cdef int _walk_parents(self, int32_t target_id, int32_t source_id, int64_t t, int32_t* bad) noexcept
     cdef int _mark_room(self) except -1
     cdef int64_t _lct(self, int32_t target_id, int32_t source_id) except -1

@@ -224,6 +224,15 @@ cdef inline void _compose(double* acc, const double* s) noexcept nogil:
     acc[6] = w * qw - x * qx - y * qy - z * qz
 
 
+cdef inline bint _step(PyObject* cache, int64_t t, int32_t* parent, double* s, bint values) noexcept:
+    """One link of a walk: the frame's sample at t (values), or only its parent at t (a parent of 0:
+    no data, as tf2's getParent)."""
+    if values:
+        return (<CacheBase>cache).get_c(t, parent, s)
+    parent[0] = (<CacheBase>cache).parent_at_c(t)
+    return parent[0] != 0
+
+
 cdef inline void _invert(const double* a, double* out) noexcept nogil:
     """Inverse of (t, q) as tf2 computes it: q⁻¹ = conjugate, t' = quatRotate(q⁻¹, −t)."""
     cdef double x = -a[3], y = -a[4], z = -a[5], w = a[6]
@@ -489,13 +498,7 @@ cdef class BufferCore:
         """Release the lock; then, if anything was stored, what set_transforms_raw does after a batch."""
         self._lock.release_c()
         if accepted:
-            if self._requests:
-                self._test_transformable_requests()
-            for cb in tuple(self._insert_callbacks):
-                try:
-                    cb()
-                except Exception:  # a broken callback must not break inserts
-                    logger.exception("insert callback %r failed", cb)
+            self._after_insert()
         return 0
 
     def set_transforms_raw(self, samples: Iterable[Sequence[Any]], authority: str, bint is_static=False) -> int:
@@ -531,14 +534,8 @@ cdef class BufferCore:
                     accepted += 1
         finally:
             lock.release_c()
-        if accepted:  # _after_insert, inlined (one frame less on the listener's latency path)
-            if self._requests:
-                self._test_transformable_requests()
-            for cb in tuple(self._insert_callbacks):
-                try:
-                    cb()
-                except Exception:  # a broken callback must not break inserts
-                    logger.exception("insert callback %r failed", cb)
+        if accepted:
+            self._after_insert()
         return accepted
 
     cdef object _store(self, object parent, object child, object stamp, object tx, object ty, object tz,
@@ -695,14 +692,16 @@ cdef class BufferCore:
         self._caches.append(None)
         return fid
 
-    def _after_insert(self) -> None:
+    cdef int _after_insert(self) except -1:
+        """After stored data changed (called unlocked): transformable requests, then insert callbacks."""
         if self._requests:
             self._test_transformable_requests()
-        for cb in list(self._insert_callbacks):
+        for cb in tuple(self._insert_callbacks):
             try:
                 cb()
             except Exception:  # a broken callback must not break inserts
                 logger.exception("insert callback %r failed", cb)
+        return 0
 
     def add_insert_callback(self, cb: Callable[[], None]) -> None:
         """Run ``cb()`` after every successful insert (outside the lock; used to wake waiters)."""
@@ -801,15 +800,18 @@ cdef class BufferCore:
 
     cdef int _walk(self, int32_t target_id, int32_t source_id, int64_t t, double* out,
                    int32_t* bad) noexcept:
-        """tf2's walk (BufferCore::walkToTopParent with TransformAccum) at time t, in C.
+        """tf2's walk (BufferCore::walkToTopParent) at time t, in C.
 
         Source side up to the top, then target side up to the same top; the answer is
-        inverse(target -> top) ∘ (source -> top). _W_OK with out set, or what went wrong.
+        inverse(target -> top) ∘ (source -> top). _W_OK with out set, or what went wrong. With out
+        NULL only the parents are followed (tf2's CanTransformAccum: canTransform's walk), and a frame
+        counts as having data at t when it has a parent there.
         """
         cdef list caches = self._caches
         cdef PyObject* o
         cdef int32_t frame = source_id, top = source_id, p = 0, extrap_frame = 0
         cdef int depth = 0, source_links, k
+        cdef bint values = out != NULL
         cdef double s[7]
         cdef double sacc[7]
         cdef double tacc[7]
@@ -821,19 +823,21 @@ cdef class BufferCore:
             if o == <PyObject*>None:
                 top = frame
                 break
-            if not (<CacheBase>o).get_c(t, &p, s):
+            if not _step(o, t, &p, s, values):
                 top = frame
                 extrap_frame = frame
                 break
             if frame == target_id:
-                for k in range(7):
-                    out[k] = sacc[k]
+                if values:
+                    for k in range(7):
+                        out[k] = sacc[k]
                 return _W_OK
-            if depth:
-                _compose(sacc, s)
-            else:
-                for k in range(7):
-                    sacc[k] = s[k]
+            if values:
+                if depth:
+                    _compose(sacc, s)
+                else:
+                    for k in range(7):
+                        sacc[k] = s[k]
             top = frame
             frame = p
             depth += 1
@@ -848,17 +852,19 @@ cdef class BufferCore:
             o = PyList_GET_ITEM(caches, frame)
             if o == <PyObject*>None:
                 break
-            if not (<CacheBase>o).get_c(t, &p, s):
+            if not _step(o, t, &p, s, values):
                 bad[0] = frame
                 return _W_EXTRAP_TARGET
             if frame == source_id:
-                _invert(tacc, out)   # source is an ancestor of target: inverse(target -> source)
+                if values:
+                    _invert(tacc, out)   # source is an ancestor of target: inverse(target -> source)
                 return _W_OK
-            if depth:
-                _compose(tacc, s)
-            else:
-                for k in range(7):
-                    tacc[k] = s[k]
+            if values:
+                if depth:
+                    _compose(tacc, s)
+                else:
+                    for k in range(7):
+                        tacc[k] = s[k]
             frame = p
             depth += 1
             if depth > _MAX_DEPTH:
@@ -868,6 +874,8 @@ cdef class BufferCore:
                 bad[0] = extrap_frame
                 return _W_EXTRAP
             return _W_CONNECT
+        if not values:
+            return _W_OK
         # full path: inverse(target -> top) ∘ (source -> top); when one side is empty this is
         # exactly the other side (identity terms add zeros), so skip the arithmetic
         if not depth:
@@ -1001,7 +1009,7 @@ cdef class BufferCore:
                 t = self._lct(target_id, source_id)
         except TransformException as e:
             return False, str(e)
-        res = self._walk_parents(target_id, source_id, t, &bad)
+        res = self._walk(target_id, source_id, t, NULL, &bad)
         if res == _W_OK:
             return True, ""
         if res == _W_LOOP:
@@ -1010,51 +1018,6 @@ cdef class BufferCore:
             return False, self._connectivity_message(source_id, target_id)
         return False, (f"{self._caches[bad].error(t)}, when looking up transform from frame "
                        f"[{self._names[source_id]}] to frame [{self._names[target_id]}]")
-
-    cdef int _walk_parents(self, int32_t target_id, int32_t source_id, int64_t t, int32_t* bad) noexcept:
-        """_walk without the arithmetic: whether the chain exists at t (tf2 canTransform)."""
-        cdef list caches = self._caches
-        cdef int32_t frame = source_id, top = source_id, p, extrap_frame = 0
-        cdef int depth = 0
-        while frame:
-            obj = <object>PyList_GET_ITEM(caches, frame)
-            if obj is None:
-                top = frame
-                break
-            p = (<CacheBase>obj).parent_at_c(t)
-            if not p:
-                top = frame
-                extrap_frame = frame
-                break
-            if frame == target_id:
-                return _W_OK
-            top = frame
-            frame = p
-            depth += 1
-            if depth > _MAX_DEPTH:
-                return _W_LOOP
-        frame = target_id
-        depth = 0
-        while frame != top:
-            obj = <object>PyList_GET_ITEM(caches, frame)
-            if obj is None:
-                break
-            p = (<CacheBase>obj).parent_at_c(t)
-            if not p:
-                bad[0] = frame
-                return _W_EXTRAP_TARGET
-            if frame == source_id:
-                return _W_OK
-            frame = p
-            depth += 1
-            if depth > _MAX_DEPTH:
-                return _W_LOOP
-        if frame != top:
-            if extrap_frame:
-                bad[0] = extrap_frame
-                return _W_EXTRAP
-            return _W_CONNECT
-        return _W_OK
 
     # ------------------------------------------------------------------------ latest common time
 
