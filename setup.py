@@ -9,7 +9,6 @@ from pathlib import Path
 from Cython.Build import cythonize
 from setuptools import Extension, setup
 
-ROOT = Path(__file__).parent
 extensions = [
     Extension(".".join(p.with_suffix("").parts), [str(p)], extra_compile_args=["-O3", "-fno-math-errno"])
     for p in sorted(Path("zentf").rglob("*.pyx"))

@@ -44,7 +44,6 @@ from .cache cimport CacheBase, StaticCache, TimeCache
 
 import logging
 import math
-import threading
 from enum import IntEnum
 from typing import Any, Callable, Iterable, Optional, Sequence, Union
 
@@ -509,7 +508,6 @@ cdef class BufferCore:
         common-case samples (the C fast path) and released only around tf2's full path.
         """
         cdef Py_ssize_t accepted = 0
-        cdef PyObject** f
         lock = self._lock
         lock.acquire_c()
         try:
