@@ -32,13 +32,14 @@ cdef extern from "Python.h":
 
 # ---------------------------------------------------------------- frame names
 
-#: Interned frame names, raw UTF-8 bytes -> str (a tree has tens to hundreds); bounded as
-#: zentf.wire._FRAME_CACHE is (FRAME_CACHE_SIZE): started over when full, names over 256 bytes not
-#: kept, so forged names cost at most ~4096 x 0.6 kB (+ the 1024-slot memo in front of it).
-FRAME_CACHE_SIZE = 4096
-_NAMES = {}
+#: Interned frame names, raw UTF-8 bytes -> str: zentf.ros.tf's cache, shared by every TFMessage decoder
+#: (bounded at FRAME_CACHE_SIZE, started over when full, names longer than the buffer takes not kept).
+from .core.constants import DEFAULT_MAX_FRAME_ID_LENGTH
+from .ros.tf import FRAME_CACHE_SIZE
+from .ros.tf import _FRAMES as _NAMES
 cdef dict _names = _NAMES
 cdef Py_ssize_t _NAMES_MAX = FRAME_CACHE_SIZE
+cdef Py_ssize_t _NAME_MAX_LEN = DEFAULT_MAX_FRAME_ID_LENGTH
 # a direct-mapped memo in front of it, so a hit costs a hash and a memcmp (no bytes object)
 cdef enum:
     SLOTS = 1024
@@ -64,7 +65,7 @@ cdef object _name(const uint8_t* p, Py_ssize_t n):
             name = PyUnicode_DecodeUTF8(<const char*>p, n, "strict")
         except UnicodeDecodeError:
             return None
-        if n > 256:  # a forged huge name is not kept (the buffer refuses it anyway)
+        if n > _NAME_MAX_LEN:  # a forged huge name is not kept (the buffer refuses it anyway)
             return name
         if len(_names) >= _NAMES_MAX:
             _names.clear()

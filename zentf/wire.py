@@ -17,6 +17,8 @@ import msgpack
 
 from .core.messages import Message, TransformStamped, message_type
 from .core.time import Time
+from .ros.tf import FRAME_CACHE_SIZE, frame_name  # the one bounded cache of frame names
+from .ros.tf import _FRAMES as _FRAME_CACHE
 
 __all__ = [
     "ENCODING", "MAX_PAYLOAD", "encoding_for", "type_name_from_encoding", "pack", "unpack", "encode",
@@ -199,24 +201,13 @@ def _num(v: Any) -> float:
     raise TypeError(f"expected a number, got {type(v).__name__}")
 
 
-#: Frame names the per-element path decodes once (a tree has tens to hundreds); when full it starts over,
-#: so forged names cost at most ~4096 x 0.6 kB (100,000 kept up to ~60 MB of 256-byte names).
-FRAME_CACHE_SIZE = 4096
-_FRAME_CACHE: dict[bytes, str] = {}
-
-
 def _frame(b: Any) -> str:
     """Frame id bytes -> str (cached: a tree has few distinct names)."""
     name = _FRAME_CACHE.get(b)
     if name is None:
         if type(b) is not bytes:
             raise TypeError("frame ids must be strings")
-        name = b.decode("utf-8")
-        if len(b) > 256:  # (a forged huge name is not kept: the buffer refuses it anyway)
-            return name
-        if len(_FRAME_CACHE) >= FRAME_CACHE_SIZE:
-            _FRAME_CACHE.clear()
-        _FRAME_CACHE[b] = name
+        name = frame_name(b)
     return name
 
 

@@ -13,6 +13,7 @@ import struct
 from collections.abc import Iterable
 from typing import Any
 
+from ..core.constants import DEFAULT_MAX_FRAME_ID_LENGTH
 from .errors import CdrError
 
 __all__ = ["tf_samples", "encode_tf", "MAX_PAYLOAD"]
@@ -24,21 +25,27 @@ _HEAD = struct.Struct("<4sI")          # encapsulation, transform count
 _U32 = struct.Struct("<I")
 _STAMP_LEN = struct.Struct("<iII")     # sec, nanosec, frame_id length
 _SEVEN = struct.Struct("<7d")
-#: Decoded frame names by their bytes; bounded like zentf.wire's cache (4096): forged names cost at most
-#: a few MB, and a robot has far fewer frames.
+#: Frame names decoded once, by their UTF-8 bytes (a tree has tens to hundreds). The one cache of every
+#: TFMessage decoder (this module's, zentf.wire's per-element path, zentf/tfwire.pyx): when full it
+#: starts over and names longer than the buffer takes are not kept, so forged names cost at most
+#: ~4096 x 0.6 kB (issue 10: 100,000 kept up to ~60 MB of 256-byte names).
+FRAME_CACHE_SIZE = 4096
 _FRAMES: dict[bytes, str] = {}
-_FRAMES_MAX = 4096
 
 
-def _name(raw: bytes) -> str:
+def frame_name(raw: bytes) -> str:
+    """Frame id bytes -> str through the shared cache; UnicodeDecodeError if not UTF-8."""
     name = _FRAMES.get(raw)
     if name is None:
         name = raw.decode("utf-8")
-        if len(_FRAMES) >= _FRAMES_MAX:
-            _FRAMES.clear()
-        if len(raw) <= 256:
+        if len(raw) <= DEFAULT_MAX_FRAME_ID_LENGTH:  # a longer one the buffer refuses anyway
+            if len(_FRAMES) >= FRAME_CACHE_SIZE:
+                _FRAMES.clear()
             _FRAMES[raw] = name
     return name
+
+
+_name = frame_name
 
 
 class _Layout:
