@@ -40,6 +40,7 @@ cdef class TimeCache(CacheBase):
     cdef void _prune(self) noexcept
     cdef void _span(self, Py_ssize_t i) noexcept
     cdef Py_ssize_t _floor(self, int64_t t) noexcept
+    cdef Py_ssize_t _lower(self, int64_t stamp) noexcept
     cdef inline void _copy(self, Py_ssize_t i, int32_t* parent, double* out) noexcept
 
 

@@ -166,7 +166,7 @@ cdef class TimeCache(CacheBase):
 
     cdef int insert_c(self, int64_t stamp, int32_t parent, const double* v) except -1:
         cdef int64_t newest = self.newest
-        cdef Py_ssize_t i, j, k, lo, hi, mid
+        cdef Py_ssize_t i, j, k, lo
         if self._n == self._cap:  # grow: by half while filling up, by 1/64 once pruning holds it steady
             if self._resize(self._cap + ((self._cap >> 6) if self._steady else (self._cap >> 1)) + 4) < 0:
                 raise MemoryError()
@@ -189,14 +189,7 @@ cdef class TimeCache(CacheBase):
         else:
             if newest - stamp > self.max_ns:
                 return _OLD
-            lo = 0                       # bisect_left over the logical order
-            hi = self._n
-            while lo < hi:
-                mid = (lo + hi) >> 1
-                if self._st[self._slot(mid)] < stamp:
-                    lo = mid + 1
-                else:
-                    hi = mid
+            lo = self._lower(stamp)
             if self._st[self._slot(lo)] == stamp:
                 return _REPEATED
             k = self._n                  # shift lo..n-1 up one slot
@@ -226,13 +219,7 @@ cdef class TimeCache(CacheBase):
         """Drop samples older than newest - cache time, right after an insert (ROS 1 order; ROS 2
         prunes before inserting): pop while oldest + max < newest."""
         cdef int64_t limit = self.newest - self.max_ns
-        cdef Py_ssize_t lo = 0, hi = self._n, mid, n
-        while lo < hi:
-            mid = (lo + hi) >> 1
-            if self._st[self._slot(mid)] < limit:
-                lo = mid + 1
-            else:
-                hi = mid
+        cdef Py_ssize_t lo = self._lower(limit), n
         self._head = self._slot(lo)
         self._n -= lo
         self.oldest = self._st[self._head]
@@ -244,6 +231,17 @@ cdef class TimeCache(CacheBase):
                 self._resize(n + 1)
         elif self._cap > n + (n >> 3) + 16:  # fewer samples than before (a slower rate): give room back
             self._resize(n + (n >> 6) + 4)
+
+    cdef Py_ssize_t _lower(self, int64_t stamp) noexcept:
+        """Logical index of the first sample at or after stamp (bisect_left), n if none."""
+        cdef Py_ssize_t lo = 0, hi = self._n, mid
+        while lo < hi:
+            mid = (lo + hi) >> 1
+            if self._st[self._slot(mid)] < stamp:
+                lo = mid + 1
+            else:
+                hi = mid
+        return lo
 
     cdef inline void _copy(self, Py_ssize_t i, int32_t* parent, double* out) noexcept:
         cdef Py_ssize_t j = self._slot(i)
