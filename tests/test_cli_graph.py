@@ -49,14 +49,16 @@ def test_node_info_lists_publications_and_subscriptions(spawn, zenoh_env, test_n
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.splitlines() == [f"{ns}/laser_tf", "  Subscribers:", "  Publishers:",
                                         f"    {ns}/tf_static: tf2_msgs/msg/TFMessage"]
+    # the node's own token comes first and its listener's subscriptions right after: wait until both show
+    want = (f"    {ns}/tf: tf2_msgs/msg/TFMessage", f"    {ns}/tf_static: tf2_msgs/msg/TFMessage")
     deadline = time.monotonic() + 20
     while True:
         proc = zentf(["node", "info", f"{ns}/listener"], zenoh_env)
-        if proc.returncode == 0:
+        subs = proc.stdout.split("  Publishers:")[0]
+        if proc.returncode == 0 and all(w in subs for w in want):
             break
-        assert time.monotonic() < deadline, proc.stderr
-    subs = proc.stdout.split("  Publishers:")[0]
-    assert f"    {ns}/tf: tf2_msgs/msg/TFMessage" in subs and f"    {ns}/tf_static: tf2_msgs/msg/TFMessage" in subs
+        assert time.monotonic() < deadline, (proc.stdout, proc.stderr)
+    assert all(w in subs for w in want)
 
 
 def test_graph_has_the_node_topic_edges(spawn, zenoh_env, test_namespace, tmp_path):
