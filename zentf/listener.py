@@ -19,10 +19,7 @@ from .heap import release_free_memory
 from .node import Node
 from .wire import _insert
 
-try:  # compiled decode + future check + insert (zentf/tfwire.pyx); without it the profile's Python path
-    from .tfwire import TfIngest
-except ImportError:  # pragma: no cover - a source checkout without build_ext
-    TfIngest = None
+from .tfwire import TfIngest  # compiled decode + future check + insert
 
 __all__ = ["TransformListener", "StaticTransformListener", "DEFAULT_FUTURE_TOLERANCE"]
 
@@ -374,7 +371,7 @@ class TransformListener:
         with the future guard's check folded in; else the profile's ``ingest_tf`` into ``target``."""
         slow = self._ingest
         wire_name = self.node.wire.name
-        if TfIngest is not None and wire_name in ("zentf", "ros2"):
+        if wire_name in ("zentf", "ros2"):
             guard = None if is_static else self._guard
             return TfIngest(wire_name == "ros2", slow, _insert, target, self.buffer,
                             guard.now_ns if guard is not None else None,

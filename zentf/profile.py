@@ -32,10 +32,7 @@ from .ros import CdrError, UnknownTypeError, dds_type_name, ros_type_name, tf_sa
 from .ros import codec as cdr_codec
 from .ros.tf import encode_tf as cdr_encode_tf
 
-try:  # the compiled decoder (zentf/tfwire.pyx, built by setup.py); without it tf_samples reads every payload
-    from .tfwire import cdr_tf as _compiled_cdr_tf
-except ImportError:  # pragma: no cover - a source checkout without build_ext
-    _compiled_cdr_tf = None
+from .tfwire import cdr_tf as _compiled_cdr_tf  # the compiled decoder (zentf/tfwire.pyx); None: Python only (tests)
 
 __all__ = ["WireProfile", "ZentfProfile", "Ros2Profile", "make_profile", "PROFILES", "qos_string",
            "parse_ros2_token", "ros2_attachment", "parse_ros2_attachment", "ROS2_DEFAULT_DEPTH",

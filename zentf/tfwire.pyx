@@ -20,8 +20,7 @@ from .core.buffer_core cimport BufferCore
 
 __all__ = ["msgpack_tf", "cdr_tf", "TfIngest", "MAX_PAYLOAD"]
 
-#: Larger payloads are not decoded here (the Python paths refuse them with their own message).
-MAX_PAYLOAD = 64 * 1024 * 1024
+from .ros.tf import MAX_PAYLOAD  # larger payloads are not decoded here (the Python paths refuse them)
 cdef Py_ssize_t _MAX_PAYLOAD = MAX_PAYLOAD
 cdef int64_t _NS = 1000000000
 cdef int64_t _MAX_SEC = 9223372036  # (2**63 - 1) // 1e9: stamps are int64 nanoseconds

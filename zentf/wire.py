@@ -236,10 +236,7 @@ def _tf_decoder() -> Any:
 
 _TF_DECODER = _tf_decoder()
 
-try:  # the compiled decoder (zentf/tfwire.pyx, built by setup.py); without it msgspec's path below runs
-    from .tfwire import msgpack_tf as _compiled_tf
-except ImportError:  # pragma: no cover - a source checkout without build_ext
-    _compiled_tf = None
+from .tfwire import msgpack_tf as _compiled_tf  # noqa: E402  (compiled decoder; None: Python only, for tests)
 
 
 def ingest_tf(payload: bytes, core: Any, authority: str, is_static: bool) -> tuple[int, int, int, str | None]:

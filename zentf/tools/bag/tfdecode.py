@@ -38,13 +38,10 @@ def _zentf_codec() -> Callable[[bytes], list[Row]] | None:
         from zentf.ros.tf import tf_samples
     except ImportError:  # pragma: no cover - zentf.ros ships with zentf; kept so this stays one switch
         return None
-    try:
-        from zentf.tfwire import cdr_tf
-    except ImportError:  # pragma: no cover - a source checkout without build_ext
-        cdr_tf = None
+    from zentf.tfwire import cdr_tf
 
     def decode(raw: bytes) -> list[Row]:
-        rows = cdr_tf(raw) if cdr_tf is not None else None  # None: anything doubtful, read again below
+        rows = cdr_tf(raw)  # None: anything doubtful, read again below
         return rows if rows is not None else tf_samples(raw)[0]
     return decode
 
