@@ -357,3 +357,100 @@ def test_joint_state_publisher_sweep_covers_each_range_and_publishes_mimics(spaw
     assert all(-0.38 <= v <= 0.0 for v in seen["gripper_extension"])
     assert all(0.0 <= v <= 0.548 for v in seen["left_gripper_joint"])
     assert all(-math.pi <= v <= math.pi for v in seen["head_swivel"])
+
+
+def test_rsp_reads_repeated_joint_states_in_c_as_the_general_path_would(node_options) -> None:
+    """JointStates over real Zenoh: once a name list was seen, the next messages with the same list are read
+    in C (positions and stamp, no name decoded) and publish what the general decoder's path publishes; any
+    message unlike that (other names, key order, ints, float32, sizes, NaN, stamps out of range, extra
+    keys, cut short) gives the general path's outcome."""
+    import msgpack
+
+    from zentf import wire
+    from zentf.core.messages import JointState
+    from zentf.node import Node
+    from zentf.tools.robot_state_publisher import RobotStatePublisher
+    from zentf.urdf import parse_urdf
+
+    chain = ['<robot name="chain"><link name="l0"/>']
+    for i in range(1, 13):
+        kind = ("revolute", "continuous", "prismatic")[i % 3]
+        chain.append(f'<link name="l{i}"/><joint name="j{i}" type="{kind}"><parent link="l{i - 1}"/>'
+                     f'<child link="l{i}"/><origin xyz="0.1 0.02 0.01" rpy="0.01 0.2 0.02"/>'
+                     f'<axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>')
+    chain.append('<link name="m"/><joint name="jm" type="revolute"><parent link="l0"/><child link="m"/>'
+                 '<axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/>'
+                 '<mimic joint="j1" multiplier="2" offset="0.1"/></joint>')
+    robot = parse_urdf("".join(chain) + "</robot>")
+    names = [f"j{i}" for i in range(1, 13)]
+    handled = threading.Semaphore(0)
+
+    class Probe(RobotStatePublisher):
+        def _on_sample(self, sample) -> None:  # the subscriber's callback, counted
+            super()._on_sample(sample)
+            handled.release()
+
+    class General(Probe):
+        def _on_sample(self, sample) -> None:  # never a plan to read with: the general decoder every time
+            self._last_plan = None
+            super()._on_sample(sample)
+
+    def js(ns: list[str], pos: list, sec: int = 5, nsec: int = 0, **extra) -> dict:
+        return {"header": {"stamp": {"sec": sec, "nanosec": nsec}, "frame_id": ""}, "name": ns,
+                "position": pos, "velocity": [], "effort": [], **extra}
+
+    rng = np.random.default_rng(3)
+    pos = [float(v) for v in rng.uniform(-2, 2, 12)]
+    plain = [js(names, [float(v) for v in rng.uniform(-2, 2, 12)], 5, k) for k in range(20)]
+    odd = [
+        ("other names", js(names[:6], pos[:6])),
+        ("names permuted", js(names[::-1], pos, 5, 1)),
+        ("names again", js(names, pos, 6)),
+        ("keys reordered", {"position": pos, "effort": [], "name": names, "velocity": [1.0] * 12,
+                            "header": {"frame_id": "x", "stamp": {"sec": 7, "nanosec": 1}}}),
+        ("integral positions", js(names, [int(v) for v in range(12)], 8)),
+        ("float32", None),
+        ("fewer positions", js(names, pos[:11], 9)),
+        ("NaN", js(names, [float("nan")] + pos[1:], 10)),
+        ("sec out of range", js(names, pos, 2**32)),
+        ("negative sec", js(names, pos, -1)),
+        ("nanosec out of range", js(names, pos, 11, 10**9)),
+        ("an extra key", js(names, pos, 12, extra_field=[1, 2])),
+        ("cut short", None),
+        ("a string for a position", js(names, ["x"] + pos[1:], 13)),
+    ]
+    payloads = [("plain", msgpack.packb(m)) for m in plain]
+    for label, m in odd:
+        if label == "float32":
+            b = msgpack.packb(js(names, pos, 14), use_single_float=True)
+        elif label == "cut short":
+            b = msgpack.packb(js(names, pos, 15))[:-9]
+        else:
+            b = msgpack.packb(m)
+        payloads += [(label, b), (label + ", then plain", msgpack.packb(js(names, pos, 20 + len(payloads))))]
+    with Node("rsp_fast", options=node_options) as node, Node("rsp_ref", options=node_options) as ref_node, \
+            Node("rsp_js", options=node_options) as sender:
+        rsp = Probe(node, robot, ignore_timestamp=True)
+        ref = General(ref_node, robot, ignore_timestamp=True)
+        got: list[bytes] = []
+        want: list[bytes] = []
+        rsp._tf.publish_bytes = got.append
+        ref._tf.publish_bytes = want.append
+        pub = sender.create_publisher("joint_states", JointState)
+        assert pub.wait_for_subscribers(10)
+        # read in C: the same names as the message before, however the rest is sent
+        must_read = {"keys reordered", "integral positions", "float32", "NaN, then plain", "an extra key, then plain"}
+        for k, (label, payload) in enumerate(payloads):
+            fast_before = rsp.fast_reads
+            n_got, n_want, n_ignored = len(got), len(want), rsp.ignored
+            pub.publish_bytes(payload)
+            assert handled.acquire(timeout=10) and handled.acquire(timeout=10), label  # both publishers
+            ok = len(want) > n_want
+            assert (len(got) > n_got) == ok, label
+            if ok:
+                assert wire.unpack(got[-1]) == wire.unpack(want[-1]), label
+            else:
+                assert rsp.ignored == n_ignored + 1, label
+            if label in must_read or (label == "plain" and k > 0):
+                assert rsp.fast_reads == fast_before + 1, label
+        assert rsp.fast_reads >= 25
