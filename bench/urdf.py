@@ -11,6 +11,10 @@
    process (subscribe joint_states, put as many bytes as zentf's TFMessage on tf; no decoding, no
    FK) with a bare callback as receiver: the floor of the same two hops with the same bytes. Peer to peer on loopback, no router.
    Targets (issue 12): rsp CPU <= 5 % of one core; p50 joint_states -> lookup-able <= 0.5 ms.
+   Then where zentf's time goes, stage by stage, in one more run with the same three processes: the
+   robot_state_publisher (RobotStatePublisher in a bench process, its subscriber callback timed at entry
+   and exit) and the listener (a second, bare subscriber on tf timestamps arrival; the insert callback the
+   insert); every clock is CLOCK_REALTIME on one machine.
 2. Forward kinematics of ``--vectors`` joint vectors at once (``Kinematics.link_poses_batch``, numpy)
    against a Python loop over the vectors calling ``Kinematics.link_poses`` (a per-joint loop of 4x4
    products): r2d2 (urdf_tutorial 06-flexible, 8 joints, 16 links) and the chain. Target: >= 20x.
@@ -102,6 +106,120 @@ def role_listen(args: argparse.Namespace) -> None:
     done.wait(args.count / 50 + 60)
     print("RESULT " + json.dumps({"lat_ns": lat[WARMUP:]}), flush=True)
     node.shutdown()
+
+
+def role_rsp_timed(args: argparse.Namespace) -> None:
+    """robot_state_publisher in this process, its joint_states callback timed (entry, exit) per message."""
+    from zentf.node import Node
+    from zentf.options import NodeOptions
+    from zentf.tools.robot_state_publisher import RobotStatePublisher
+    from zentf.urdf import parse_urdf
+
+    times: list[tuple[int, int]] = []
+
+    class Timed(RobotStatePublisher):
+        def _on_sample(self, sample) -> None:
+            t0 = time.time_ns()
+            super()._on_sample(sample)
+            times.append((t0, time.time_ns()))
+
+    node = Node("robot_state_publisher", options=NodeOptions(namespace="bench", zenoh=zopts(listen=args.endpoint)),
+                check_unique=False)
+    Timed(node, parse_urdf(chain_urdf(args.joints)), publish_frequency=10000)
+    print("publishing robot (timed)", flush=True)
+    sys.stdin.readline()
+    print("RESULT " + json.dumps({"rsp": times}), flush=True)
+    node.shutdown()
+
+
+def role_listen_timed(args: argparse.Namespace) -> None:
+    """zentf listener with a bare subscriber beside it: arrival on tf and insert time per message."""
+    from zentf.buffer import Buffer
+    from zentf.listener import TransformListener
+    from zentf.node import Node
+    from zentf.options import NodeOptions
+
+    node = Node("bench_listener", options=NodeOptions(namespace="bench", zenoh=zopts(connect=args.endpoint)),
+                check_unique=False)
+    buf = Buffer(node=node)
+    rx: list[int] = []
+    inserted: list[int] = []
+    buf.add_insert_callback(lambda: inserted.append(time.time_ns()))
+    node.session.declare_subscriber("bench/tf", lambda sample: rx.append(time.time_ns()))
+    TransformListener(buf, node)
+    print("ready", flush=True)
+    sys.stdin.readline()
+    print("RESULT " + json.dumps({"rx": rx, "inserted": inserted}), flush=True)
+    node.shutdown()
+
+
+def run_stages(joints: int, rate: float, seconds: float) -> dict[str, list[float]]:
+    """One more zentf run, timed stage by stage (us per message, sorted): see the module doc."""
+    from zentf.core.messages import Header, JointState
+    from zentf.core.time import Time
+    from zentf.node import Node
+    from zentf.options import NodeOptions
+
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    count = int(seconds * rate)
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    procs = []
+    node = None
+    try:
+        for role, ready in (("rsp_timed", "publishing robot"), ("listen_timed", "ready")):
+            p = subprocess.Popen([sys.executable, __file__, "--role", role, "--endpoint", ep, "--joints", str(joints)],
+                                 env=env, cwd=REPO, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+            procs.append(p)
+            assert p.stdout is not None
+            if ready not in p.stdout.readline():
+                raise RuntimeError(f"{role} failed to start")
+        node = Node("bench_joint_states", options=NodeOptions(namespace="bench", zenoh=zopts(connect=ep)),
+                    check_unique=False)
+        pub = node.create_publisher("joint_states", JointState)
+        if not pub.wait_for_subscribers(20):
+            raise RuntimeError("robot_state_publisher never matched")
+        time.sleep(0.5)
+        names = [f"j{i}" for i in range(1, joints + 1)]
+        sent: list[tuple[int, int]] = []
+        next_t = time.monotonic()
+        for i in range(count):
+            msg = JointState(Header(Time()), names, [0.1 + 1e-4 * i] * joints, [], [])
+            t0 = time.time_ns()
+            msg.header.stamp = Time(nanoseconds=t0)
+            pub.publish(msg)
+            sent.append((t0, time.time_ns()))
+            next_t += 1.0 / rate
+            time.sleep(max(0.0, next_t - time.monotonic()))
+        time.sleep(0.5)  # the last message's way through (nothing to wait on across three processes)
+        out = {}
+        for p in procs:
+            p.stdin.write("\n")
+            p.stdin.flush()
+            line = p.stdout.readline()
+            while line and not line.startswith("RESULT "):
+                line = p.stdout.readline()
+            out.update(json.loads(line[len("RESULT "):]))
+    finally:
+        if node is not None:
+            node.shutdown()
+        for p in procs:
+            p.terminate()
+            try:
+                p.wait(5)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+    rsp, rx, ins = out["rsp"][-count:], out["rx"][-count:], out["inserted"][-count:]
+    if not len(rsp) == len(rx) == len(ins) == count:
+        raise RuntimeError(f"stages: {count} sent, {len(rsp)} through the publisher, {len(rx)} received, "
+                           f"{len(ins)} inserted")
+    rows = {"sender: publish() (encode + put)": [b - a for a, b in sent],
+            "hop 1: stamp -> publisher callback": [r[0] - s[0] for s, r in zip(sent, rsp)],
+            "publisher callback (decode, FK, bytes, put)": [r[1] - r[0] for r in rsp],
+            "hop 2: callback end -> listener arrival": [x - r[1] for r, x in zip(rsp, rx)],
+            "listener: arrival -> inserted": [i - x for x, i in zip(rx, ins)],
+            "total: stamp -> inserted": [i - s[0] for s, i in zip(sent, ins)]}
+    return {k: sorted(v / 1000 for v in vals[WARMUP:]) for k, vals in rows.items()}
 
 
 def role_raw_relay(args: argparse.Namespace) -> None:
@@ -236,9 +354,10 @@ def in_process_costs(joints: int, rate: float, n: int = 2000, n_paced: int = 200
     from zentf import wire
     from zentf.buffer import Buffer
     from zentf.core.messages import Header, JointState
+    from zentf.core.time import Time
     from zentf.node import Node
     from zentf.options import NodeOptions
-    from zentf.tools.robot_state_publisher import RobotStatePublisher, _joint_state_decoder
+    from zentf.tools.robot_state_publisher import RobotStatePublisher
     from zentf.urdf import parse_urdf
 
     node = Node("bench_inproc", options=NodeOptions(namespace="bench_inproc", zenoh=zopts()), check_unique=False)
@@ -246,17 +365,13 @@ def in_process_costs(joints: int, rate: float, n: int = 2000, n_paced: int = 200
         rsp = RobotStatePublisher(node, parse_urdf(chain_urdf(joints)), ignore_timestamp=True)
         out: list[bytes] = []
         rsp._tf.publish_bytes = out.append  # keep the payloads here instead of sending them
-        dec = _joint_state_decoder()
         names = [f"j{i}" for i in range(1, joints + 1)]
-        payloads = [wire.encode(JointState(Header(), names, [0.1 + 1e-4 * i] * joints, [], [])) for i in range(n)]
-
-        def rsp_one(p: bytes, i: int) -> None:
-            m = dec.decode(p)
-            rsp.process(m.name, m.position, 1, i + 1)
+        payloads = [wire.encode(JointState(Header(Time(sec=1, nanosec=i + 1)), names, [0.1 + 1e-4 * i] * joints, [],
+                                           [])) for i in range(n + n_paced)]  # distinct stamps
 
         t0 = time.perf_counter()
-        for i, p in enumerate(payloads):
-            rsp_one(p, i)
+        for p in payloads[:n]:
+            rsp.on_payload(p)  # the subscriber's own path (the names read in C after the first)
         t_rsp = (time.perf_counter() - t0) / n
         from zentf.tfwire import TfIngest  # the listener's own path: compiled decode, insert from C
 
@@ -271,10 +386,10 @@ def in_process_costs(joints: int, rate: float, n: int = 2000, n_paced: int = 200
             ingest(p, "/bench")
         t_ingest = (time.perf_counter() - t0) / len(out)
         paced_rsp, paced_ingest = [], []
-        for i, p in enumerate(payloads[:n_paced]):
+        for p in payloads[n:]:
             time.sleep(1 / rate)
             t0 = time.perf_counter()
-            rsp_one(p, n + i)
+            rsp.on_payload(p)
             paced_rsp.append(time.perf_counter() - t0)
         buf = Buffer()
         ingest = ingester(buf)
@@ -325,7 +440,8 @@ def main() -> None:
     parser.add_argument("--vectors", type=int, default=10_000)
     args = parser.parse_args()
     if args.role:
-        {"listen": role_listen, "raw_relay": role_raw_relay, "raw_listen": role_raw_listen}[args.role](args)
+        {"listen": role_listen, "raw_relay": role_raw_relay, "raw_listen": role_raw_listen,
+         "rsp_timed": role_rsp_timed, "listen_timed": role_listen_timed}[args.role](args)
         return
 
     from zentf.urdf import Kinematics, load_urdf, parse_urdf
@@ -339,6 +455,7 @@ def main() -> None:
         urdf.write_text(chain_urdf(args.joints))
         rows = {impl: run_publisher_case(impl, urdf, args.joints, args.rate, args.seconds, out_size)
                 for impl in ("raw", "zentf")}
+    stages = run_stages(args.joints, args.rate, args.seconds)
     print(f"\n## robot_state_publisher: {args.joints}-joint chain, joint_states at {args.rate:g} Hz for "
           f"{args.seconds:g} s")
     print(f"{'':28}{'zentf rsp':>12}{'raw relay':>12}{'ratio':>8}")
@@ -355,6 +472,11 @@ def main() -> None:
           f" the run (cold caches, median): robot_state_publisher decode + kinematics + encoding {costs['rsp']:.0f} |"
           f" {costs['rsp_paced']:.0f} us; the listener inserting its {args.joints} transforms {costs['ingest']:.0f} |"
           f" {costs['ingest_paced']:.0f} us")
+    print(f"\nwhere zentf's time goes, in a third run of the same three processes (us; stages overlap: the")
+    print("sender's put wakes Zenoh's I/O thread before it returns, the publisher's put is inside its callback)")
+    print(f"{'':46}{'p50':>8}{'p90':>8}")
+    for label, vals in stages.items():
+        print(f"{label:46}{pct(vals, 0.5):>8.0f}{pct(vals, 0.9):>8.0f}")
 
     print(f"\n## forward kinematics of {args.vectors} joint vectors")
     print(f"{'model':28}{'batch, ms':>12}{'loop, ms':>12}{'speed-up':>10}")

@@ -216,34 +216,37 @@ class RobotStatePublisher:
     def _on_sample(self, sample: Any) -> None:
         """Zenoh thread: decode, compute, publish; never raises."""
         try:
-            payload = sample.payload.to_bytes()
-            plan = self._last_plan
-            if plan is not None and plan.filler is not None and not plan.unknown:
-                # the same names as last time, sent the same way: positions and stamp read in C, no name decoded
-                stamp = plan.filler.read(payload)
-                if stamp is not None:
-                    self._publish_read(plan, stamp[0], stamp[1])
-                    return
-            msg = None
-            if self._decoder is not None:
-                try:
-                    msg = self._decoder.decode(payload)
-                except Exception:
-                    msg = None
-            if msg is None:  # the generic path names what is wrong
-                js = wire.decode(payload, JointState)
-                names, position, stamp = js.name, js.position, (js.header.stamp.sec, js.header.stamp.nanosec)
-            else:
-                names, position, stamp = msg.name, msg.position, (msg.header.stamp.sec, msg.header.stamp.nanosec)
-            self.process(names, position, stamp[0], stamp[1])
-            plan = self._last_plan
-            if plan is not None and plan.filler is not None and names == self._last_names:
-                plan.filler.learn(payload, len(names))
+            self.on_payload(sample.payload.to_bytes())
         except Exception as e:  # noqa: BLE001 - one bad message must not stop the publisher
             with self._lock:
                 self.ignored += 1
             sender = wire.authority_of(getattr(sample, "attachment", None), "unknown sender")
             self._log("bad", f"ignored a bad JointState from {sender}: {e}")
+
+    def on_payload(self, payload: bytes) -> None:
+        """One JointState as received (its msgpack bytes): publish its transforms; raises on a bad one."""
+        plan = self._last_plan
+        if plan is not None and plan.filler is not None and not plan.unknown:
+            # the same names as last time, sent the same way: positions and stamp read in C, no name decoded
+            stamp = plan.filler.read(payload)
+            if stamp is not None:
+                self._publish_read(plan, stamp[0], stamp[1])
+                return
+        msg = None
+        if self._decoder is not None:
+            try:
+                msg = self._decoder.decode(payload)
+            except Exception:
+                msg = None
+        if msg is None:  # the generic path names what is wrong
+            js = wire.decode(payload, JointState)
+            names, position, stamp = js.name, js.position, (js.header.stamp.sec, js.header.stamp.nanosec)
+        else:
+            names, position, stamp = msg.name, msg.position, (msg.header.stamp.sec, msg.header.stamp.nanosec)
+        self.process(names, position, stamp[0], stamp[1])
+        plan = self._last_plan
+        if plan is not None and plan.filler is not None and names == self._last_names:
+            plan.filler.learn(payload, len(names))
 
     def process(self, names: list[str], position: list[float], sec: int, nsec: int) -> bool:
         """Publish the transforms of one joint state; False when it was invalid or throttled."""
