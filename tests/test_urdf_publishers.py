@@ -383,12 +383,31 @@ def test_rsp_reads_repeated_joint_states_in_c_as_the_general_path_would(node_opt
                  '<mimic joint="j1" multiplier="2" offset="0.1"/></joint>')
     robot = parse_urdf("".join(chain) + "</robot>")
     names = [f"j{i}" for i in range(1, 13)]
-    handled = threading.Semaphore(0)
 
     class Probe(RobotStatePublisher):
-        def _on_sample(self, sample) -> None:  # the subscriber's callback, counted
+        """Records, per message its subscriber handled: (payload, ignored, fast reads, messages sent on tf)."""
+
+        def __init__(self, *args, **kwargs) -> None:
+            self.handled: list[tuple[bytes, int, int, int]] = []
+            self.cond = threading.Condition()
+            self.out: list[bytes] = []
+            super().__init__(*args, **kwargs)
+            self._tf.publish_bytes = self.out.append
+
+        def _on_sample(self, sample) -> None:
             super()._on_sample(sample)
-            handled.release()
+            with self.cond:
+                self.handled.append((sample.payload.to_bytes(), self.ignored, self.fast_reads, len(self.out)))
+                self.cond.notify_all()
+
+        def outcome(self, payload: bytes) -> tuple[int, int, bytes | None]:
+            """(ignored, fast reads) added by that message, and what it sent on tf (None: nothing)."""
+            with self.cond:
+                assert self.cond.wait_for(lambda: any(h[0] == payload for h in self.handled), 30)
+                k = next(k for k, h in enumerate(self.handled) if h[0] == payload)
+                before = self.handled[k - 1] if k else (b"", 0, 0, 0)
+                now = self.handled[k]
+                return now[1] - before[1], now[2] - before[2], self.out[now[3] - 1] if now[3] > before[3] else None
 
     class General(Probe):
         def _on_sample(self, sample) -> None:  # never a plan to read with: the general decoder every time
@@ -401,14 +420,15 @@ def test_rsp_reads_repeated_joint_states_in_c_as_the_general_path_would(node_opt
 
     rng = np.random.default_rng(3)
     pos = [float(v) for v in rng.uniform(-2, 2, 12)]
-    plain = [js(names, [float(v) for v in rng.uniform(-2, 2, 12)], 5, k) for k in range(20)]
+    payloads = [("plain", msgpack.packb(js(names, [float(v) for v in rng.uniform(-2, 2, 12)], 5, k)))
+                for k in range(20)]
     odd = [
         ("other names", js(names[:6], pos[:6])),
         ("names permuted", js(names[::-1], pos, 5, 1)),
         ("names again", js(names, pos, 6)),
         ("keys reordered", {"position": pos, "effort": [], "name": names, "velocity": [1.0] * 12,
                             "header": {"frame_id": "x", "stamp": {"sec": 7, "nanosec": 1}}}),
-        ("integral positions", js(names, [int(v) for v in range(12)], 8)),
+        ("integral positions", js(names, list(range(12)), 8)),
         ("float32", None),
         ("fewer positions", js(names, pos[:11], 9)),
         ("NaN", js(names, [float("nan")] + pos[1:], 10)),
@@ -419,7 +439,6 @@ def test_rsp_reads_repeated_joint_states_in_c_as_the_general_path_would(node_opt
         ("cut short", None),
         ("a string for a position", js(names, ["x"] + pos[1:], 13)),
     ]
-    payloads = [("plain", msgpack.packb(m)) for m in plain]
     for label, m in odd:
         if label == "float32":
             b = msgpack.packb(js(names, pos, 14), use_single_float=True)
@@ -428,29 +447,28 @@ def test_rsp_reads_repeated_joint_states_in_c_as_the_general_path_would(node_opt
         else:
             b = msgpack.packb(m)
         payloads += [(label, b), (label + ", then plain", msgpack.packb(js(names, pos, 20 + len(payloads))))]
+    assert len({p for _, p in payloads}) == len(payloads)
+    # read in C: the same names as the message before, however the rest is sent
+    must_read = {"keys reordered", "integral positions", "float32", "NaN, then plain", "an extra key, then plain"}
     with Node("rsp_fast", options=node_options) as node, Node("rsp_ref", options=node_options) as ref_node, \
             Node("rsp_js", options=node_options) as sender:
         rsp = Probe(node, robot, ignore_timestamp=True)
         ref = General(ref_node, robot, ignore_timestamp=True)
-        got: list[bytes] = []
-        want: list[bytes] = []
-        rsp._tf.publish_bytes = got.append
-        ref._tf.publish_bytes = want.append
         pub = sender.create_publisher("joint_states", JointState)
-        assert pub.wait_for_subscribers(10)
-        # read in C: the same names as the message before, however the rest is sent
-        must_read = {"keys reordered", "integral positions", "float32", "NaN, then plain", "an extra key, then plain"}
-        for k, (label, payload) in enumerate(payloads):
-            fast_before = rsp.fast_reads
-            n_got, n_want, n_ignored = len(got), len(want), rsp.ignored
+        for probe in (rsp, ref):  # both subscribers reached: a message that is not a JointState until each has one
+            with probe.cond:
+                while not probe.cond.wait_for(lambda: probe.handled, 0.2):
+                    pub.publish_bytes(b"not a JointState")
+        for label, payload in payloads:
             pub.publish_bytes(payload)
-            assert handled.acquire(timeout=10) and handled.acquire(timeout=10), label  # both publishers
-            ok = len(want) > n_want
-            assert (len(got) > n_got) == ok, label
-            if ok:
-                assert wire.unpack(got[-1]) == wire.unpack(want[-1]), label
-            else:
-                assert rsp.ignored == n_ignored + 1, label
+        for k, (label, payload) in enumerate(payloads):
+            ignored, fast, sent = rsp.outcome(payload)
+            ref_ignored, ref_fast, ref_sent = ref.outcome(payload)
+            assert ref_fast == 0
+            assert ignored == ref_ignored, label
+            assert (sent is None) == (ref_sent is None), label
+            if sent is not None:
+                assert wire.unpack(sent) == wire.unpack(ref_sent), label
             if label in must_read or (label == "plain" and k > 0):
-                assert rsp.fast_reads == fast_before + 1, label
+                assert fast == 1, label
         assert rsp.fast_reads >= 25
