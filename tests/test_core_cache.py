@@ -92,10 +92,11 @@ ops = st.lists(st.one_of(
     st.tuples(st.just("clear"))), min_size=1, max_size=120)
 
 
-# (origin, unit) of the stamps: small ones; units of 2**29 ns from a little below 3 * 2**32, so a
-# run of equal high words (the stored stamp is its low 32 bits) holds 8 units; single nanoseconds
-# straddling 2**32, the boundary inside the samples
-SCALES = [(0, 1000), (3 * 2 ** 32 - 20 * 2 ** 29, 2 ** 29), (2 ** 32 - 30, 1)]
+# (origin, unit) of the stamps. A stamp is stored as its offset from the frame's first one, the
+# low 32 bits per sample and the high bits once per run of samples sharing them: small units (one
+# run); units of 2**29 ns (a run holds about 8); units a nanosecond either side of 2**32 (nearly
+# every sample starts a run, samples inserted before the first one give negative runs)
+SCALES = [(0, 1000), (3 * 2 ** 32 - 20 * 2 ** 29, 2 ** 29), (2 ** 40, 2 ** 32 - 1), (7, 2 ** 32 + 1)]
 
 
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -212,15 +213,14 @@ def test_a_ring_crossing_the_mapping_threshold_grows_wraps_and_shrinks_like_the_
     """Large rings live in a mapping of their own (mremap growth), small ones in malloc: a stream
     fills past the threshold, runs steady and wrapped, doubles its rate (wrapped growth), takes
     out-of-order samples, then slows down until the ring gives its room back below the threshold.
-    The second origin makes the stamps cross 2**32 boundaries every 4096 units all along."""
+    The second origin puts the stamps 2**32 ns runs apart every 4096 units all along."""
     rng = random.Random(15)
     max_units = 2000
     c, m = TimeCache(max_units * unit), Model(max_units * unit)
     k = 0.0
-    seen_mapped = False
 
     def feed(count: int, step: float, late: float = 0.0) -> None:
-        nonlocal k, seen_mapped
+        nonlocal k
         for _ in range(count):
             k += step
             stamp = origin + int(k * unit)
@@ -229,24 +229,28 @@ def test_a_ring_crossing_the_mapping_threshold_grows_wraps_and_shrinks_like_the_
             v = (rng.random(), k, -k, *_quat(rng.randrange(100)))
             parent = 1 + (int(k) // 700) % 2
             assert c.insert(stamp, parent, v) == m.insert(stamp, parent, v)
-            seen_mapped |= c.mapped
 
     def probe() -> list[int]:
         lo, hi = m.s[0][0], m.s[-1][0]
         return [rng.randint(lo - unit, hi + unit) for _ in range(300)] + [lo, hi, m.s[len(m.s) // 2][0]]
 
-    feed(1000, 1.0)                            # 1000 samples: below the threshold, malloc'd
-    assert not c.mapped and len(c) == 1000
+    feed(600, 4.0)                             # steady at 501 samples: below the threshold, malloc'd
+    assert not c.mapped and len(c) == 501
     _check_against(c, m, probe())
-    feed(3000, 1.0)                            # past it and steady: 2001 samples, mapped
-    assert c.mapped and seen_mapped and len(c) == 2001
-    assert c.capacity * 56 <= 2002 * 56 + 4096  # no slack beyond the last page
-    _check_against(c, m, probe())
-    feed(6000, 0.5, late=0.05)                 # twice the rate, out-of-order samples: wrapped growth
-    assert len(c) > 3900 and c.mapped
+    feed(6000, 0.5, late=0.05)                 # 8x the rate, out-of-order samples: wrapped growth into
+    assert c.mapped and len(c) > 3900          # a mapping, then mremap growth, wrapped
     _check_against(c, m, probe())
     feed(3000, 8.0)                            # one sample every 8 units: the ring shrinks, malloc again
     assert len(c) == 251 and not c.mapped and c.capacity < 300
+    _check_against(c, m, probe())
+    c.clear()
+    m.s.clear()
+    assert len(c) == 0 and c.capacity == 0 and not c.mapped and c.get(origin) is None
+    feed(100, 1.0)                             # a fast frame: mapped from its first growth on, the room
+    assert c.mapped and len(c) == 100 and c.capacity > 1000  # ahead costs untouched pages only
+    _check_against(c, m, probe())
+    feed(3000, 1.0)                            # steady: trimmed to what it holds, to the page
+    assert c.mapped and len(c) == 2001 and c.capacity * 56 <= 2002 * 56 + 4096
     _check_against(c, m, probe())
     c.clear()
     assert len(c) == 0 and c.capacity == 0 and not c.mapped and c.get(origin) is None

@@ -15,7 +15,7 @@ cdef class CacheBase:
 
 
 cdef struct _Run:
-    int64_t hi                          # stamp >> 32 of every sample in the run
+    int64_t hi                          # (stamp - epoch) >> 32 of every sample in the run
     int64_t start                       # virtual index (see TimeCache._base) of its first sample
 
 
@@ -43,6 +43,7 @@ cdef class TimeCache(CacheBase):
     cdef bint _steady                   # pruning has begun: the cache holds about as many samples as it will
     cdef Py_ssize_t _cap, _head, _n
     cdef int64_t _base                  # virtual index of the oldest sample (samples pruned so far)
+    cdef int64_t _epoch                 # stamps are stored as stamp - _epoch (the first sample's stamp)
     cdef public int64_t max_ns
     cdef int64_t oldest
     cdef inline Py_ssize_t _slot(self, Py_ssize_t i) noexcept
@@ -51,12 +52,15 @@ cdef class TimeCache(CacheBase):
     cdef void _reset(self) noexcept
     cdef void _release(self) noexcept
     cdef int _own_parents(self) except -1
+    cdef Py_ssize_t _grown(self) noexcept
     cdef int _set_cap(self, Py_ssize_t cap) noexcept
     cdef int _unroll(self) noexcept
     cdef int _add_run(self, Py_ssize_t k, int64_t hi, int64_t start) noexcept
     cdef void _prune(self) noexcept
-    cdef void _span(self, _Interp* ip, Py_ssize_t i) noexcept
+    cdef void _span(self, _Interp* ip, Py_ssize_t i, Py_ssize_t run) noexcept
     cdef Py_ssize_t _bound(self, int64_t t, bint right) noexcept
+    cdef inline Py_ssize_t _floor(self, int64_t t, Py_ssize_t* run) noexcept
+    cdef Py_ssize_t _floor_runs(self, int64_t t, Py_ssize_t* run) noexcept
     cdef inline void _copy(self, Py_ssize_t i, int32_t* parent, double* out) noexcept
 
 

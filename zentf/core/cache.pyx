@@ -11,7 +11,7 @@ id is kept once per frame while it never changes (tf2 stores it in every sample)
 parent does change gets a per-sample int32 column from then on. Callers hold BufferCore's lock.
 """
 from libc.math cimport acos, cos, sin, sqrt
-from libc.stdint cimport int32_t, int64_t, uint32_t
+from libc.stdint cimport UINT32_MAX, int32_t, int64_t, uint32_t
 from libc.stdlib cimport free, malloc, realloc
 from libc.string cimport memcpy, memmove
 from posix.mman cimport MAP_ANONYMOUS, MAP_FAILED, MAP_PRIVATE, PROT_READ, PROT_WRITE, mmap, mremap, munmap
@@ -76,9 +76,7 @@ cdef class CacheBase:
 
 
 cdef enum:
-    _MAP_MIN = 65536     # an array of at least this many bytes gets an anonymous mapping of its own
-    _GROW_SHIFT = 2      # while filling up, a full ring grows by 1/4 (+4 slots)
-    _STEADY_SHIFT = 6    # once pruning holds it steady, by 1/64
+    _MAP_MIN = 65536     # a ring whose values take this many bytes or more gets mappings of its own
 
 cdef extern from "<sys/mman.h>" nogil:
     int MREMAP_MAYMOVE               # Linux (Python.h defines _GNU_SOURCE)
@@ -94,15 +92,15 @@ cdef inline size_t _pages(size_t nbytes) noexcept nogil:
     return (nbytes + _PAGE - 1) & ~(_PAGE - 1)
 
 
-cdef void* _arr_resize(void* p, size_t old, size_t new, bint* mapped) noexcept nogil:
+cdef void* _arr_resize(void* p, size_t old, size_t new, bint* mapped, bint want_map) noexcept nogil:
     """Resize an array of old bytes to new bytes, keeping its first min(old, new) bytes.
 
-    p NULL allocates, new 0 frees (returns NULL). Arrays of _MAP_MIN bytes or more live in an
-    anonymous mapping of their own: mremap grows or shrinks them by moving page-table entries
-    (no copy, no hole left in the malloc heap for the next allocation to fill or not), and
-    their untouched pages cost no memory; smaller ones use malloc/realloc, so ten thousand
-    one-sample frames stay a few hundred bytes each. Returns NULL, p untouched, when no memory
-    is to be had; a shrink never fails. mapped says where p lives, and is updated.
+    p NULL allocates, new 0 frees (returns NULL). want_map: the array gets an anonymous mapping
+    of its own (large rings), which mremap grows or shrinks by moving page-table entries (no
+    copy, no hole left in the malloc heap), and whose untouched pages cost no memory; otherwise
+    malloc/realloc, so ten thousand one-sample frames stay a few hundred bytes each. Returns
+    NULL, p untouched, when no memory is to be had; a shrink never fails. mapped says where p
+    lives, and is updated.
     """
     cdef void* q
     cdef size_t keep = old if old < new else new
@@ -114,7 +112,7 @@ cdef void* _arr_resize(void* p, size_t old, size_t new, bint* mapped) noexcept n
                 free(p)
         mapped[0] = False
         return NULL
-    if new >= _MAP_MIN:
+    if want_map:
         if p != NULL and mapped[0]:
             q = mremap(p, _pages(old), _pages(new), MREMAP_MAYMOVE)
             return NULL if q == MAP_FAILED else q
@@ -141,12 +139,28 @@ cdef void* _arr_resize(void* p, size_t old, size_t new, bint* mapped) noexcept n
     return q
 
 
+cdef inline bint _big(Py_ssize_t cap) noexcept:
+    """A ring of cap slots is large: its arrays get mappings of their own."""
+    return <size_t>cap * 7 * sizeof(double) >= _MAP_MIN
+
+
 cdef inline Py_ssize_t _fit(Py_ssize_t cap) noexcept:
-    """cap, or more slots if the values array is mapped: as many as its whole pages hold."""
-    cdef size_t nbytes = <size_t>cap * 7 * sizeof(double)
-    if nbytes >= _MAP_MIN:
-        return <Py_ssize_t>(_pages(nbytes) // (7 * sizeof(double)))
+    """cap, or more slots if the ring is mapped: as many as the whole pages of its values hold."""
+    if _big(cap):
+        return <Py_ssize_t>(_pages(<size_t>cap * 7 * sizeof(double)) // (7 * sizeof(double)))
     return cap
+
+
+cdef inline Py_ssize_t _bisect32r(const uint32_t* a, Py_ssize_t lo, Py_ssize_t hi, uint32_t x) noexcept:
+    """First index in [lo, hi) whose value is > x (bisect_right), hi if none."""
+    cdef Py_ssize_t mid
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if x < a[mid]:
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo
 
 
 cdef inline Py_ssize_t _bisect32(const uint32_t* a, Py_ssize_t lo, Py_ssize_t hi, uint32_t x) noexcept:
@@ -186,6 +200,7 @@ cdef class TimeCache(CacheBase):
         self._head = 0
         self._n = 0
         self._base = 0
+        self._epoch = 0
         self._nruns = 0
         self._steady = False
         self._par0 = 0
@@ -201,11 +216,11 @@ cdef class TimeCache(CacheBase):
         cdef bint m
         cdef size_t cap = <size_t>self._cap
         m = (self._mm & 1) != 0
-        _arr_resize(self._lo, cap * sizeof(uint32_t), 0, &m)
+        _arr_resize(self._lo, cap * sizeof(uint32_t), 0, &m, False)
         m = (self._mm & 2) != 0
-        _arr_resize(self._d, cap * 7 * sizeof(double), 0, &m)
+        _arr_resize(self._d, cap * 7 * sizeof(double), 0, &m, False)
         m = (self._mm & 4) != 0
-        _arr_resize(self._par, cap * sizeof(int32_t), 0, &m)
+        _arr_resize(self._par, cap * sizeof(int32_t), 0, &m, False)
         free(self._runs)
         free(self._ip)
         self._lo = NULL
@@ -241,7 +256,7 @@ cdef class TimeCache(CacheBase):
                 a = mid
             else:
                 b = mid
-        return (runs[a].hi << 32) | <int64_t>self._lo[self._slot(i)]
+        return self._epoch + ((runs[a].hi << 32) | <int64_t>self._lo[self._slot(i)])
 
     cdef int _set_cap(self, Py_ssize_t cap) noexcept:
         """Resize the ring to cap slots (>= n, more if mapped pages hold more); -1 if no memory
@@ -252,24 +267,26 @@ cdef class TimeCache(CacheBase):
         cdef void* lo
         cdef void* d
         cdef void* par = NULL
+        cdef bint big
         cap = _fit(cap)
+        big = _big(cap)
         if cap == old:
             return 0
         if cap < old and self._head + self._n > cap and self._unroll() < 0:
             return -1
-        lo = _arr_resize(self._lo, old * sizeof(uint32_t), cap * sizeof(uint32_t), &m0)
+        lo = _arr_resize(self._lo, old * sizeof(uint32_t), cap * sizeof(uint32_t), &m0, big)
         if lo == NULL:
             return -1
-        d = _arr_resize(self._d, old * 7 * sizeof(double), cap * 7 * sizeof(double), &m1)
+        d = _arr_resize(self._d, old * 7 * sizeof(double), cap * 7 * sizeof(double), &m1, big)
         if d == NULL:  # only growth fails: shrink the first array back
-            self._lo = <uint32_t*>_arr_resize(lo, cap * sizeof(uint32_t), old * sizeof(uint32_t), &m0)
+            self._lo = <uint32_t*>_arr_resize(lo, cap * sizeof(uint32_t), old * sizeof(uint32_t), &m0, m0)
             self._mm = (self._mm & ~1) | m0
             return -1
         if self._par != NULL:
-            par = _arr_resize(self._par, old * sizeof(int32_t), cap * sizeof(int32_t), &m2)
+            par = _arr_resize(self._par, old * sizeof(int32_t), cap * sizeof(int32_t), &m2, big)
             if par == NULL:
-                self._lo = <uint32_t*>_arr_resize(lo, cap * sizeof(uint32_t), old * sizeof(uint32_t), &m0)
-                self._d = <double*>_arr_resize(d, cap * 7 * sizeof(double), old * 7 * sizeof(double), &m1)
+                self._lo = <uint32_t*>_arr_resize(lo, cap * sizeof(uint32_t), old * sizeof(uint32_t), &m0, m0)
+                self._d = <double*>_arr_resize(d, cap * 7 * sizeof(double), old * 7 * sizeof(double), &m1, m1)
                 self._mm = (self._mm & 4) | m0 | (m1 << 1)
                 return -1
         self._lo, self._d, self._par = <uint32_t*>lo, <double*>d, <int32_t*>par
@@ -328,7 +345,7 @@ cdef class TimeCache(CacheBase):
     cdef int _own_parents(self) except -1:
         """Switch to a parent per sample (the frame's parent changed): every stored one is _par0."""
         cdef bint m = False
-        cdef int32_t* par = <int32_t*>_arr_resize(NULL, 0, self._cap * sizeof(int32_t), &m)
+        cdef int32_t* par = <int32_t*>_arr_resize(NULL, 0, self._cap * sizeof(int32_t), &m, (self._mm & 2) != 0)
         cdef Py_ssize_t i
         if par == NULL:
             raise MemoryError()
@@ -358,23 +375,46 @@ cdef class TimeCache(CacheBase):
     cdef inline int32_t _parent(self, Py_ssize_t j) noexcept:
         return self._par0 if self._par == NULL else self._par[j]
 
+    cdef Py_ssize_t _grown(self) noexcept:
+        """The capacity a full ring grows to.
+
+        Steady (pruning): by 1/64, the rate went up a little. Filling up in malloc'd arrays: by
+        1/8, little slack (a copy each time, by realloc). A frame whose rate says its cache will
+        hold a large ring (cache time x samples per second) moves to mappings at once, and
+        doubles there while it fills: untouched pages cost nothing, mremap copies nothing, and
+        the malloc heap keeps no holes from its growth. Pruning then trims it to what it holds.
+        """
+        cdef Py_ssize_t n = self._n, cap = n + (n >> 3) + 4
+        cdef int64_t span
+        if self._steady:
+            return n + (n >> 6) + 4
+        if self._mm & 2:
+            return 2 * n
+        if n >= 8 and not _big(cap):
+            span = self.newest - self.oldest
+            if span > 0 and <double>self.max_ns / <double>span * <double>(n - 1) >= <double>(_MAP_MIN // (7 * sizeof(double))):
+                return _MAP_MIN // (7 * sizeof(double)) + 1
+        return cap
+
     cdef int insert_c(self, int64_t stamp, int32_t parent, const double* v) except -1:
-        cdef int64_t newest = self.newest, hi = stamp >> 32
+        cdef int64_t newest = self.newest, hi, rel
         cdef Py_ssize_t i, j, k, lo, n = self._n
         cdef _Run* runs
-        if n == self._cap:  # grow: by a quarter while filling up, by 1/64 once pruning holds it steady
-            if self._set_cap(n + (n >> (_STEADY_SHIFT if self._steady else _GROW_SHIFT)) + 4) < 0:
-                raise MemoryError()
+        if n == self._cap and self._set_cap(self._grown()) < 0:
+            raise MemoryError()
         if n == 0:
             self._par0 = parent
+            self._epoch = stamp          # runs count 2**32 ns from the first sample
         elif self._par == NULL and parent != self._par0:
             self._own_parents()
+        rel = stamp - self._epoch
+        hi = rel >> 32
         if stamp > newest:
             if self._nruns == 0 or self._runs[self._nruns - 1].hi != hi:
                 if self._add_run(self._nruns, hi, self._base + n) < 0:
                     raise MemoryError()
             j = self._slot(n)
-            self._lo[j] = <uint32_t>stamp
+            self._lo[j] = <uint32_t>rel
             memcpy(&self._d[7 * j], v, 7 * sizeof(double))
             if self._par != NULL:
                 self._par[j] = parent
@@ -410,7 +450,7 @@ cdef class TimeCache(CacheBase):
                     self._par[j] = self._par[i]
                 k -= 1
             j = self._slot(lo)
-            self._lo[j] = <uint32_t>stamp
+            self._lo[j] = <uint32_t>rel
             memcpy(&self._d[7 * j], v, 7 * sizeof(double))
             if self._par != NULL:
                 self._par[j] = parent
@@ -438,7 +478,7 @@ cdef class TimeCache(CacheBase):
             memmove(runs, &runs[d], (self._nruns - d) * sizeof(_Run))
             self._nruns -= d
         runs[0].start = self._base
-        self.oldest = self._stamp(0)
+        self.oldest = self._epoch + ((runs[0].hi << 32) | <int64_t>self._lo[self._head])
         if self._ip != NULL:
             self._ip.memo_t = -1     # the memoized time may have fallen out
         n = self._n
@@ -447,15 +487,19 @@ cdef class TimeCache(CacheBase):
             if self._cap > n + 1:
                 self._set_cap(n + 1)
         elif self._cap > _fit(n + (n >> 3) + 16):  # fewer samples than before (a slower rate): give room back
-            self._set_cap(n + (n >> _STEADY_SHIFT) + 4)
+            self._set_cap(n + (n >> 6) + 4)
 
     cdef Py_ssize_t _bound(self, int64_t t, bint right) noexcept:
         """Logical index of the first sample after t (right: bisect_right) or at or after t
         (bisect_left); n if none. The run of t's high word, then its low words, bisected."""
-        cdef int64_t hi = t >> 32
-        cdef uint32_t x = <uint32_t>t
+        cdef int64_t hi
+        cdef uint32_t x
         cdef _Run* runs = self._runs
         cdef Py_ssize_t a = 0, b = self._nruns, mid, first, last, ps, cap = self._cap, seg
+        if self._n == 0 or t < self.oldest:
+            return 0
+        hi = (t - self._epoch) >> 32
+        x = <uint32_t>(t - self._epoch)
         while a < b:                         # the first run whose high word is >= t's
             mid = (a + b) >> 1
             if runs[mid].hi < hi:
@@ -469,7 +513,7 @@ cdef class TimeCache(CacheBase):
             return first
         last = runs[a + 1].start - self._base if a + 1 < self._nruns else self._n
         if right:                            # first low word > x is the first >= x + 1
-            if x == 0xFFFFFFFF:
+            if x == UINT32_MAX:
                 return last
             x += 1
         # the run's slots are at most two contiguous stretches of the ring: [ps, cap) then [0, ...)
@@ -483,12 +527,69 @@ cdef class TimeCache(CacheBase):
             return first + seg + _bisect32(self._lo, 0, last - first - seg, x)
         return first + _bisect32(self._lo, ps, cap, x) - ps
 
+    cdef inline Py_ssize_t _floor(self, int64_t t, Py_ssize_t* run) noexcept:
+        """Logical index of the newest sample at or before t, and its run (t inside the range).
+        One run (less than 4.3 s stored): bisect_right of the low words over the ring's two stretches."""
+        cdef uint32_t x
+        cdef Py_ssize_t head, n, cap
+        if self._nruns != 1:
+            return self._floor_runs(t, run)
+        x = <uint32_t>(t - self._epoch)
+        head = self._head
+        n = self._n
+        cap = self._cap
+        run[0] = 0
+        if head + n > cap and x >= self._lo[0]:
+            return cap - head + _bisect32r(self._lo, 0, head + n - cap, x) - 1
+        return _bisect32r(self._lo, head, head + n if head + n <= cap else cap, x) - head - 1
+
+    cdef Py_ssize_t _floor_runs(self, int64_t t, Py_ssize_t* run) noexcept:
+        """_floor over several runs: the last run whose high word is <= t's, then bisect_right of
+        its low words."""
+        cdef int64_t hi = (t - self._epoch) >> 32
+        cdef uint32_t x = <uint32_t>(t - self._epoch)
+        cdef _Run* runs = self._runs
+        cdef Py_ssize_t a = self._nruns - 1, b, mid, first, last, ps, cap = self._cap, seg, r
+        if a < 8:                            # a few runs (a cache of some seconds): from the newest
+            while runs[a].hi > hi:
+                a -= 1
+        else:
+            a = 0
+            b = self._nruns
+            while b - a > 1:
+                mid = (a + b) >> 1
+                if runs[mid].hi <= hi:
+                    a = mid
+                else:
+                    b = mid
+        first = runs[a].start - self._base
+        last = runs[a + 1].start - self._base if a + 1 < self._nruns else self._n
+        if runs[a].hi < hi:                  # the whole run is older than t
+            run[0] = a
+            return last - 1
+        ps = self._head + first              # the run's slots: [ps, cap) then [0, ...) if it wraps
+        if ps >= cap:
+            ps -= cap
+        if ps + (last - first) <= cap:
+            r = first + _bisect32r(self._lo, ps, ps + (last - first), x) - ps
+        else:
+            seg = cap - ps
+            if x >= self._lo[0]:
+                r = first + seg + _bisect32r(self._lo, 0, last - first - seg, x)
+            else:
+                r = first + _bisect32r(self._lo, ps, cap, x) - ps
+        if r == first:                       # before the run's first sample: the previous run's last
+            run[0] = a - 1
+        else:
+            run[0] = a
+        return r - 1
+
     cdef inline void _copy(self, Py_ssize_t i, int32_t* parent, double* out) noexcept:
         cdef Py_ssize_t j = self._slot(i)
         parent[0] = self._parent(j)
         memcpy(out, &self._d[7 * j], 7 * sizeof(double))
 
-    cdef void _span(self, _Interp* ip, Py_ssize_t i) noexcept:
+    cdef void _span(self, _Interp* ip, Py_ssize_t i, Py_ssize_t run) noexcept:
         """Constants to interpolate between samples i and i+1 exactly like tf2.
 
         tf2's slerp is (q0·sin((1-r)θ) + ±q1·sin(rθ)) / sin θ, with θ from the normalized dot
@@ -502,8 +603,12 @@ cdef class TimeCache(CacheBase):
         cdef double* sp = ip.sp
         cdef double x1, y1, z1, w1, dot, c, theta, inv
         cdef int k
-        ip.sp_t0 = self._stamp(i)
-        ip.sp_t1 = self._stamp(i + 1)
+        cdef _Run* runs = self._runs
+        cdef int64_t e = self._epoch + (runs[run].hi << 32)
+        ip.sp_t0 = e + <int64_t>self._lo[j0]
+        if run + 1 < self._nruns and runs[run + 1].start == self._base + i + 1:
+            e = self._epoch + (runs[run + 1].hi << 32)  # sample i + 1 begins the next run
+        ip.sp_t1 = e + <int64_t>self._lo[j1]
         ip.sp_p = self._parent(j0)
         ip.sp_same = self._parent(j1) == ip.sp_p
         if not ip.sp_same:
@@ -540,6 +645,7 @@ cdef class TimeCache(CacheBase):
         cdef double* sp
         cdef _Interp* ip = self._ip
         cdef _Interp local
+        cdef Py_ssize_t i, run
         cdef int k
         if t == newest or t == 0:
             if newest < 0:
@@ -564,7 +670,8 @@ cdef class TimeCache(CacheBase):
             ip.sp_t0 = 0
             ip.sp_t1 = 0
         if not (ip.sp_t0 <= t < ip.sp_t1):
-            self._span(ip, self._bound(t, True) - 1)
+            i = self._floor(t, &run)
+            self._span(ip, i, run)
         sp = ip.sp
         parent[0] = ip.sp_p
         if not ip.sp_same:
@@ -589,13 +696,14 @@ cdef class TimeCache(CacheBase):
 
     cdef int32_t parent_at_c(self, int64_t t) noexcept:
         cdef int64_t newest = self.newest
+        cdef Py_ssize_t run
         if newest < 0:
             return 0
         if t == 0 or t == newest:
             return self._parent(self._slot(self._n - 1))
         if t > newest or t < self.oldest or self._n == 1:
             return 0
-        return self._parent(self._slot(self._bound(t, True) - 1))
+        return self._parent(self._slot(self._floor(t, &run)))
 
     cdef int32_t latest_parent_c(self) noexcept:
         if self._n == 0:
@@ -661,7 +769,7 @@ cdef class TimeCache(CacheBase):
             v = self._base + i
             while k + 1 < self._nruns and self._runs[k + 1].start <= v:
                 k += 1
-            stv[i] = (self._runs[k].hi << 32) | <int64_t>self._lo[j]
+            stv[i] = self._epoch + ((self._runs[k].hi << 32) | <int64_t>self._lo[j])
             pv[i] = self._parent(j)
             memcpy(&dv[i, 0], &self._d[7 * j], 7 * sizeof(double))
         return st, par, d
