@@ -8,8 +8,10 @@ textbook slerp form), and check the compiled modules are the ones imported.
 """
 from __future__ import annotations
 
+import bisect
 import importlib.machinery
 import math
+import random
 import threading
 
 import pytest
@@ -35,14 +37,15 @@ class Model:
         self.s: list[tuple[int, int, tuple]] = []
 
     def insert(self, stamp: int, parent: int, v: tuple) -> int:
+        stamps = [x[0] for x in self.s]
         if self.s and self.s[-1][0] - stamp > self.max_ns:
             return INSERT_OLD
-        if any(x[0] == stamp for x in self.s):
+        i = bisect.bisect_left(stamps, stamp)
+        if i < len(stamps) and stamps[i] == stamp:
             return INSERT_REPEATED
-        self.s.append((stamp, parent, v))
-        self.s.sort(key=lambda x: x[0])
-        newest = self.s[-1][0]
-        self.s = [x for x in self.s if not x[0] < newest - self.max_ns]
+        self.s.insert(i, (stamp, parent, v))
+        stamps.insert(i, stamp)
+        del self.s[:bisect.bisect_left(stamps, self.s[-1][0] - self.max_ns)]
         return INSERT_OK
 
     def get(self, t: int):
@@ -55,7 +58,7 @@ class Model:
             return None
         if t == s[0][0]:
             return (s[0][1], *s[0][2])
-        i = max(k for k in range(len(s)) if s[k][0] <= t)
+        i = bisect.bisect_right([x[0] for x in s], t) - 1
         (t0, p0, a), (t1, p1, b) = s[i], s[i + 1]
         if p0 != p1:
             return (p0, *a)
@@ -89,18 +92,26 @@ ops = st.lists(st.one_of(
     st.tuples(st.just("clear"))), min_size=1, max_size=120)
 
 
+# (origin, unit) of the stamps. A stamp is stored as its offset from the frame's first one, the
+# low 32 bits per sample and the high bits once per run of samples sharing them: small units (one
+# run); units of 2**29 ns (a run holds about 8); units a nanosecond either side of 2**32 (nearly
+# every sample starts a run, samples inserted before the first one give negative runs)
+SCALES = [(0, 1000), (3 * 2 ** 32 - 20 * 2 ** 29, 2 ** 29), (2 ** 40, 2 ** 32 - 1), (7, 2 ** 32 + 1)]
+
+
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(ops, st.integers(3, 40))
-def test_time_cache_equals_the_model(seq, max_units) -> None:
-    unit = 1000
+@given(ops, st.integers(3, 40), st.sampled_from(SCALES))
+def test_time_cache_equals_the_model(seq, max_units, scale) -> None:
+    origin, unit = scale
     c, m = TimeCache(max_units * unit), Model(max_units * unit)
     for op in seq:
         if op[0] == "ins":
             _, k, parent, seed = op
             v = (0.1 * seed, -0.2 * k, 0.01 * seed * k, *_quat(seed))
-            assert c.insert(k * unit, parent, v) == m.insert(k * unit, parent, v)
+            stamp = origin + k * unit
+            assert c.insert(stamp, parent, v) == m.insert(stamp, parent, v)
         elif op[0] == "get":
-            t = op[1] * unit + (unit // 3 if op[1] % 2 else 0)
+            t = origin + op[1] * unit + (unit // 3 if op[1] % 2 else 0)
             want, got = m.get(t), c.get(t)
             assert (want is None) == (got is None), (t, want, got)
             if want is not None:
@@ -182,3 +193,79 @@ def test_stream_through_the_wrapped_ring_equals_the_model(max_units) -> None:
             assert (want is None) == (got is None), (k, t)
             if want is not None:
                 assert got[0] == want[0] and max(abs(x - y) for x, y in zip(got[1:], want[1:])) < 1e-12, (k, t)
+
+
+def _check_against(c: TimeCache, m: Model, times) -> None:
+    """Every stored column and the answer at each of times equal the model's."""
+    st_, par, d = c.columns()
+    assert list(st_) == [x[0] for x in m.s] and list(par) == [x[1] for x in m.s]
+    assert [tuple(row) for row in d] == [x[2] for x in m.s]
+    for t in times:
+        want, got = m.get(t), c.get(t)
+        assert (want is None) == (got is None), t
+        if want is not None:
+            assert got[0] == want[0] and max(abs(x - y) for x, y in zip(got[1:], want[1:])) < 1e-12, t
+        assert c.parent_at(t) == m.parent_at(t), t
+
+
+@pytest.mark.parametrize("origin, unit", [(0, 1000), (7 * 2 ** 32 - 3000 * 2 ** 20, 2 ** 20)])
+def test_a_ring_crossing_the_mapping_threshold_grows_wraps_and_shrinks_like_the_model(origin, unit) -> None:
+    """Large rings live in a mapping of their own (mremap growth), small ones in malloc: a stream
+    fills past the threshold, runs steady and wrapped, doubles its rate (wrapped growth), takes
+    out-of-order samples, then slows down until the ring gives its room back below the threshold.
+    The second origin puts the stamps 2**32 ns runs apart every 4096 units all along."""
+    rng = random.Random(15)
+    max_units = 2000
+    c, m = TimeCache(max_units * unit), Model(max_units * unit)
+    k = 0.0
+
+    def feed(count: int, step: float, late: float = 0.0) -> None:
+        nonlocal k
+        for _ in range(count):
+            k += step
+            stamp = origin + int(k * unit)
+            if late and rng.random() < late:  # now and then a sample from the recent past
+                stamp -= rng.randrange(1, 50) * unit + rng.randrange(unit)
+            v = (rng.random(), k, -k, *_quat(rng.randrange(100)))
+            parent = 1 + (int(k) // 700) % 2
+            assert c.insert(stamp, parent, v) == m.insert(stamp, parent, v)
+
+    def probe() -> list[int]:
+        lo, hi = m.s[0][0], m.s[-1][0]
+        return [rng.randint(lo - unit, hi + unit) for _ in range(300)] + [lo, hi, m.s[len(m.s) // 2][0]]
+
+    feed(600, 4.0)                             # steady at 501 samples: below the threshold, malloc'd
+    assert not c.mapped and len(c) == 501
+    _check_against(c, m, probe())
+    feed(6000, 0.5, late=0.05)                 # 8x the rate, out-of-order samples: wrapped growth into
+    assert c.mapped and len(c) > 3900          # a mapping, then mremap growth, wrapped
+    _check_against(c, m, probe())
+    feed(3000, 8.0)                            # one sample every 8 units: the ring shrinks, malloc again
+    assert len(c) == 251 and not c.mapped and c.capacity < 300
+    _check_against(c, m, probe())
+    c.clear()
+    m.s.clear()
+    assert len(c) == 0 and c.capacity == 0 and not c.mapped and c.get(origin) is None
+    feed(100, 1.0)                             # a fast frame: mapped from its first growth on, the room
+    assert c.mapped and len(c) == 100 and c.capacity > 1000  # ahead costs untouched pages only
+    _check_against(c, m, probe())
+    feed(3000, 1.0)                            # steady: trimmed to what it holds, to the page
+    assert c.mapped and len(c) == 2001 and c.capacity * 56 <= 2002 * 56 + 4096
+    _check_against(c, m, probe())
+    c.clear()
+    assert len(c) == 0 and c.capacity == 0 and not c.mapped and c.get(origin) is None
+
+
+def test_runs_of_high_words_fall_out_with_pruning() -> None:
+    """Stamps spanning many 2**32 ns runs in a cache longer than one run: exact stamps and answers
+    while whole runs are pruned, and a sample inserted into the middle of a run."""
+    step = 2 ** 31 + 12345                      # two samples per run, more or less
+    c, m = TimeCache(10 * step), Model(10 * step)
+    for k in range(1, 200):
+        v = (float(k), 0.0, 0.0, *_quat(k))
+        assert c.insert(k * step, 1, v) == m.insert(k * step, 1, v)
+        if k % 17 == 0:                         # in between two stored samples
+            late = (k - 3) * step + step // 2
+            assert c.insert(late, 1, v) == m.insert(late, 1, v)
+    _check_against(c, m, [m.s[0][0] + i * step // 7 for i in range(80)])
+    assert c.capacity <= len(c) + 5 and c.nbytes() <= c.capacity * 60 + 8 * 16  # 4 + 56 B a slot, 16 B a run

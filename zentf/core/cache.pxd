@@ -1,6 +1,6 @@
 # Declarations of the per-frame caches (cache.pyx), cimported by buffer_core.pyx for the C-level walk.
 cimport cython
-from libc.stdint cimport int32_t, int64_t
+from libc.stdint cimport int32_t, int64_t, uint32_t
 
 
 cdef class CacheBase:
@@ -14,33 +14,53 @@ cdef class CacheBase:
     cdef void clear_c(self) noexcept
 
 
+cdef struct _Run:
+    int64_t hi                          # (stamp - epoch) >> 32 of every sample in the run
+    int64_t start                       # virtual index (see TimeCache._base) of its first sample
+
+
+cdef struct _Interp:
+    # the last interpolated query (time and answer) and the constants of the last interval asked
+    int64_t memo_t
+    int32_t memo_p
+    double memo[7]
+    int64_t sp_t0, sp_t1
+    int32_t sp_p
+    bint sp_same                        # False: parents differ, the older sample applies as is
+    double sp[16]                       # inv_dt, p0 (3), dp (3), q0 (4), a (4), theta
+
+
 @cython.final
 cdef class TimeCache(CacheBase):
-    cdef int64_t* _st                   # stamps (ns), a ring of _cap slots, logical 0 = oldest
+    cdef uint32_t* _lo                  # low 32 bits of the stamps (ns), a ring of _cap slots, logical 0 = oldest
     cdef double* _d                     # tx, ty, tz, qx, qy, qz, qw per slot
     cdef int32_t* _par                  # parent per slot; NULL while every sample has parent _par0
+    cdef _Run* _runs                    # the high 32 bits: one entry per run of samples sharing them
+    cdef _Interp* _ip                   # allocated by the first interpolated lookup
     cdef int32_t _par0
-    cdef Py_ssize_t _cap, _head, _n
+    cdef int32_t _nruns, _runs_cap
+    cdef unsigned char _mm              # bit per array held in its own mapping: 1 _lo, 2 _d, 4 _par
     cdef bint _steady                   # pruning has begun: the cache holds about as many samples as it will
+    cdef Py_ssize_t _cap, _head, _n
+    cdef int64_t _base                  # virtual index of the oldest sample (samples pruned so far)
+    cdef int64_t _epoch                 # stamps are stored as stamp - _epoch (the first sample's stamp)
     cdef public int64_t max_ns
     cdef int64_t oldest
-    # the last interpolated query (time and answer) and the constants of the last interval asked
-    cdef int64_t _memo_t
-    cdef int32_t _memo_p
-    cdef double _memo[7]
-    cdef int64_t _sp_t0, _sp_t1
-    cdef int32_t _sp_p
-    cdef bint _sp_same                  # False: parents differ, the older sample applies as is
-    cdef double _sp[16]                 # inv_dt, p0 (3), dp (3), q0 (4), a (4), theta
     cdef inline Py_ssize_t _slot(self, Py_ssize_t i) noexcept
     cdef inline int32_t _parent(self, Py_ssize_t j) noexcept
+    cdef inline int64_t _stamp(self, Py_ssize_t i) noexcept
     cdef void _reset(self) noexcept
+    cdef void _release(self) noexcept
     cdef int _own_parents(self) except -1
-    cdef int _resize(self, Py_ssize_t cap) noexcept
+    cdef Py_ssize_t _grown(self) noexcept
+    cdef int _set_cap(self, Py_ssize_t cap) noexcept
+    cdef int _unroll(self) noexcept
+    cdef int _add_run(self, Py_ssize_t k, int64_t hi, int64_t start) noexcept
     cdef void _prune(self) noexcept
-    cdef void _span(self, Py_ssize_t i) noexcept
-    cdef Py_ssize_t _floor(self, int64_t t) noexcept
-    cdef Py_ssize_t _lower(self, int64_t stamp) noexcept
+    cdef void _span(self, _Interp* ip, Py_ssize_t i, Py_ssize_t run) noexcept
+    cdef Py_ssize_t _bound(self, int64_t t, bint right) noexcept
+    cdef inline Py_ssize_t _floor(self, int64_t t, Py_ssize_t* run) noexcept
+    cdef Py_ssize_t _floor_runs(self, int64_t t, Py_ssize_t* run) noexcept
     cdef inline void _copy(self, Py_ssize_t i, int32_t* parent, double* out) noexcept
 
 

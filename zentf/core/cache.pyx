@@ -5,15 +5,19 @@ As in tf2 (cache.cpp, static_cache.cpp), BufferCore keeps one cache object per f
 for the sample at a time; the walk over the tree is in buffer_core.pyx, which calls these caches
 through their C methods (``get_c``, ``parent_at_c``, ...) without touching Python objects.
 
-Storage is a ring of plain C arrays per frame: one int64 stamp (ns) and seven float64 values
-(tx, ty, tz, qx, qy, qz, qw) per sample, 64 bytes, oldest first, searched by bisection. The parent
+Storage is a ring of plain C arrays per frame, oldest first, searched by bisection: seven float64
+values (tx, ty, tz, qx, qy, qz, qw) and the low 32 bits of the stamp's offset from the frame's first
+stamp per sample, 60 bytes; the high bits once per run of samples sharing them (~4.3 s of stamps).
+Large rings live in anonymous mappings of their own (mremap growth), small ones in malloc'd arrays
+(docs/architecture.md, "How samples are stored", has the why and the numbers). The parent
 id is kept once per frame while it never changes (tf2 stores it in every sample); a frame whose
 parent does change gets a per-sample int32 column from then on. Callers hold BufferCore's lock.
 """
 from libc.math cimport acos, cos, sin, sqrt
-from libc.stdint cimport int32_t, int64_t
-from libc.stdlib cimport free, malloc
-from libc.string cimport memcpy
+from libc.stdint cimport UINT32_MAX, int32_t, int64_t, uint32_t
+from libc.stdlib cimport free, malloc, realloc
+from libc.string cimport memcpy, memmove
+from posix.mman cimport MAP_ANONYMOUS, MAP_FAILED, MAP_PRIVATE, PROT_READ, PROT_WRITE, mmap, mremap, munmap
 
 from .constants import INSERT_OK, INSERT_OLD, INSERT_REPEATED
 from .time import fmt_stamp
@@ -74,6 +78,106 @@ cdef class CacheBase:
         self.clear_c()
 
 
+cdef enum:
+    _MAP_MIN = 65536     # a ring whose values take this many bytes or more gets mappings of its own
+
+cdef extern from "<sys/mman.h>" nogil:
+    int MREMAP_MAYMOVE               # Linux (Python.h defines _GNU_SOURCE)
+
+cdef extern from "<unistd.h>" nogil:
+    long sysconf(int name)
+    int _SC_PAGESIZE
+
+cdef size_t _PAGE = <size_t>sysconf(_SC_PAGESIZE)
+
+
+cdef inline size_t _pages(size_t nbytes) noexcept nogil:
+    return (nbytes + _PAGE - 1) & ~(_PAGE - 1)
+
+
+cdef void* _arr_resize(void* p, size_t old, size_t new, bint* mapped, bint want_map) noexcept nogil:
+    """Resize an array of old bytes to new bytes, keeping its first min(old, new) bytes.
+
+    p NULL allocates, new 0 frees (returns NULL). want_map: the array gets an anonymous mapping
+    of its own (large rings), which mremap grows or shrinks by moving page-table entries (no
+    copy, no hole left in the malloc heap), and whose untouched pages cost no memory; otherwise
+    malloc/realloc, so ten thousand one-sample frames stay a few hundred bytes each. Returns
+    NULL, p untouched, when no memory is to be had; a shrink never fails. mapped says where p
+    lives, and is updated.
+    """
+    cdef void* q
+    cdef size_t keep = old if old < new else new
+    if new == 0:
+        if p != NULL:
+            if mapped[0]:
+                munmap(p, _pages(old))
+            else:
+                free(p)
+        mapped[0] = False
+        return NULL
+    if want_map:
+        if p != NULL and mapped[0]:
+            q = mremap(p, _pages(old), _pages(new), MREMAP_MAYMOVE)
+            return NULL if q == MAP_FAILED else q
+        q = mmap(NULL, _pages(new), PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0)
+        if q != MAP_FAILED:
+            if p != NULL:
+                memcpy(q, p, keep)
+                free(p)
+            mapped[0] = True
+            return q
+        # no mapping to be had (the kernel bounds a process's map count): malloc serves
+    if p != NULL and not mapped[0]:
+        return realloc(p, new)
+    q = malloc(new)
+    if q == NULL:
+        if p != NULL and new < old:  # a mapped array shrinking below _MAP_MIN: stay mapped
+            q = mremap(p, _pages(old), _pages(new), MREMAP_MAYMOVE)
+            return p if q == MAP_FAILED else q
+        return NULL
+    if p != NULL:
+        memcpy(q, p, keep)
+        munmap(p, _pages(old))
+    mapped[0] = False
+    return q
+
+
+cdef inline bint _big(Py_ssize_t cap) noexcept:
+    """A ring of cap slots is large: its arrays get mappings of their own."""
+    return <size_t>cap * 7 * sizeof(double) >= _MAP_MIN
+
+
+cdef inline Py_ssize_t _fit(Py_ssize_t cap) noexcept:
+    """cap, or more slots if the ring is mapped: as many as the whole pages of its values hold."""
+    if _big(cap):
+        return <Py_ssize_t>(_pages(<size_t>cap * 7 * sizeof(double)) // (7 * sizeof(double)))
+    return cap
+
+
+cdef inline Py_ssize_t _bisect32r(const uint32_t* a, Py_ssize_t lo, Py_ssize_t hi, uint32_t x) noexcept:
+    """First index in [lo, hi) whose value is > x (bisect_right), hi if none."""
+    cdef Py_ssize_t mid
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if x < a[mid]:
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo
+
+
+cdef inline Py_ssize_t _bisect32(const uint32_t* a, Py_ssize_t lo, Py_ssize_t hi, uint32_t x) noexcept:
+    """First index in [lo, hi) whose value is >= x (bisect_left), hi if none."""
+    cdef Py_ssize_t mid
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if a[mid] < x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
 cdef class TimeCache(CacheBase):
     """Samples of one dynamic frame, oldest first (tf2 TimeCache)."""
 
@@ -82,36 +186,57 @@ cdef class TimeCache(CacheBase):
     def __cinit__(self, int64_t max_ns):
         self.max_ns = max_ns
         self.authority = "no recorded authority"  # of the last accepted sample (tf2 keeps it too)
-        self._st = NULL
+        self._lo = NULL
         self._d = NULL
         self._par = NULL
+        self._runs = NULL
+        self._ip = NULL
+        self._mm = 0
         self._cap = 0
+        self._runs_cap = 0
         self._reset()
 
     def __dealloc__(self):
-        free(self._st)
-        free(self._d)
-        free(self._par)
+        self._release()
 
     cdef void _reset(self) noexcept:
         self._head = 0
         self._n = 0
+        self._base = 0
+        self._epoch = 0
+        self._nruns = 0
         self._steady = False
         self._par0 = 0
         self.newest = -1
         self.oldest = -1
-        self._memo_t = -1
-        self._sp_t0 = 0
-        self._sp_t1 = 0  # empty interval: never matches
+        if self._ip != NULL:
+            self._ip.memo_t = -1
+            self._ip.sp_t0 = 0
+            self._ip.sp_t1 = 0  # empty interval: never matches
 
-    cdef void clear_c(self) noexcept:
-        free(self._st)
-        free(self._d)
-        free(self._par)
-        self._st = NULL
+    cdef void _release(self) noexcept:
+        """Give every array back (the ring, the parents, the runs, the interpolation state)."""
+        cdef bint m
+        cdef size_t cap = <size_t>self._cap
+        m = (self._mm & 1) != 0
+        _arr_resize(self._lo, cap * sizeof(uint32_t), 0, &m, False)
+        m = (self._mm & 2) != 0
+        _arr_resize(self._d, cap * 7 * sizeof(double), 0, &m, False)
+        m = (self._mm & 4) != 0
+        _arr_resize(self._par, cap * sizeof(int32_t), 0, &m, False)
+        free(self._runs)
+        free(self._ip)
+        self._lo = NULL
         self._d = NULL
         self._par = NULL
+        self._runs = NULL
+        self._ip = NULL
+        self._mm = 0
         self._cap = 0
+        self._runs_cap = 0
+
+    cdef void clear_c(self) noexcept:
+        self._release()
         self._reset()
 
     def __len__(self) -> int:
@@ -123,64 +248,180 @@ cdef class TimeCache(CacheBase):
             j -= self._cap
         return j
 
-    cdef int _resize(self, Py_ssize_t cap) noexcept:
-        """Reallocate to cap slots (>= n), unrolling the ring so the oldest sample is slot 0."""
-        cdef int64_t* st = <int64_t*>malloc(cap * sizeof(int64_t))
-        cdef double* d = <double*>malloc(cap * 7 * sizeof(double))
-        cdef int32_t* par = NULL
-        cdef Py_ssize_t i, j
-        if self._par != NULL:
-            par = <int32_t*>malloc(cap * sizeof(int32_t))
-        if st == NULL or d == NULL or (self._par != NULL and par == NULL):
-            free(st)
-            free(d)
-            free(par)
+    cdef inline int64_t _stamp(self, Py_ssize_t i) noexcept:
+        """The full stamp of logical sample i: its run's high word, its own low word."""
+        cdef int64_t v = self._base + i
+        cdef _Run* runs = self._runs
+        cdef Py_ssize_t a = 0, b = self._nruns, mid   # the last run starting at or before v
+        while b - a > 1:
+            mid = (a + b) >> 1
+            if runs[mid].start <= v:
+                a = mid
+            else:
+                b = mid
+        return self._epoch + ((runs[a].hi << 32) | <int64_t>self._lo[self._slot(i)])
+
+    cdef int _set_cap(self, Py_ssize_t cap) noexcept:
+        """Resize the ring to cap slots (>= n, more if mapped pages hold more); -1 if no memory
+        (then nothing changed). A wrapped ring keeps its order: growing moves the shorter of its
+        two parts, shrinking unrolls it first."""
+        cdef Py_ssize_t old = self._cap, h, r, t, grow
+        cdef bint m0 = (self._mm & 1) != 0, m1 = (self._mm & 2) != 0, m2 = (self._mm & 4) != 0
+        cdef void* lo
+        cdef void* d
+        cdef void* par = NULL
+        cdef bint big
+        cap = _fit(cap)
+        big = _big(cap)
+        if cap == old:
+            return 0
+        if cap < old and self._head + self._n > cap and self._unroll() < 0:
             return -1
-        for i in range(self._n):
-            j = self._slot(i)
-            st[i] = self._st[j]
-            memcpy(&d[7 * i], &self._d[7 * j], 7 * sizeof(double))
-            if par != NULL:
-                par[i] = self._par[j]
-        free(self._st)
-        free(self._d)
-        free(self._par)
-        self._st, self._d, self._par = st, d, par
+        lo = _arr_resize(self._lo, old * sizeof(uint32_t), cap * sizeof(uint32_t), &m0, big)
+        if lo == NULL:
+            return -1
+        d = _arr_resize(self._d, old * 7 * sizeof(double), cap * 7 * sizeof(double), &m1, big)
+        if d == NULL:  # only growth fails: shrink the first array back
+            self._lo = <uint32_t*>_arr_resize(lo, cap * sizeof(uint32_t), old * sizeof(uint32_t), &m0, m0)
+            self._mm = (self._mm & ~1) | m0
+            return -1
+        if self._par != NULL:
+            par = _arr_resize(self._par, old * sizeof(int32_t), cap * sizeof(int32_t), &m2, big)
+            if par == NULL:
+                self._lo = <uint32_t*>_arr_resize(lo, cap * sizeof(uint32_t), old * sizeof(uint32_t), &m0, m0)
+                self._d = <double*>_arr_resize(d, cap * 7 * sizeof(double), old * 7 * sizeof(double), &m1, m1)
+                self._mm = (self._mm & 4) | m0 | (m1 << 1)
+                return -1
+        self._lo, self._d, self._par = <uint32_t*>lo, <double*>d, <int32_t*>par
+        self._mm = m0 | (m1 << 1) | (m2 << 2)
         self._cap = cap
+        h = self._head
+        if cap > old and h + self._n > old:  # wrapped: [h, old) is the oldest part, [0, r) the newest
+            r = h + self._n - old
+            t = old - h
+            grow = cap - old
+            if r <= grow and r < t:          # the newest part fits right after the old end
+                memcpy(&self._lo[old], self._lo, r * sizeof(uint32_t))
+                memcpy(&self._d[7 * old], self._d, r * 7 * sizeof(double))
+                if self._par != NULL:
+                    memcpy(&self._par[old], self._par, r * sizeof(int32_t))
+            else:                            # the oldest part moves to the new end
+                memmove(&self._lo[h + grow], &self._lo[h], t * sizeof(uint32_t))
+                memmove(&self._d[7 * (h + grow)], &self._d[7 * h], t * 7 * sizeof(double))
+                if self._par != NULL:
+                    memmove(&self._par[h + grow], &self._par[h], t * sizeof(int32_t))
+                self._head = h + grow
+        return 0
+
+    cdef int _unroll(self) noexcept:
+        """Move the samples to slots 0..n-1, oldest first; -1 if no memory (nothing changed)."""
+        cdef Py_ssize_t h = self._head, n = self._n, cap = self._cap, r, t
+        cdef char* tmp
+        if h == 0:
+            return 0
+        if h + n <= cap:
+            memmove(self._lo, &self._lo[h], n * sizeof(uint32_t))
+            memmove(self._d, &self._d[7 * h], n * 7 * sizeof(double))
+            if self._par != NULL:
+                memmove(self._par, &self._par[h], n * sizeof(int32_t))
+            self._head = 0
+            return 0
+        r = h + n - cap                      # newest part, at [0, r)
+        t = cap - h                          # oldest part, at [h, cap)
+        tmp = <char*>malloc(r * 7 * sizeof(double))
+        if tmp == NULL:
+            return -1
+        memcpy(tmp, self._lo, r * sizeof(uint32_t))
+        memmove(self._lo, &self._lo[h], t * sizeof(uint32_t))
+        memcpy(&self._lo[t], tmp, r * sizeof(uint32_t))
+        memcpy(tmp, self._d, r * 7 * sizeof(double))
+        memmove(self._d, &self._d[7 * h], t * 7 * sizeof(double))
+        memcpy(&self._d[7 * t], tmp, r * 7 * sizeof(double))
+        if self._par != NULL:
+            memcpy(tmp, self._par, r * sizeof(int32_t))
+            memmove(self._par, &self._par[h], t * sizeof(int32_t))
+            memcpy(&self._par[t], tmp, r * sizeof(int32_t))
+        free(tmp)
         self._head = 0
         return 0
 
     cdef int _own_parents(self) except -1:
         """Switch to a parent per sample (the frame's parent changed): every stored one is _par0."""
-        cdef int32_t* par = <int32_t*>malloc(self._cap * sizeof(int32_t))
+        cdef bint m = False
+        cdef int32_t* par = <int32_t*>_arr_resize(NULL, 0, self._cap * sizeof(int32_t), &m, (self._mm & 2) != 0)
         cdef Py_ssize_t i
         if par == NULL:
             raise MemoryError()
         for i in range(self._cap):
             par[i] = self._par0
         self._par = par
+        self._mm = (self._mm & ~4) | (m << 2)
+        return 0
+
+    cdef int _add_run(self, Py_ssize_t k, int64_t hi, int64_t start) noexcept:
+        """Insert run (hi, start) at index k; -1 if no memory (nothing changed)."""
+        cdef _Run* runs = self._runs
+        cdef int32_t cap
+        if self._nruns == self._runs_cap:
+            cap = self._runs_cap * 2 if self._runs_cap else 2
+            runs = <_Run*>realloc(runs, cap * sizeof(_Run))
+            if runs == NULL:
+                return -1
+            self._runs = runs
+            self._runs_cap = cap
+        memmove(&runs[k + 1], &runs[k], (self._nruns - k) * sizeof(_Run))
+        runs[k].hi = hi
+        runs[k].start = start
+        self._nruns += 1
         return 0
 
     cdef inline int32_t _parent(self, Py_ssize_t j) noexcept:
         return self._par0 if self._par == NULL else self._par[j]
 
+    cdef Py_ssize_t _grown(self) noexcept:
+        """The capacity a full ring grows to.
+
+        Steady (pruning): by 1/64, the rate went up a little. Filling up in malloc'd arrays: by
+        1/8, little slack (a copy each time, by realloc). A frame whose rate says its cache will
+        hold a large ring (cache time x samples per second) moves to mappings at once, and
+        doubles there while it fills: untouched pages cost nothing, mremap copies nothing, and
+        the malloc heap keeps no holes from its growth. Pruning then trims it to what it holds.
+        """
+        cdef Py_ssize_t n = self._n, cap = n + (n >> 3) + 4
+        cdef int64_t span
+        if self._steady:
+            return n + (n >> 6) + 4
+        if self._mm & 2:
+            return 2 * n
+        if n >= 8 and not _big(cap):
+            span = self.newest - self.oldest
+            if span > 0 and <double>self.max_ns / <double>span * <double>(n - 1) >= <double>(_MAP_MIN // (7 * sizeof(double))):
+                return _MAP_MIN // (7 * sizeof(double)) + 1
+        return cap
+
     cdef int insert_c(self, int64_t stamp, int32_t parent, const double* v) except -1:
-        cdef int64_t newest = self.newest
-        cdef Py_ssize_t i, j, k, lo
-        if self._n == self._cap:  # grow: by half while filling up, by 1/64 once pruning holds it steady
-            if self._resize(self._cap + ((self._cap >> 6) if self._steady else (self._cap >> 1)) + 4) < 0:
-                raise MemoryError()
-        if self._n == 0:
+        cdef int64_t newest = self.newest, hi, rel
+        cdef Py_ssize_t i, j, k, lo, n = self._n
+        cdef _Run* runs
+        if n == self._cap and self._set_cap(self._grown()) < 0:
+            raise MemoryError()
+        if n == 0:
             self._par0 = parent
+            self._epoch = stamp          # runs count 2**32 ns from the first sample
         elif self._par == NULL and parent != self._par0:
             self._own_parents()
+        rel = stamp - self._epoch
+        hi = rel >> 32
         if stamp > newest:
-            j = self._slot(self._n)
-            self._st[j] = stamp
+            if self._nruns == 0 or self._runs[self._nruns - 1].hi != hi:
+                if self._add_run(self._nruns, hi, self._base + n) < 0:
+                    raise MemoryError()
+            j = self._slot(n)
+            self._lo[j] = <uint32_t>rel
             memcpy(&self._d[7 * j], v, 7 * sizeof(double))
             if self._par != NULL:
                 self._par[j] = parent
-            self._n += 1
+            self._n = n + 1
             self.newest = stamp
             if newest < 0:
                 self.oldest = stamp
@@ -189,26 +430,37 @@ cdef class TimeCache(CacheBase):
         else:
             if newest - stamp > self.max_ns:
                 return _OLD
-            lo = self._lower(stamp)
-            if self._st[self._slot(lo)] == stamp:
+            lo = self._bound(stamp, False)
+            if self._stamp(lo) == stamp:
                 return _REPEATED
-            k = self._n                  # shift lo..n-1 up one slot
+            runs = self._runs
+            k = 0                            # the run of this stamp's high word, added if new
+            while k < self._nruns and runs[k].hi < hi:
+                k += 1
+            if k == self._nruns or runs[k].hi != hi:
+                if self._add_run(k, hi, self._base + lo) < 0:
+                    raise MemoryError()
+                runs = self._runs
+            for i in range(k + 1, self._nruns):  # later runs start one sample later
+                runs[i].start += 1
+            k = n                            # shift lo..n-1 up one slot
             while k > lo:
                 j = self._slot(k)
                 i = self._slot(k - 1)
-                self._st[j] = self._st[i]
+                self._lo[j] = self._lo[i]
                 memcpy(&self._d[7 * j], &self._d[7 * i], 7 * sizeof(double))
                 if self._par != NULL:
                     self._par[j] = self._par[i]
                 k -= 1
             j = self._slot(lo)
-            self._st[j] = stamp
+            self._lo[j] = <uint32_t>rel
             memcpy(&self._d[7 * j], v, 7 * sizeof(double))
             if self._par != NULL:
                 self._par[j] = parent
-            self._n += 1
-            self._memo_t = -1
-            self._sp_t1 = self._sp_t0    # an interval was split
+            self._n = n + 1
+            if self._ip != NULL:
+                self._ip.memo_t = -1
+                self._ip.sp_t1 = self._ip.sp_t0  # an interval was split
             if lo == 0:
                 self.oldest = stamp
         if self.oldest < newest - self.max_ns:
@@ -218,59 +470,129 @@ cdef class TimeCache(CacheBase):
     cdef void _prune(self) noexcept:
         """Drop samples older than newest - cache time, right after an insert (ROS 1 order; ROS 2
         prunes before inserting): pop while oldest + max < newest."""
-        cdef int64_t limit = self.newest - self.max_ns
-        cdef Py_ssize_t lo = self._lower(limit), n
+        cdef Py_ssize_t lo = self._bound(self.newest - self.max_ns, False), n, d = 0
+        cdef _Run* runs = self._runs
         self._head = self._slot(lo)
         self._n -= lo
-        self.oldest = self._st[self._head]
-        self._memo_t = -1            # the memoized time may have fallen out
+        self._base += lo
+        while d + 1 < self._nruns and runs[d + 1].start <= self._base:  # runs that fell out entirely
+            d += 1
+        if d:
+            memmove(runs, &runs[d], (self._nruns - d) * sizeof(_Run))
+            self._nruns -= d
+        runs[0].start = self._base
+        self.oldest = self._epoch + ((runs[0].hi << 32) | <int64_t>self._lo[self._head])
+        if self._ip != NULL:
+            self._ip.memo_t = -1     # the memoized time may have fallen out
         n = self._n
         if not self._steady:  # the cache is full: from now on it holds about n samples, keep no slack
             self._steady = True
             if self._cap > n + 1:
-                self._resize(n + 1)
-        elif self._cap > n + (n >> 3) + 16:  # fewer samples than before (a slower rate): give room back
-            self._resize(n + (n >> 6) + 4)
+                self._set_cap(n + 1)
+        elif self._cap > _fit(n + (n >> 3) + 16):  # fewer samples than before (a slower rate): give room back
+            self._set_cap(n + (n >> 6) + 4)
 
-    cdef Py_ssize_t _lower(self, int64_t stamp) noexcept:
-        """Logical index of the first sample at or after stamp (bisect_left), n if none."""
-        cdef Py_ssize_t lo = 0, hi = self._n, mid
-        while lo < hi:
-            mid = (lo + hi) >> 1
-            if self._st[self._slot(mid)] < stamp:
-                lo = mid + 1
+    cdef Py_ssize_t _bound(self, int64_t t, bint right) noexcept:
+        """Logical index of the first sample after t (right: bisect_right) or at or after t
+        (bisect_left); n if none. The run of t's high word, then its low words, bisected."""
+        cdef int64_t hi
+        cdef uint32_t x
+        cdef _Run* runs = self._runs
+        cdef Py_ssize_t a = 0, b = self._nruns, mid, first, last, ps, cap = self._cap, seg
+        if self._n == 0 or t < self.oldest:
+            return 0
+        hi = (t - self._epoch) >> 32
+        x = <uint32_t>(t - self._epoch)
+        while a < b:                         # the first run whose high word is >= t's
+            mid = (a + b) >> 1
+            if runs[mid].hi < hi:
+                a = mid + 1
             else:
-                hi = mid
-        return lo
+                b = mid
+        if a == self._nruns:
+            return self._n
+        first = runs[a].start - self._base
+        if runs[a].hi > hi:
+            return first
+        last = runs[a + 1].start - self._base if a + 1 < self._nruns else self._n
+        if right:                            # first low word > x is the first >= x + 1
+            if x == UINT32_MAX:
+                return last
+            x += 1
+        # the run's slots are at most two contiguous stretches of the ring: [ps, cap) then [0, ...)
+        ps = self._head + first
+        if ps >= cap:
+            ps -= cap
+        if ps + (last - first) <= cap:
+            return first + _bisect32(self._lo, ps, ps + (last - first), x) - ps
+        seg = cap - ps
+        if self._lo[0] < x:
+            return first + seg + _bisect32(self._lo, 0, last - first - seg, x)
+        return first + _bisect32(self._lo, ps, cap, x) - ps
+
+    cdef inline Py_ssize_t _floor(self, int64_t t, Py_ssize_t* run) noexcept:
+        """Logical index of the newest sample at or before t, and its run (t inside the range).
+        One run (less than 4.3 s stored): bisect_right of the low words over the ring's two stretches."""
+        cdef uint32_t x
+        cdef Py_ssize_t head, n, cap
+        if self._nruns != 1:
+            return self._floor_runs(t, run)
+        x = <uint32_t>(t - self._epoch)
+        head = self._head
+        n = self._n
+        cap = self._cap
+        run[0] = 0
+        if head + n > cap and x >= self._lo[0]:
+            return cap - head + _bisect32r(self._lo, 0, head + n - cap, x) - 1
+        return _bisect32r(self._lo, head, head + n if head + n <= cap else cap, x) - head - 1
+
+    cdef Py_ssize_t _floor_runs(self, int64_t t, Py_ssize_t* run) noexcept:
+        """_floor over several runs: the last run whose high word is <= t's, then bisect_right of
+        its low words."""
+        cdef int64_t hi = (t - self._epoch) >> 32
+        cdef uint32_t x = <uint32_t>(t - self._epoch)
+        cdef _Run* runs = self._runs
+        cdef Py_ssize_t a = self._nruns - 1, b, mid, first, last, ps, cap = self._cap, seg, r
+        if a < 8:                            # a few runs (a cache of some seconds): from the newest
+            while runs[a].hi > hi:
+                a -= 1
+        else:
+            a = 0
+            b = self._nruns
+            while b - a > 1:
+                mid = (a + b) >> 1
+                if runs[mid].hi <= hi:
+                    a = mid
+                else:
+                    b = mid
+        first = runs[a].start - self._base
+        last = runs[a + 1].start - self._base if a + 1 < self._nruns else self._n
+        if runs[a].hi < hi:                  # the whole run is older than t
+            run[0] = a
+            return last - 1
+        ps = self._head + first              # the run's slots: [ps, cap) then [0, ...) if it wraps
+        if ps >= cap:
+            ps -= cap
+        if ps + (last - first) <= cap:
+            r = first + _bisect32r(self._lo, ps, ps + (last - first), x) - ps
+        else:
+            seg = cap - ps
+            if x >= self._lo[0]:
+                r = first + seg + _bisect32r(self._lo, 0, last - first - seg, x)
+            else:
+                r = first + _bisect32r(self._lo, ps, cap, x) - ps
+        if r == first:                       # before the run's first sample: the previous run's last
+            run[0] = a - 1
+        else:
+            run[0] = a
+        return r - 1
 
     cdef inline void _copy(self, Py_ssize_t i, int32_t* parent, double* out) noexcept:
         cdef Py_ssize_t j = self._slot(i)
         parent[0] = self._parent(j)
         memcpy(out, &self._d[7 * j], 7 * sizeof(double))
 
-    cdef Py_ssize_t _floor(self, int64_t t) noexcept:
-        """Logical index of the newest sample at or before t (bisect_right - 1), t inside the range."""
-        cdef Py_ssize_t head = self._head, n = self._n, lo, hi, mid, seg, base
-        cdef int64_t* st = self._st
-        # the ring is at most two contiguous runs: [head, cap) then [0, head + n - cap)
-        if head + n > self._cap and t >= st[0]:
-            seg = self._cap - head
-            lo = 0
-            hi = n - seg
-            base = seg                 # logical = physical + seg
-        else:
-            lo = head
-            hi = head + n if head + n <= self._cap else self._cap
-            base = -head
-        while lo < hi:
-            mid = (lo + hi) >> 1
-            if t < st[mid]:
-                hi = mid
-            else:
-                lo = mid + 1
-        return lo - 1 + base
-
-    cdef void _span(self, Py_ssize_t i) noexcept:
+    cdef void _span(self, _Interp* ip, Py_ssize_t i, Py_ssize_t run) noexcept:
         """Constants to interpolate between samples i and i+1 exactly like tf2.
 
         tf2's slerp is (q0·sin((1-r)θ) + ±q1·sin(rθ)) / sin θ, with θ from the normalized dot
@@ -281,17 +603,21 @@ cdef class TimeCache(CacheBase):
         cdef Py_ssize_t j0 = self._slot(i), j1 = self._slot(i + 1)
         cdef double* a = &self._d[7 * j0]
         cdef double* b = &self._d[7 * j1]
-        cdef double* sp = self._sp
+        cdef double* sp = ip.sp
         cdef double x1, y1, z1, w1, dot, c, theta, inv
         cdef int k
-        self._sp_t0 = self._st[j0]
-        self._sp_t1 = self._st[j1]
-        self._sp_p = self._parent(j0)
-        self._sp_same = self._parent(j1) == self._sp_p
-        if not self._sp_same:
+        cdef _Run* runs = self._runs
+        cdef int64_t e = self._epoch + (runs[run].hi << 32)
+        ip.sp_t0 = e + <int64_t>self._lo[j0]
+        if run + 1 < self._nruns and runs[run + 1].start == self._base + i + 1:
+            e = self._epoch + (runs[run + 1].hi << 32)  # sample i + 1 begins the next run
+        ip.sp_t1 = e + <int64_t>self._lo[j1]
+        ip.sp_p = self._parent(j0)
+        ip.sp_same = self._parent(j1) == ip.sp_p
+        if not ip.sp_same:
             memcpy(&sp[1], a, 7 * sizeof(double))  # different parents: the older sample applies
             return
-        sp[0] = 1.0 / <double>(self._sp_t1 - self._sp_t0)
+        sp[0] = 1.0 / <double>(ip.sp_t1 - ip.sp_t0)
         for k in range(3):
             sp[1 + k] = a[k]
             sp[4 + k] = b[k] - a[k]
@@ -320,29 +646,41 @@ cdef class TimeCache(CacheBase):
         cdef int64_t newest = self.newest
         cdef double r, c, s
         cdef double* sp
+        cdef _Interp* ip = self._ip
+        cdef _Interp local
+        cdef Py_ssize_t i, run
         cdef int k
         if t == newest or t == 0:
             if newest < 0:
                 return False
             self._copy(self._n - 1, parent, out)
             return True
-        if t == self._memo_t:
-            parent[0] = self._memo_p
-            memcpy(out, self._memo, 7 * sizeof(double))
+        if ip != NULL and t == ip.memo_t:
+            parent[0] = ip.memo_p
+            memcpy(out, ip.memo, 7 * sizeof(double))
             return True
         if t > newest or t < self.oldest or self._n == 1:
             return False
         if t == self.oldest:
             self._copy(0, parent, out)
             return True
-        if not (self._sp_t0 <= t < self._sp_t1):
-            self._span(self._floor(t))
-        sp = self._sp
-        parent[0] = self._sp_p
-        if not self._sp_same:
+        if ip == NULL:  # the first interpolation asked of this frame: room for its state
+            ip = <_Interp*>malloc(sizeof(_Interp))
+            if ip == NULL:
+                ip = &local          # no memory: interpolate all the same, remember nothing
+            else:
+                self._ip = ip
+            ip.sp_t0 = 0
+            ip.sp_t1 = 0
+        if not (ip.sp_t0 <= t < ip.sp_t1):
+            i = self._floor(t, &run)
+            self._span(ip, i, run)
+        sp = ip.sp
+        parent[0] = ip.sp_p
+        if not ip.sp_same:
             memcpy(out, &sp[1], 7 * sizeof(double))
             return True
-        r = <double>(t - self._sp_t0) * sp[0]
+        r = <double>(t - ip.sp_t0) * sp[0]
         out[0] = sp[1] + r * sp[4]
         out[1] = sp[2] + r * sp[5]
         out[2] = sp[3] + r * sp[6]
@@ -354,20 +692,21 @@ cdef class TimeCache(CacheBase):
         else:
             for k in range(4):
                 out[3 + k] = sp[7 + k]
-        self._memo_t = t
-        self._memo_p = parent[0]
-        memcpy(self._memo, out, 7 * sizeof(double))
+        ip.memo_t = t
+        ip.memo_p = parent[0]
+        memcpy(ip.memo, out, 7 * sizeof(double))
         return True
 
     cdef int32_t parent_at_c(self, int64_t t) noexcept:
         cdef int64_t newest = self.newest
+        cdef Py_ssize_t run
         if newest < 0:
             return 0
         if t == 0 or t == newest:
             return self._parent(self._slot(self._n - 1))
         if t > newest or t < self.oldest or self._n == 1:
             return 0
-        return self._parent(self._slot(self._floor(t)))
+        return self._parent(self._slot(self._floor(t, &run)))
 
     cdef int32_t latest_parent_c(self) noexcept:
         if self._n == 0:
@@ -403,13 +742,25 @@ cdef class TimeCache(CacheBase):
         return 0 if self._n == 0 else self.oldest
 
     def nbytes(self) -> int:
-        """Bytes allocated for samples (capacity, not only the samples held)."""
-        return self._cap * (64 + (4 if self._par != NULL else 0))
+        """Bytes allocated for samples (capacity, not only the samples held) and their runs."""
+        return (self._cap * (sizeof(uint32_t) + 7 * sizeof(double) + (sizeof(int32_t) if self._par != NULL else 0))
+                + self._runs_cap * sizeof(_Run))
+
+    @property
+    def capacity(self) -> int:
+        """Slots the ring has room for (samples held + slack)."""
+        return self._cap
+
+    @property
+    def mapped(self) -> bool:
+        """True while the values array lives in an anonymous mapping of its own (large rings)."""
+        return (self._mm & 2) != 0
 
     def columns(self):
         """Copies of the samples, oldest first: (stamps int64[n], parents int32[n], values float64[n, 7])."""
         import numpy as np
-        cdef Py_ssize_t n = self._n, i, j
+        cdef Py_ssize_t n = self._n, i, j, k = 0
+        cdef int64_t v
         st = np.empty(n, dtype=np.int64)
         par = np.empty(n, dtype=np.int32)
         d = np.empty((n, 7), dtype=np.float64)
@@ -418,7 +769,10 @@ cdef class TimeCache(CacheBase):
         cdef double[:, ::1] dv = d
         for i in range(n):
             j = self._slot(i)
-            stv[i] = self._st[j]
+            v = self._base + i
+            while k + 1 < self._nruns and self._runs[k + 1].start <= v:
+                k += 1
+            stv[i] = self._epoch + ((self._runs[k].hi << 32) | <int64_t>self._lo[j])
             pv[i] = self._parent(j)
             memcpy(&dv[i, 0], &self._d[7 * j], 7 * sizeof(double))
         return st, par, d
