@@ -170,7 +170,7 @@ def test_async_waits_across_processes(spawn, node_options) -> None:
 
 def test_waiters_are_woken_from_a_c_counter_without_a_callback_per_insert() -> None:
     """Every insert bumps BufferCore's C generation; Buffer's Python wake-up runs only while something
-    waits (a blocked thread or a pending future), and the want goes back to zero after."""
+    waits (here a pending future; blocked threads: the blocking tests), and the want goes back to zero."""
     buf = Buffer()
     assert buf._insert_callbacks == [] and buf._wake_wanted == 0
     calls = []
@@ -181,35 +181,10 @@ def test_waiters_are_woken_from_a_c_counter_without_a_callback_per_insert() -> N
     assert not buf.set_transform(ts("a", "b", float("nan"), Time(2)), "test")  # refused: no bump
     assert buf._generation == gen + 1 and calls == []  # nobody waits: no Python call
 
-    started = threading.Event()
-    out: list = []
-
-    def waiter() -> None:
-        started.set()
-        out.append(buf.can_transform("a", "c", Time(), timeout=20))
-
-    t = threading.Thread(target=waiter)
-    t.start()
-    assert started.wait(10)
-    assert _until(lambda: buf._wake_wanted == 1)  # the thread waits now
-    buf.set_transform(ts("b", "c", 1.0, Time(1)), "test")
-    t.join(20)
-    assert out == [True] and calls and buf._wake_wanted == 0
-
     fut = buf.wait_for_transform_future("a", "d", Time(), timeout=20)
-    assert buf._wake_wanted == 1
-    buf.set_transform(ts("c", "d", 1.0, Time(1)), "test")
-    assert fut.result(10) is True and buf._wake_wanted == 0
+    assert buf._wake_wanted == 1  # registered before it returned
+    assert buf.set_transform(ts("b", "d", 1.0, Time(1)), "test")
+    assert fut.result(10) is True and calls and buf._wake_wanted == 0
     fut = buf.wait_for_transform_future("a", "nowhere", Time(), timeout=20)
     fut.cancel()
     assert buf._wake_wanted == 0
-
-
-def _until(cond, timeout: float = 10.0) -> bool:
-    """Poll a condition that no event signals (a thread registering its wait inside Buffer)."""
-    deadline = time.monotonic() + timeout
-    while not cond():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.001)
-    return True

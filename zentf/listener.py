@@ -50,6 +50,11 @@ MAX_SENDER_KEY = 1024
 #: process freed meanwhile goes back to the OS (zentf.heap; measured: 197 releases, 97 ms in all, in
 #: bench/abuse.py's two 1M-sample floods, ~1% of the listener thread's time).
 RELEASE_AFTER = 256
+#: The tail of a flood: when the ring runs empty within TAIL_WINDOW s of such a release, with fewer
+#: messages since, the memory goes back once the ring has stayed quiet for TAIL_DELAY s (a timer: the
+#: thread waits in the ring), so the last < RELEASE_AFTER messages of a flood are given back too.
+TAIL_WINDOW = 2.0
+TAIL_DELAY = 0.1
 
 
 def _tolerance_ns(value: Any) -> int | None:
@@ -161,6 +166,9 @@ class TransformListener:
         self._handlers: list[TfHandler] = []
         self._ingests: list[TfIngest] = []  # compiled ingests: told when the clock jumps back
         self.bad_messages = 0      # payloads that were not a TFMessage at all
+        self._tail_timer: threading.Timer | None = None  # zentf.heap release after a flood's tail
+        self._tail_messages = 0
+        self._tail_asked = False
         self.dropped = 0           # tf messages dropped unread: a sender's backlog grew too big
         for name, value in (("max_frames", max_frames), ("max_frame_id_length", max_frame_id_length)):
             if value is self._UNSET:
@@ -199,7 +207,7 @@ class TransformListener:
             self._declare_token(key)
             # the thread reads the ring through its handler object: undeclaring the subscriber while
             # the thread waits in sub.recv() fails ("Already borrowed") and leaves it blocked
-            self._thread = threading.Thread(target=self._serve, args=(sub.handler,), daemon=True,
+            self._thread = threading.Thread(target=self._serve, args=(sub.handler, self._handler(False)), daemon=True,
                                             name=f"zentf-listener-{key}")
             self._thread.start()
             _LIVE.add(self)
@@ -213,12 +221,40 @@ class TransformListener:
                                                           latched=is_static,
                                                           topic=self.node.wire.topic_of_key(key)[0]))
 
-    def _serve(self, ring: Any) -> None:
+    def _serve(self, ring: Any, handle: TfHandler) -> None:
         """Listener thread: drain the ring into per-sender FIFOs, then handle one message per sender
         (compiled: zentf/tfwire.pyx ``serve``, with this module's bounds)."""
-        serve(self, ring, self._handler(False), self.node.wire.sender_of, DRAIN_BATCH, MAX_PENDING,
+        serve(self, ring, handle, self.node.wire.sender_of, DRAIN_BATCH, MAX_PENDING,
               SUSPECT_AFTER, SUSPECT_QUEUE, MAX_SENDERS, _OTHERS, MAX_SENDER_KEY, RELEASE_AFTER,
-              release_free_memory, log)
+              release_free_memory, log, TAIL_WINDOW, self._release_later)
+
+    def _release_later(self) -> None:
+        """The ring ran empty in a flood's tail: release once no message came for TAIL_DELAY s."""
+        with self._lock:
+            if self._tail_timer is not None:
+                self._tail_asked = True  # ran empty again: the timer looks once more if it was not quiet
+            elif self._thread is not None:
+                self._arm_tail()
+
+    def _arm_tail(self) -> None:
+        """(lock held)"""
+        self._tail_messages = self.messages
+        self._tail_asked = False
+        self._tail_timer = threading.Timer(TAIL_DELAY, self._release_tail)
+        self._tail_timer.daemon = True
+        self._tail_timer.start()
+
+    def _release_tail(self) -> None:
+        with self._lock:
+            if self._tail_timer is None:  # unregistered meanwhile
+                return
+            self._tail_timer = None
+            if self._tail_messages != self.messages:  # not quiet: look again if the ring ran empty since
+                if self._tail_asked and self._thread is not None:
+                    self._arm_tail()
+                return
+        release_free_memory()
+        log.debug("the tail of a burst of tf messages is over: freed memory released")
 
     def _shed(self, queues: dict[bytes, deque], q: deque, key: bytes) -> bytes:
         """Too much waiting in all: the biggest backlog (usually the sender just heard) loses its oldest."""
@@ -321,6 +357,10 @@ class TransformListener:
         self._subs.clear()
         self._tokens.clear()
         thread, self._thread = self._thread, None
+        with self._lock:
+            timer, self._tail_timer = self._tail_timer, None
+        if timer is not None:
+            timer.cancel()
         _LIVE.discard(self)
         if thread is not None and thread is not threading.current_thread():
             thread.join(5)  # the undeclared ring wakes it at once

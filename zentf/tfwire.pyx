@@ -916,28 +916,46 @@ cdef class TfHandler:
 
 def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, Py_ssize_t max_pending,
           Py_ssize_t suspect_after, Py_ssize_t suspect_queue, Py_ssize_t max_senders, bytes others,
-          Py_ssize_t max_sender_key, Py_ssize_t release_after, release, log):
+          Py_ssize_t max_sender_key, Py_ssize_t release_after, release, log, double tail_window,
+          release_later):
     """The tf thread of a TransformListener (its ``_serve``, compiled; the constants are zentf.listener's):
     drain the ring into per-sender FIFOs, then handle one message per sender in turn (issue 10's
-    fairness: a flood delays only its sender's data), shedding and logging as _serve did."""
+    fairness: a flood delays only its sender's data), shedding and logging as _serve did.
+
+    Memory (zentf.heap): when the ring runs empty after ``release_after`` messages, ``release()``; when it
+    runs empty within ``tail_window`` s of that with fewer messages since (the tail of a flood the thread
+    keeps up with, so it idles between messages), ``release_later()`` (the listener's timer releases
+    once the ring has stayed quiet)."""
     recv, try_recv = ring.recv, ring.try_recv
     cdef dict queues = {}
     cdef dict strikes = {}          # messages in a row that put nothing into the buffer, per sender
     cdef dict shed
     cdef Py_ssize_t pending = 0, burst = 0, n, k, extra, j
     cdef object q
+    cdef timespec ts
+    cdef int64_t last_release = 0, window = <int64_t>(tail_window * 1e9), mono
+    cdef bint tail
     while True:
         try:  # blocks in Zenoh (GIL released) when idle; fails once undeclared
             if pending:
                 sample = try_recv()
             else:
-                sample = try_recv() if burst >= release_after else None
+                tail = False
+                if 0 < burst < release_after and last_release:
+                    clock_gettime(CLOCK_MONOTONIC, &ts)
+                    mono = ts.tv_sec * _NS + ts.tv_nsec
+                    tail = mono - last_release < window
+                sample = try_recv() if burst >= release_after or tail else None
                 if sample is None:
                     if burst >= release_after:
                         # a burst is over: glibc would keep the memory it freed (docs/protocol.md)
                         release()
                         log.debug("a burst of %d tf messages is over: freed memory released", burst)
                         burst = 0
+                        clock_gettime(CLOCK_MONOTONIC, &ts)
+                        last_release = ts.tv_sec * _NS + ts.tv_nsec
+                    elif tail:
+                        release_later()
                     sample = recv()
         except Exception:
             return
