@@ -11,7 +11,8 @@ callback, then proven by a lookup that is not timed) / raw callback entry; both 
 CLOCK_REALTIME on one host.
 Ingest: the sender floods pre-encoded TFMessages (100 transforms each, then 1 each); the rate is
 transforms accepted by the listener's Buffer per second, against raw messages per second received
-by a bare callback. Also the in-process ingest ceiling (wire.ingest_tf into a Buffer, no network).
+by a bare callback, and the receiving process's CPU per message (all threads). Also the in-process
+ingest ceiling (wire.ingest_tf into a Buffer, no network).
 Targets (issue 15, superseding issue 3's 1.5x and 200k): zentf p50 <= 1.15x raw one-way latency; ingest
 >= 500k transforms/s at 1 transform per message and >= 1.5M transforms/s at 100 per message.
 ``--wire ros2`` runs zentf's side with the ROS 2 wire profile (rmw_zenoh keys, CDR payloads, attachments;
@@ -36,6 +37,18 @@ import msgpack  # noqa: E402
 
 NS = 1_000_000_000
 WARMUP = 50  # latency samples dropped at the start of each round (connection and caches warming up)
+
+
+def proc_cpu_ns() -> int:
+    """CPU time of this process, all threads (Zenoh's too), in ns (Linux schedstat; 0 elsewhere)."""
+    total = 0
+    try:
+        for tid in os.listdir("/proc/self/task"):
+            with open(f"/proc/self/task/{tid}/schedstat") as f:
+                total += int(f.read().split()[0])
+    except OSError:
+        return 0
+    return total
 
 
 def free_port() -> int:
@@ -96,7 +109,7 @@ def receiver(args: argparse.Namespace) -> None:
     if args.impl == "raw":
         session = zopts(listen=args.endpoint).open_session()
         lat: list[int] = []
-        count = [0, 0, 0]  # messages, first ns, last ns
+        count = [0, 0, 0, 0]  # messages, first ns, last ns, process CPU ns at the first
 
         def on_lat(sample) -> None:
             now = time.time_ns()
@@ -110,6 +123,7 @@ def receiver(args: argparse.Namespace) -> None:
             now = time.perf_counter_ns()
             if count[0] == 0:
                 count[1] = now
+                count[3] = proc_cpu_ns()
             count[0] += 1
             count[2] = now
             if count[0] >= args.count:
@@ -121,7 +135,8 @@ def receiver(args: argparse.Namespace) -> None:
         if args.kind == "lat":
             result = {"lat_ns": lat[WARMUP:]}
         else:
-            result = {"items": count[0] * args.per_msg, "secs": (count[2] - count[1]) / NS}
+            result = {"items": count[0] * args.per_msg, "secs": (count[2] - count[1]) / NS,
+                      "cpu_per_msg_ns": (proc_cpu_ns() - count[3]) / max(1, count[0] - 1)}
         print("RESULT " + json.dumps(result), flush=True)
         session.close()
         return
@@ -136,7 +151,7 @@ def receiver(args: argparse.Namespace) -> None:
                                                       wire=WIRE), check_unique=False)
     buf = Buffer(node=node)
     lat = []
-    state = [0, 0, 0]  # first ns, last ns, messages inserted (one insert callback per message)
+    state = [0, 0, 0, 0]  # first ns, last ns, messages inserted (one insert callback per message), CPU ns
 
     def on_insert_lat() -> None:
         now = time.time_ns()                                # the insert is done: lookup-able from now on
@@ -149,6 +164,7 @@ def receiver(args: argparse.Namespace) -> None:
         now = time.perf_counter_ns()
         if state[0] == 0:
             state[0] = now
+            state[3] = proc_cpu_ns()
         state[1] = now
         state[2] += 1
         if state[2] >= args.count:
@@ -162,7 +178,9 @@ def receiver(args: argparse.Namespace) -> None:
     if args.kind == "lat":
         result = {"lat_ns": lat[WARMUP:]}
     else:
-        result = {"items": tl.transforms, "secs": (state[1] - state[0]) / NS, "stats": tl.stats()}
+        cpu = proc_cpu_ns() - state[3]
+        result = {"items": tl.transforms, "secs": (state[1] - state[0]) / NS, "stats": tl.stats(),
+                  "cpu_per_msg_ns": cpu / max(1, state[2] - 1)}
     print("RESULT " + json.dumps(result), flush=True)
     node.shutdown()
 
@@ -297,8 +315,9 @@ def main() -> None:
     print(f"| p99 | {r99:.1f} | {z99:.1f} | {z99 / r99:.2f}x |")
     print(f"| mean | {statistics.mean(rl) / 1000:.1f} | {statistics.mean(zl) / 1000:.1f} | |")
     print()
-    print("| ingest | raw zenoh msgs/s (callback only) | zentf transforms/s into the Buffer | in-process ceiling (no network) |")
-    print("|---|---|---|---|")
+    print("| ingest | raw zenoh msgs/s (callback only) | zentf transforms/s into the Buffer | in-process ceiling (no network) "
+          "| receiver CPU per message, raw / zentf (µs) |")
+    print("|---|---|---|---|---|")
     for label, per_msg, n in (("100 frames per message", 100, args.n_batch), ("1 frame per message", 1, args.n_single)):
         raw = run_case("raw", "thr", n, per_msg)
         zt = run_case("zentf", "thr", n, per_msg)
@@ -308,9 +327,11 @@ def main() -> None:
         floor = tgt.get(per_msg)
         note = f" (target >= {floor / 1000:,.0f}k {verdict(z_rate >= floor)})" if floor else ""
         print(f"| {label} | {raw_rate:,.0f} msgs/s = {raw_rate * per_msg:,.0f} transforms/s | "
-              f"{z_rate:,.0f}{note} | {ceil:,.0f} |")
+              f"{z_rate:,.0f}{note} | {ceil:,.0f} | {raw.get('cpu_per_msg_ns', 0) / 1000:.2f} / "
+              f"{zt.get('cpu_per_msg_ns', 0) / 1000:.2f} |")
     print()
-    print("Noisy on a shared machine; compare the columns of one run, not runs with each other.")
+    print("Noisy on a shared machine; compare the columns of one run, not runs with each other. The receiver's CPU\n"
+          "per message (all its threads, Zenoh's included, first to last message) depends less on the load.")
 
 
 if __name__ == "__main__":

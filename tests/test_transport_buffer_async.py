@@ -166,3 +166,25 @@ def test_async_waits_across_processes(spawn, node_options) -> None:
 
         asyncio.run(main())
         assert pending(buf) == 0
+
+
+def test_waiters_are_woken_from_a_c_counter_without_a_callback_per_insert() -> None:
+    """Every insert bumps BufferCore's C generation; Buffer's Python wake-up runs only while something
+    waits (here a pending future; blocked threads: the blocking tests), and the want goes back to zero."""
+    buf = Buffer()
+    assert buf._insert_callbacks == [] and buf._wake_wanted == 0
+    calls = []
+    wake = buf._wake
+    buf._wake = lambda: (calls.append(1), wake())  # the instance attribute is what the C side calls
+    gen = buf._generation
+    assert buf.set_transform(ts("a", "b", 1.0, Time(1)), "test")
+    assert not buf.set_transform(ts("a", "b", float("nan"), Time(2)), "test")  # refused: no bump
+    assert buf._generation == gen + 1 and calls == []  # nobody waits: no Python call
+
+    fut = buf.wait_for_transform_future("a", "d", Time(), timeout=20)
+    assert buf._wake_wanted == 1  # registered before it returned
+    assert buf.set_transform(ts("b", "d", 1.0, Time(1)), "test")
+    assert fut.result(10) is True and calls and buf._wake_wanted == 0
+    fut = buf.wait_for_transform_future("a", "nowhere", Time(), timeout=20)
+    fut.cancel()
+    assert buf._wake_wanted == 0

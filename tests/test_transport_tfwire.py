@@ -324,3 +324,144 @@ def test_every_tf_message_of_a_real_bag_decodes_like_rosbags() -> None:
             assert tfwire.cdr_tf(bytes(message.data)) == expected
             transforms += len(expected)
     assert transforms == 7313
+
+
+# ------------------------------------------------------------------ zentf's own layout (canonical fast path)
+
+def canonical(parent: str, child: str, sec: int, nsec: int, values: list) -> dict:
+    """A TransformStamped dict in the field order zentf's encoders write (wire.tf_to_plain's)."""
+    return {"header": {"stamp": {"sec": sec, "nanosec": nsec}, "frame_id": parent}, "child_frame_id": child,
+            "transform": {"translation": dict(zip("xyz", values[:3])), "rotation": dict(zip("xyzw", values[3:]))}}
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(items=st.lists(st.tuples(names | st.text(min_size=32, max_size=40), names,
+                                st.integers(0, MAX_SEC - 1) | st.integers(-5, -1) | st.integers(MAX_SEC, 2**64 - 1),
+                                st.integers(0, NS - 1) | st.integers(NS, 2**32 - 1),
+                                st.lists(numbers, min_size=7, max_size=7)), max_size=6),
+       single_float=st.booleans())
+def test_canonical_layout_reads_like_the_general_path(items: list, single_float: bool) -> None:
+    """The whole-key-run path reads every element in zentf's layout (any number encoding, str8 names,
+    stamps in or out of range) exactly as the key-by-key path does, and doubts what it doubts."""
+    try:
+        payload = msgpack.packb({"transforms": [canonical(*i) for i in items]}, use_single_float=single_float)
+    except OverflowError:
+        assume(False)
+    before = tfwire.canonical_hits()
+    fast, general = tfwire.msgpack_tf(payload), tfwire.msgpack_tf(payload, canonical=False)
+    assert norm(fast) == norm(general)
+    if fast is not None:
+        assert tfwire.canonical_hits() - before == len(items)  # every element took the fast path
+        if not single_float:
+            assert norm(fast) == norm([(p, c, s * NS + n, *map(float, vals)) for p, c, s, n, vals in items])
+
+
+def test_zentf_encoders_take_the_canonical_path_and_mutations_agree() -> None:
+    """What wire.encode_tf writes (template and dict paths) is read by the fast path; truncated, flipped,
+    inserted and deleted bytes give the key-by-key path's answer (None or the same samples)."""
+    ts = [TransformStamped(Header(Time(sec=1_700_000_000, nanosec=i), "map"), f"link_{'é' * i}",
+                           Transform(Vector3(1.0 * i, -2.0, 3.5), Quaternion(0.0, 0.0, 0.6, 0.8))) for i in range(3)]
+    plain = [wire.tf_to_plain(t) for t in ts]
+    plain[1]["transform"]["translation"]["x"] = 7  # an int where zentf writes a float64 (the dict path)
+    for payload in (wire.encode_tf(ts), wire.encode_tf(ts[:1]), wire.encode_tf(plain)):
+        before = tfwire.canonical_hits()
+        got = tfwire.msgpack_tf(payload)
+        assert tfwire.canonical_hits() - before == len(got) > 0
+        assert norm(got) == norm(tfwire.msgpack_tf(payload, canonical=False))
+    rng = random.Random(1515)
+    good = wire.encode_tf(ts)
+    taken = 0
+    for p in mutations(good, rng, 4000):
+        fast = tfwire.msgpack_tf(p)
+        assert norm(fast) == norm(tfwire.msgpack_tf(p, canonical=False)), p
+        taken += fast is not None
+    assert taken > 100  # some mutations (a changed value, a name) are still well-formed
+
+
+# ------------------------------------------------------------------ the future guard's clock reads
+
+class CountingClock(Clock):
+    """A sim clock that counts its reads (the guard's calls to now_ns)."""
+
+    def __init__(self) -> None:
+        super().__init__(sim=True)
+        self.reads = 0
+
+    def now_ns(self) -> int:
+        self.reads += 1
+        return super().now_ns()
+
+
+def test_the_guard_refuses_only_against_a_fresh_clock_read() -> None:
+    """TfIngest reads the clock once for a run of stamps below the last read's limit; a stamp beyond it
+    is compared with a fresh read (the clock moved on: accepted; it did not: refused and logged by the
+    listener's guard), and after reset_clock (the listener's jump-back callback) the next stamp too."""
+    clock = CountingClock()
+    clock.set_sim_time(1000 * NS)
+    ingest, buffer, guard = listener_ingest("zentf", True, clock)
+    encode = lambda sec, child="c": msgpack.packb({"transforms": [transform_dict("world", child, sec, 0)]})  # noqa: E731
+    assert ingest(encode(1001), "/a") == (1, 0, 0, None) and clock.reads == 1
+    for sec in range(1001, 1005):
+        assert ingest(encode(sec, f"d{sec}"), "/a")[0] == 1
+    assert clock.reads <= 2  # (a second read only if the machine stalled 0.1 s)
+    clock.set_sim_time(1010 * NS)
+    reads = clock.reads
+    assert ingest(encode(1012), "/a") == (1, 0, 0, None) and clock.reads == reads + 1  # beyond 1005: re-read
+    reads = clock.reads
+    assert ingest(encode(1016), "/a")[0] == 0 and guard.refused == 1  # (the guard reads the clock too)
+    clock.set_sim_time(100 * NS)  # backwards: the listener calls reset_clock
+    ingest.reset_clock()
+    assert ingest(encode(1013, "e"), "/a")[0] == 0 and guard.refused == 2
+
+
+def test_a_listener_forgets_its_clock_read_when_the_clock_jumps_back(node_options) -> None:
+    """The listener's jump-back callback resets its compiled ingests: a stamp ahead of the new sim time is
+    refused at once, not accepted against the read taken before the jump."""
+    from zentf.buffer import Buffer
+    from zentf.listener import TransformListener
+    from zentf.node import Node
+
+    with Node("jumper", options=node_options.with_(params={"use_sim_time": True})) as node:
+        buf = Buffer(node=node)
+        tl = TransformListener(buf, node)
+        clock = node.get_clock()
+        clock.set_sim_time(1000 * NS)
+        static_ingest, tf_ingest = tl._ingests  # (tf_static's first)
+        payload = lambda sec, child: msgpack.packb({"transforms": [transform_dict("world", child, sec, 0)]})  # noqa: E731
+        assert tf_ingest(payload(1003, "before"), "/a")[0] == 1
+        clock.set_sim_time(100 * NS)  # jump back: buffer cleared, clock read forgotten
+        assert tf_ingest(payload(1003, "after"), "/a")[0] == 0
+        assert tl.stats()["future"] == 1 and not buf.frame_exists("after")
+
+
+# ------------------------------------------------------------------ the listener's compiled handler
+
+def test_the_encoding_is_checked_when_the_payload_is_not_a_tfmessage(node_options, zenoh_session, caplog) -> None:
+    """The handler reads a sample's encoding only when the payload is not a well-formed TFMessage: a
+    Point labelled as a Point on tf gets the type check's one line (naming type and sender); a payload
+    that is a TFMessage applies whatever its label."""
+    import threading
+
+    import zenoh
+
+    from zentf.buffer import Buffer
+    from zentf.listener import TransformListener, wire_key
+    from zentf.node import Node
+
+    with Node("labels", options=node_options) as node, caplog.at_level(logging.WARNING, logger="zentf"):
+        buf = Buffer(node=node)
+        tl = TransformListener(buf, node)
+        pub = zenoh_session.declare_publisher(wire_key(node, "tf"),
+                                              encoding=wire.encoding_for("geometry_msgs/msg/Point"),
+                                              congestion_control=zenoh.CongestionControl.BLOCK)
+        matched = threading.Event()
+        listener = pub.declare_matching_listener(lambda status: status.matching and matched.set())
+        assert matched.is_set() or pub.matching_status.matching or matched.wait(30)
+        pub.put(msgpack.packb({"x": 1.0, "y": 2.0, "z": 3.0}), attachment=b"/liar")
+        pub.put(wire.encode_tf([TransformStamped(Header(node.get_clock().now(), "world"), "labelled", Transform(
+            Vector3(1.0, 0.0, 0.0), Quaternion(0.0, 0.0, 0.0, 1.0)))]), attachment=b"/liar")
+        assert buf.can_transform("world", "labelled", Time(), timeout=30)  # one sender: the Point came first
+        assert tl.stats()["bad_messages"] == 1 and tl.stats()["transforms"] == 1
+        lines = [r.getMessage() for r in caplog.records if "dropped bad message" in r.getMessage()]
+        assert len(lines) == 1 and "wrong type geometry_msgs/msg/Point" in lines[0] and "/liar" in lines[0], lines
+        listener.undeclare()

@@ -93,7 +93,7 @@ class Buffer(BufferCore):
     wall-clock seconds (or Duration); the bounds are BufferCore's (None lifts one).
 
     A listener (or anything calling set_transform*) fills it from another thread; waiters wake on
-    every insert through BufferCore's insert callbacks.
+    every insert (BufferCore's generation counter, in C: no callback per insert while nobody waits).
     """
 
     def __init__(self, cache_time: Union[Duration, float, int, None] = None, node: Any = None, *,
@@ -103,18 +103,23 @@ class Buffer(BufferCore):
                          max_frame_id_length=max_frame_id_length)
         self.node = node
         self._cond = threading.Condition()
-        self._generation = 0
         self._waiters = 0
         self._closed = False
         self._pending: set[_Pending] = set()
         self._pending_lock = threading.Lock()
+        self._wanted_lock = threading.Lock()  # innermost: taken under _cond or _pending_lock, takes none
         self._deadlines = _Deadlines()
-        self.add_insert_callback(self._wake)
+
+    # Waking waiters: every successful insert bumps BufferCore's C counter ``_generation`` (no Python
+    # call per insert); only while ``_wake_wanted`` (blocked waiters + pending async waits) is non-zero
+    # does the inserting thread call ``_wake``. A waiter registers before it checks and re-checks the
+    # generation inside wait_for, so no wake-up is lost.
+    def _update_wanted(self, waiters: int = 0) -> None:
+        with self._wanted_lock:
+            self._waiters += waiters
+            self._wake_wanted = self._waiters + len(self._pending)
 
     def _wake(self) -> None:
-        # Hot path (every inserted message): lock-free unless someone waits. A waiter reads the
-        # generation before checking and re-checks it inside wait_for, so no wake-up is lost.
-        self._generation += 1
         if self._waiters:
             with self._cond:
                 self._cond.notify_all()
@@ -139,7 +144,7 @@ class Buffer(BufferCore):
         self._deadlines.close()
 
     # ------------------------------------------------------------------ async and future waits
-    # Each wait registers a check that runs after every insert (BufferCore's insert callbacks,
+    # Each wait registers a check that runs after every insert (BufferCore's wake-up, in
     # the listener's thread) and resolves its future exactly once: True when available, False at
     # its timeout or on close(), the exception if the check raises. Cancelling the future drops
     # the wait. ROS 2's tf2_ros offers the asyncio-style names; the *_future twins are for threads.
@@ -162,17 +167,20 @@ class Buffer(BufferCore):
             if p not in self._pending:
                 return False
             self._pending.discard(p)
+            self._update_wanted()
         p.fire(result)
         return True
 
     def _discard(self, p: _Pending) -> None:
         with self._pending_lock:
             self._pending.discard(p)
+            self._update_wanted()
 
     def _add_pending(self, check: Callable[[], bool], fire: Callable[[Any], None]) -> _Pending:
         p = _Pending(check, fire)
         with self._pending_lock:
             self._pending.add(p)
+            self._update_wanted()
         if self._closed:
             self._finish(p, False)
             return p
@@ -341,11 +349,11 @@ class Buffer(BufferCore):
                 return False, (msg + (". " if msg else "") +
                                f"canTransform returned after {limit - max(left, 0.0):.6f} timeout was {limit:.6f}.")
             with self._cond:
-                self._waiters += 1
+                self._update_wanted(1)
                 try:
                     self._cond.wait_for(lambda: self._generation != gen or self._closed, left)
                 finally:
-                    self._waiters -= 1
+                    self._update_wanted(-1)
 
     def wait_for(self, predicate: Any, timeout: TimeoutArg) -> bool:
         """Block until ``predicate()`` is true, re-checking after every insert (or the timeout passes)."""

@@ -19,7 +19,7 @@ from .heap import release_free_memory
 from .node import Node
 from .wire import _insert
 
-from .tfwire import TfIngest  # compiled decode + future check + insert
+from .tfwire import TfHandler, TfIngest, serve  # compiled: decode + future check + insert; the tf thread
 
 __all__ = ["TransformListener", "StaticTransformListener", "DEFAULT_FUTURE_TOLERANCE"]
 
@@ -50,6 +50,11 @@ MAX_SENDER_KEY = 1024
 #: process freed meanwhile goes back to the OS (zentf.heap; measured: 197 releases, 97 ms in all, in
 #: bench/abuse.py's two 1M-sample floods, ~1% of the listener thread's time).
 RELEASE_AFTER = 256
+#: The tail of a flood: when the ring runs empty within TAIL_WINDOW s of such a release, with fewer
+#: messages since, the memory goes back once the ring has stayed quiet for TAIL_DELAY s (a timer: the
+#: thread waits in the ring), so the last < RELEASE_AFTER messages of a flood are given back too.
+TAIL_WINDOW = 2.0
+TAIL_DELAY = 0.1
 
 
 def _tolerance_ns(value: Any) -> int | None:
@@ -157,11 +162,13 @@ class TransformListener:
             buffer.node = self.node
         self._limiter = RateLimitedLogger(log)
         self._lock = threading.Lock()
-        self.messages = 0          # TFMessages applied (fully or partly)
-        self.transforms = 0        # transforms accepted by the buffer
-        self.rejected = 0          # well-formed transforms the buffer refused (NaN, bad quaternion, old data...)
-        self.malformed = 0         # transform elements with a bad shape
+        # counters: messages, transforms, rejected and malformed are kept by the topics' handlers (below)
+        self._handlers: list[TfHandler] = []
+        self._ingests: list[TfIngest] = []  # compiled ingests: told when the clock jumps back
         self.bad_messages = 0      # payloads that were not a TFMessage at all
+        self._tail_timer: threading.Timer | None = None  # zentf.heap release after a flood's tail
+        self._tail_messages = 0
+        self._tail_asked = False
         self.dropped = 0           # tf messages dropped unread: a sender's backlog grew too big
         for name, value in (("max_frames", max_frames), ("max_frame_id_length", max_frame_id_length)):
             if value is self._UNSET:
@@ -177,7 +184,8 @@ class TransformListener:
         self._tokens: list[Any] = []
         profile = self.node.wire  # zentf or ros2 (zentf.profile): key layout, payload format, authority
         self._tf_encoding = profile.encoding(TFMessage.TYPE_NAME)
-        self._check_encoding = profile.check_tf_encoding
+        #: ROS 2 carries the type in the key (the check is a no-op): the encoding is then not even read
+        self._check_encoding = None if profile.name == "ros2" else profile.check_tf_encoding
         self._authority = profile.authority
         self._ingest = profile.ingest_tf
         #: ROS 2 carries no sender name: tf2_ros records one fixed authority for every transform
@@ -199,7 +207,7 @@ class TransformListener:
             self._declare_token(key)
             # the thread reads the ring through its handler object: undeclaring the subscriber while
             # the thread waits in sub.recv() fails ("Already borrowed") and leaves it blocked
-            self._thread = threading.Thread(target=self._serve, args=(sub.handler,), daemon=True,
+            self._thread = threading.Thread(target=self._serve, args=(sub.handler, self._handler(False)), daemon=True,
                                             name=f"zentf-listener-{key}")
             self._thread.start()
             _LIVE.add(self)
@@ -213,93 +221,40 @@ class TransformListener:
                                                           latched=is_static,
                                                           topic=self.node.wire.topic_of_key(key)[0]))
 
-    def _serve(self, ring: Any) -> None:
-        """Listener thread: drain the ring into per-sender FIFOs, then handle one message per sender."""
-        recv, try_recv = ring.recv, ring.try_recv
-        queues: dict[bytes, deque] = {}
-        strikes: dict[bytes, int] = {}  # messages in a row that put nothing into the buffer, per sender
-        pending = 0
-        burst = 0  # messages taken from the ring since memory was last released
-        handle = self._handler(False)
-        sender_of = self.node.wire.sender_of  # None: the attachment bytes name the sender
-        while True:
-            try:  # blocks in Zenoh (GIL released) when idle; fails once undeclared
-                if pending:
-                    sample = try_recv()
-                else:
-                    sample = try_recv() if burst >= RELEASE_AFTER else None
-                    if sample is None:
-                        if burst >= RELEASE_AFTER:
-                            # a burst is over: glibc would keep the memory it freed (docs/protocol.md)
-                            release_free_memory()
-                            log.debug("a burst of %d tf messages is over: freed memory released", burst)
-                            burst = 0
-                        sample = recv()
-            except Exception:
+    def _serve(self, ring: Any, handle: TfHandler) -> None:
+        """Listener thread: drain the ring into per-sender FIFOs, then handle one message per sender
+        (compiled: zentf/tfwire.pyx ``serve``, with this module's bounds)."""
+        serve(self, ring, handle, self.node.wire.sender_of, DRAIN_BATCH, MAX_PENDING,
+              SUSPECT_AFTER, SUSPECT_QUEUE, MAX_SENDERS, _OTHERS, MAX_SENDER_KEY, RELEASE_AFTER,
+              release_free_memory, log, TAIL_WINDOW, self._release_later)
+
+    def _release_later(self) -> None:
+        """The ring ran empty in a flood's tail: release once no message came for TAIL_DELAY s."""
+        with self._lock:
+            if self._tail_timer is not None:
+                self._tail_asked = True  # ran empty again: the timer looks once more if it was not quiet
+            elif self._thread is not None:
+                self._arm_tail()
+
+    def _arm_tail(self) -> None:
+        """(lock held)"""
+        self._tail_messages = self.messages
+        self._tail_asked = False
+        self._tail_timer = threading.Timer(TAIL_DELAY, self._release_tail)
+        self._tail_timer.daemon = True
+        self._tail_timer.start()
+
+    def _release_tail(self) -> None:
+        with self._lock:
+            if self._tail_timer is None:  # unregistered meanwhile
                 return
-            n = 0
-            shed: dict[bytes, int] | None = None
-            while sample is not None:
-                att = sample.attachment
-                if att is None:
-                    raw = None
-                    key = b""
-                else:  # read once: handle() gets it too (the authority), with the sample
-                    key = raw = att.to_bytes()
-                    if sender_of is not None:
-                        key = sender_of(raw)
-                    if len(key) > MAX_SENDER_KEY:
-                        key = key[:MAX_SENDER_KEY]
-                q = queues.get(key)
-                if q is None:
-                    if len(queues) >= MAX_SENDERS:
-                        key = _OTHERS
-                        q = queues.get(key)
-                    if q is None:
-                        q = queues[key] = deque()
-                if len(q) >= SUSPECT_QUEUE and strikes and strikes.get(key, 0) >= SUSPECT_AFTER:
-                    q.popleft()  # a suspect sender: its newest SUSPECT_QUEUE wait, the oldest goes
-                    if shed is None:
-                        shed = {}
-                    shed[key] = shed.get(key, 0) + 1
-                    pending -= 1
-                q.append((sample, raw))
-                pending += 1
-                if pending > MAX_PENDING:
-                    big = self._shed(queues, q, key)
-                    if shed is None:
-                        shed = {}
-                    shed[big] = shed.get(big, 0) + 1
-                    pending -= 1
-                n += 1
-                if n >= DRAIN_BATCH:  # short rounds: a light sender is served often however big the flood
-                    break
-                try:
-                    sample = try_recv()
-                except Exception:
-                    return
-            burst += n
-            if shed:
-                self._log_shed(shed, queues)
-            for key in tuple(queues):
-                q = queues[key]
-                sample, raw = q.popleft()
-                if handle(sample, raw):
-                    if strikes and key in strikes:
-                        del strikes[key]
-                else:
-                    k = strikes[key] = strikes.get(key, 0) + 1
-                    if k >= SUSPECT_AFTER and len(q) > SUSPECT_QUEUE:  # queued before it turned suspect
-                        extra = len(q) - SUSPECT_QUEUE
-                        for _ in range(extra):
-                            q.popleft()
-                        pending -= extra
-                        self._log_shed({key: extra}, queues)
-                    if len(strikes) > 4 * MAX_SENDERS:
-                        strikes.clear()
-                pending -= 1
-                if not q:
-                    del queues[key]
+            self._tail_timer = None
+            if self._tail_messages != self.messages:  # not quiet: look again if the ring ran empty since
+                if self._tail_asked and self._thread is not None:
+                    self._arm_tail()
+                return
+        release_free_memory()
+        log.debug("the tail of a burst of tf messages is over: freed memory released")
 
     def _shed(self, queues: dict[bytes, deque], q: deque, key: bytes) -> bytes:
         """Too much waiting in all: the biggest backlog (usually the sender just heard) loses its oldest."""
@@ -317,54 +272,42 @@ class TransformListener:
                               "tf listener overloaded: dropped %d message(s) from %s unread (%d waiting from it)",
                               n, sender, len(q) if q is not None else 0)
 
-    def _handler(self, is_static: bool) -> Callable[..., bool]:
-        """The function that decodes and inserts one message of a topic: ``handle(sample, raw=unread)``,
-        True if something got into the buffer; never raises. ``raw``: the attachment's bytes when the
-        caller read them already (the tf thread). Everything it uses is bound once, in locals: it runs
-        once per message."""
+    def _handler(self, is_static: bool) -> TfHandler:
+        """The object that decodes and inserts one message of a topic (compiled: zentf/tfwire.pyx
+        ``TfHandler``): ``handle(sample)``, True if something got into the buffer; never raises. It keeps
+        this topic's counters (``messages``, ``transforms``, ``rejected``, ``malformed``)."""
         target = self.buffer if is_static else self._tf_target
-        ingest = self._ingest_of(target, is_static)
-        tf_encoding = self._tf_encoding
-        check_encoding = self._check_encoding
-        fixed_authority = self._fixed_authority
-        authorities = self._authorities
-        authority_of = self._authority
-        unread = self._UNSET
+        handler = TfHandler(self, self._ingest_of(target, is_static), self._tf_encoding, self._check_encoding,
+                            self._fixed_authority, self._authority, self._authorities, MAX_SENDER_KEY)
+        self._handlers.append(handler)
+        return handler
 
-        def handle(sample: Any, raw: Any = unread) -> bool:
-            try:
-                enc = sample.encoding
-                if enc != tf_encoding:  # cheap Rust-side compare for the common case
-                    check_encoding(enc)
-                authority = fixed_authority
-                if authority is None:
-                    if raw is unread:
-                        att = sample.attachment
-                        raw = att.to_bytes() if att is not None else None
-                    authority = authorities.get(raw) if raw is not None else None
-                    if authority is None:
-                        authority = authority_of(sample.attachment, str(sample.key_expr))
-                        if raw is not None and len(raw) <= MAX_SENDER_KEY and len(authorities) < 1024:
-                            authorities[raw] = authority
-                accepted, rejected, malformed, problem = ingest(sample.payload.to_bytes(), authority)
-            except Exception as e:
-                self._bad_message(sample, e)
-                return False
-            # plain counters (statistics only; no lock on the hot path)
-            self.messages += 1
-            if accepted:
-                self.transforms += accepted
-            if rejected:
-                self.rejected += rejected
-            if malformed:
-                self.malformed += malformed
-                key = str(sample.key_expr)
-                self._limiter.log(logging.WARNING, ("malformed", key, authority),
-                                  "skipped %d malformed transform(s) on '%s' from %s: %s",
-                                  malformed, key, authority, problem or "")
-            return accepted > 0
+    def _log_malformed(self, sample: Any, authority: str, malformed: int, problem: str | None) -> None:
+        """Malformed transform elements in a message: one rate-limited line naming the key and sender."""
+        key = str(sample.key_expr)
+        self._limiter.log(logging.WARNING, ("malformed", key, authority),
+                          "skipped %d malformed transform(s) on '%s' from %s: %s",
+                          malformed, key, authority, problem or "")
 
-        return handle
+    @property
+    def messages(self) -> int:
+        """TFMessages applied (fully or partly)."""
+        return sum(h.messages for h in self._handlers)
+
+    @property
+    def transforms(self) -> int:
+        """Transforms accepted by the buffer."""
+        return sum(h.transforms for h in self._handlers)
+
+    @property
+    def rejected(self) -> int:
+        """Well-formed transforms the buffer refused (NaN, bad quaternion, old data...)."""
+        return sum(h.rejected for h in self._handlers)
+
+    @property
+    def malformed(self) -> int:
+        """Transform elements with a bad shape."""
+        return sum(h.malformed for h in self._handlers)
 
     def _ingest_of(self, target: Any, is_static: bool) -> Callable[[bytes, str], tuple]:
         """``ingest(payload, authority)`` of a topic: compiled (zentf/tfwire.pyx) for the two wires,
@@ -373,9 +316,11 @@ class TransformListener:
         wire_name = self.node.wire.name
         if wire_name in ("zentf", "ros2"):
             guard = None if is_static else self._guard
-            return TfIngest(wire_name == "ros2", slow, _insert, target, self.buffer,
-                            guard.now_ns if guard is not None else None,
-                            guard.tolerance_ns if guard is not None else 0, is_static)
+            compiled = TfIngest(wire_name == "ros2", slow, _insert, target, self.buffer,
+                                guard.now_ns if guard is not None else None,
+                                guard.tolerance_ns if guard is not None else 0, is_static)
+            self._ingests.append(compiled)
+            return compiled
 
         def ingest(payload: bytes, authority: str) -> tuple:
             return slow(payload, target, authority, is_static)
@@ -395,6 +340,8 @@ class TransformListener:
 
     def _on_jump(self, old: Any, new: Any) -> None:
         log.warning("Detected jump back in time of %.6fs. Clearing TF buffer.", (old - new).to_sec())
+        for ingest in self._ingests:  # the future guard's last clock read is no longer "now"
+            ingest.reset_clock()
         self.buffer.clear()
 
     def stats(self) -> dict[str, int]:
@@ -410,6 +357,10 @@ class TransformListener:
         self._subs.clear()
         self._tokens.clear()
         thread, self._thread = self._thread, None
+        with self._lock:
+            timer, self._tail_timer = self._tail_timer, None
+        if timer is not None:
+            timer.cancel()
         _LIVE.discard(self)
         if thread is not None and thread is not threading.current_thread():
             thread.join(5)  # the undeclared ring wakes it at once

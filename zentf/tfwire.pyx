@@ -15,10 +15,13 @@ from cpython.unicode cimport PyUnicode_DecodeUTF8
 from libc.stdint cimport int32_t, int64_t, uint8_t, uint32_t, uint64_t
 from libc.stdlib cimport free, realloc
 from libc.string cimport memcmp, memcpy
+from posix.time cimport CLOCK_MONOTONIC, clock_gettime, timespec
+
+from collections import deque
 
 from .core.buffer_core cimport BufferCore
 
-__all__ = ["msgpack_tf", "cdr_tf", "TfIngest", "MAX_PAYLOAD"]
+__all__ = ["msgpack_tf", "cdr_tf", "TfIngest", "TfHandler", "serve", "MAX_PAYLOAD"]
 
 from .ros.tf import MAX_PAYLOAD  # larger payloads are not decoded here (the Python paths refuse them)
 cdef Py_ssize_t _MAX_PAYLOAD = MAX_PAYLOAD
@@ -113,6 +116,9 @@ cdef struct Sample:
     double v[7]
 
 
+cdef Py_ssize_t _KEEP_NAMES = 512  # names a batch keeps between messages (256 samples' worth)
+
+
 cdef class _Batch:
     """Decoded samples kept in C (stamps, values) with their frame names, for BufferCore.ingest_one_c:
     no tuple and no float object per transform."""
@@ -133,9 +139,12 @@ cdef class _Batch:
         free(self.stamps)
         free(self.v)
 
-    cdef void reset(self) noexcept:
+    cdef int reset(self) except -1:
+        """Empty; the names of a small batch stay until overwritten (no list resize per message)."""
         self.n = 0
-        del self.names[:]
+        if len(self.names) > _KEEP_NAMES:
+            del self.names[:]
+        return 0
 
     cdef int push(self, Sample* s) except -1:
         """Add a decoded sample; 0 if a frame name is not UTF-8 (the payload is then doubtful)."""
@@ -154,8 +163,12 @@ cdef class _Batch:
                 raise MemoryError()
             self.v = <double*>p
             self.cap = self.cap * 2 + 16
-        self.names.append(parent)
-        self.names.append(child)
+        if 2 * self.n < len(self.names):  # (always an even length: names go in pairs)
+            self.names[2 * self.n] = parent
+            self.names[2 * self.n + 1] = child
+        else:
+            self.names.append(parent)
+            self.names.append(child)
         self.stamps[self.n] = s.sec * _NS + s.nsec
         memcpy(&self.v[7 * self.n], s.v, 7 * sizeof(double))
         self.n += 1
@@ -472,6 +485,77 @@ cdef bint _stamped(Cur* c, Sample* s) noexcept nogil:
     return seen == 7
 
 
+# The layout zentf writes (wire.encode_tf's template, robot_state_publisher's, msgpack.packb of
+# wire.tf_to_plain's dict): every key once, in this order, fixstr-encoded. An element in it is read by
+# comparing the key runs as a whole (~5x fewer instructions than key by key); on any difference the
+# element is read again by the general path above, so the samples are the same either way.
+cdef const char* _K_HEAD = b"\x83\xa6header\x82\xa5stamp\x82\xa3sec"
+cdef const char* _K_NSEC = b"\xa7nanosec"
+cdef const char* _K_FRAME = b"\xa8frame_id"
+cdef const char* _K_CHILD = b"\xaechild_frame_id"
+cdef const char* _K_TRANS = b"\xa9transform\x82\xabtranslation\x83\xa1x"
+cdef const char* _K_ROT = b"\xa8rotation\x84\xa1x"
+cdef int64_t _canonical_hits = 0    # elements read by _stamped_canonical (tests prove the path is taken)
+
+
+cdef inline bint _lit(Cur* c, const char* lit, Py_ssize_t n) noexcept nogil:
+    """The next n bytes are lit: step over them."""
+    if c.end - c.p < n or memcmp(c.p, lit, n) != 0:
+        return False
+    c.p += n
+    return True
+
+
+cdef inline bint _f(Cur* c, double* v) noexcept nogil:
+    """A float64 (what zentf writes) inline; any other number through _float."""
+    cdef uint64_t u
+    if c.end - c.p >= 9 and c.p[0] == 0xcb:
+        u = _be(c.p + 1, 8)
+        memcpy(v, &u, 8)
+        c.p += 9
+        return True
+    return _float(c, v)
+
+
+cdef inline bint _key1(Cur* c, uint8_t name) noexcept nogil:
+    """The fixstr key of one letter name (x, y, z, w)."""
+    if c.end - c.p < 2 or c.p[0] != 0xa1 or c.p[1] != name:
+        return False
+    c.p += 2
+    return True
+
+
+cdef bint _stamped_canonical(Cur* c, Sample* s) noexcept nogil:
+    """One TransformStamped in zentf's own layout into s; False (c.p anywhere) if it is laid out otherwise."""
+    global _canonical_hits
+    if not (_lit(c, _K_HEAD, 20) and _int(c, &s.sec) and _lit(c, _K_NSEC, 8) and _int(c, &s.nsec)
+            and _lit(c, _K_FRAME, 9) and _str(c, &s.parent, &s.parent_len)
+            and _lit(c, _K_CHILD, 15) and _str(c, &s.child, &s.child_len)
+            and _lit(c, _K_TRANS, 26) and _f(c, &s.v[0]) and _key1(c, b'y') and _f(c, &s.v[1])
+            and _key1(c, b'z') and _f(c, &s.v[2]) and _lit(c, _K_ROT, 12) and _f(c, &s.v[3])
+            and _key1(c, b'y') and _f(c, &s.v[4]) and _key1(c, b'z') and _f(c, &s.v[5])
+            and _key1(c, b'w') and _f(c, &s.v[6])):
+        return False
+    if not (0 <= s.sec < _MAX_SEC and 0 <= s.nsec < _NS):
+        return False
+    _canonical_hits += 1
+    return True
+
+
+cdef inline bint _element(Cur* c, Sample* s, bint canonical) noexcept nogil:
+    """One TransformStamped: zentf's own layout first, else (or if it is not) the general path."""
+    cdef const uint8_t* start = c.p
+    if canonical and _stamped_canonical(c, s):
+        return True
+    c.p = start
+    return _stamped(c, s)
+
+
+def canonical_hits():
+    """How many elements the canonical-layout path has read (tests)."""
+    return _canonical_hits
+
+
 cdef inline object _tuple(Sample* s):
     """The sample tuple; None if a frame name is not UTF-8."""
     parent = _name(s.parent, s.parent_len)
@@ -498,13 +582,14 @@ cdef int _emit(Sample* s, list out, _Batch batch, int64_t* newest) except -1:
     return 1
 
 
-def msgpack_tf(payload):
-    """Samples of a well-formed zentf (msgpack) TFMessage payload; None if anything is doubtful."""
+def msgpack_tf(payload, bint canonical=True):
+    """Samples of a well-formed zentf (msgpack) TFMessage payload; None if anything is doubtful.
+    ``canonical=False`` reads every element key by key (tests compare the two paths)."""
     cdef int64_t newest
-    return _msgpack(payload, &newest, None)
+    return _msgpack(payload, &newest, None, canonical)
 
 
-cdef object _msgpack(object payload, int64_t* newest, _Batch batch):
+cdef object _msgpack(object payload, int64_t* newest, _Batch batch, bint canonical=True):
     """msgpack_tf, also giving the newest stamp (-1 if none); with a batch, the samples go into it
     (True returned) instead of a list of tuples."""
     newest[0] = -1
@@ -529,7 +614,7 @@ cdef object _msgpack(object payload, int64_t* newest, _Batch batch):
             if count >= 0 or not _container(&c, 0x90, 0xdc, &count):
                 return None
             for j in range(count):
-                if not _stamped(&c, &s):
+                if not _element(&c, &s, canonical):
                     return None
                 if not _emit(&s, out, batch, newest):
                     return None
@@ -610,6 +695,12 @@ cdef object _cdr(object payload, int64_t* newest, _Batch batch):
 
 # ---------------------------------------------------------------- the listener's ingest
 
+#: How long (ns) a clock read may stand for "now" when a stamp is below its limit (TfIngest._too_new).
+CLOCK_CACHE_NS = 100_000_000
+cdef int64_t _CLOCK_CACHE = CLOCK_CACHE_NS
+cdef tuple _NOTHING = (0, 0, 0, None)
+cdef tuple _ONE = (1, 0, 0, None)       # the 1-transform message stored: no tuple built
+
 cdef class TfIngest:
     """One topic's ingest for a TransformListener: ``ingest(payload, authority)`` -> (accepted, rejected,
     malformed, first problem), as the profile's ``ingest_tf`` returns it.
@@ -630,6 +721,8 @@ cdef class TfIngest:
     cdef object now_ns
     cdef object tolerance_ns
     cdef _Batch batch           # a compiled BufferCore: samples go in from C (no tuples)
+    cdef int64_t limit          # now + tolerance at the last clock read (-1: none)
+    cdef int64_t limit_until    # CLOCK_MONOTONIC ns until which limit may be used without a read
 
     def __init__(self, bint cdr, slow, insert, target, core, now_ns, tolerance_ns, bint is_static):
         self.batch = _Batch() if isinstance(core, BufferCore) else None
@@ -641,6 +734,13 @@ cdef class TfIngest:
         self.now_ns = now_ns            # the listener clock's now_ns, None: no future guard
         self.tolerance_ns = tolerance_ns
         self.is_static = is_static
+        self.limit = -1
+        self.limit_until = 0
+
+    def reset_clock(self):
+        """Forget the last clock read (the clock jumped back: the next stamp is compared afresh)."""
+        self.limit = -1
+        self.limit_until = 0
 
     def __call__(self, payload, authority):
         cdef int64_t newest
@@ -660,15 +760,32 @@ cdef class TfIngest:
         return accepted, len(samples) - accepted, 0, None
 
     cdef bint _too_new(self, int64_t newest) except -1:
-        """A stamp beyond the clock's now + tolerance: the listener's future guard must see it."""
+        """A stamp beyond the clock's now + tolerance: the listener's future guard must see it.
+
+        The clock (a Python call, ~40% of a 1-transform message's decode and insert) is read again only
+        when a stamp is beyond the last read's now + tolerance or that read is CLOCK_CACHE_NS old: a
+        stamp is refused only against a fresh read, and one is let through against a read at most
+        0.1 s old (the listener forgets it when its clock jumps back: reset_clock)."""
+        cdef timespec ts
+        cdef int64_t mono
         if self.now_ns is None:
             return False
+        clock_gettime(CLOCK_MONOTONIC, &ts)
+        mono = ts.tv_sec * _NS + ts.tv_nsec
+        if newest <= self.limit and mono < self.limit_until:
+            return False
         now = self.now_ns()
-        return now and newest > now + self.tolerance_ns  # (0: sim time before the first /clock)
+        if not now:  # sim time before the first /clock: nothing to compare with
+            self.limit = -1
+            return False
+        self.limit = now + self.tolerance_ns
+        self.limit_until = mono + _CLOCK_CACHE
+        return newest > self.limit
 
-    cdef object _direct(self, object payload, object authority):
+    cdef object _direct(self, object payload, object authority, bint fast_only=False):
         """__call__ for a compiled BufferCore: decoded into the batch, inserted sample by sample from C
-        under one lock (BufferCore.ingest_*_c: set_transforms_raw's semantics, without tuples)."""
+        under one lock (BufferCore.ingest_*_c: set_transforms_raw's semantics, without tuples).
+        ``fast_only``: None instead of taking the Python path (the caller looks at the encoding first)."""
         cdef int64_t newest
         cdef _Batch b = self.batch
         cdef BufferCore core = <BufferCore>self.core
@@ -676,11 +793,11 @@ cdef class TfIngest:
         b.reset()
         ok = _cdr(payload, &newest, b) if self.cdr else _msgpack(payload, &newest, b)
         if ok is None:
-            return self.slow(payload, self.target, authority, self.is_static)
+            return None if fast_only else self.slow(payload, self.target, authority, self.is_static)
         if b.n == 0:
-            return 0, 0, 0, None
+            return _NOTHING
         if self._too_new(newest):
-            return self.slow(payload, self.target, authority, self.is_static)
+            return None if fast_only else self.slow(payload, self.target, authority, self.is_static)
         names = b.names
         try:
             core.ingest_begin_c()
@@ -696,4 +813,213 @@ cdef class TfIngest:
                      b.v[7 * k + 3], b.v[7 * k + 4], b.v[7 * k + 5], b.v[7 * k + 6]) for k in range(i, b.n)]
             got, rejected, malformed, problem = self.insert(rest, self.core, authority, self.is_static, 0, None)
             return accepted + got, b.n - accepted - got, malformed, problem
+        if accepted == 1 and b.n == 1:
+            return _ONE
         return accepted, b.n - accepted, 0, None
+
+    cdef object fast_c(self, object payload, object authority):
+        """The compiled decode and insert alone (the listener's handler): None if the payload must take
+        the Python path (``slow_c``) or the buffer is not a compiled BufferCore."""
+        if self.batch is None:
+            return None
+        return self._direct(payload, authority, True)
+
+    cdef object slow_c(self, object payload, object authority):
+        """__call__ for what fast_c left: the Python path names the problems (or a plain buffer)."""
+        if self.batch is None:
+            return self(payload, authority)
+        return self.slow(payload, self.target, authority, self.is_static)
+
+
+# ---------------------------------------------------------------- the listener's thread, compiled
+
+cdef class TfHandler:
+    """One topic's ``handle(sample)`` for a TransformListener: encoding check, authority, decode and
+    insert, counters; never raises (a payload that is not a TFMessage goes to the listener's
+    ``_bad_message``, malformed elements to its ``_log_malformed``: the Python lines, rate-limited).
+
+    The listener's ``_handler`` closure, compiled: the bytecode around the zenoh-python calls goes,
+    and so do two of those calls for a well-formed message: the sample's encoding is read only when
+    the payload is not a well-formed TFMessage (a payload the strict decoder reads as one is one,
+    whatever its label; anything else gets the type check's line first, as before). Zenoh's callback
+    (tf_static) calls it with the sample; the tf thread (``serve``) hands over the attachment's bytes
+    it read already.
+    """
+
+    cdef object listener
+    cdef object ingest
+    cdef TfIngest cingest
+    cdef object tf_encoding
+    cdef object check_encoding      # None: the encoding is not looked at (ROS 2: the type is in the key)
+    cdef object fixed_authority
+    cdef object authority_of
+    cdef dict authorities
+    cdef Py_ssize_t max_sender_key
+    cdef public Py_ssize_t messages, transforms, rejected, malformed
+
+    def __init__(self, listener, ingest, tf_encoding, check_encoding, fixed_authority, authority_of,
+                 dict authorities, Py_ssize_t max_sender_key):
+        self.listener = listener
+        self.ingest = ingest
+        self.cingest = ingest if isinstance(ingest, TfIngest) else None
+        self.tf_encoding = tf_encoding
+        self.check_encoding = check_encoding
+        self.fixed_authority = fixed_authority
+        self.authority_of = authority_of
+        self.authorities = authorities
+        self.max_sender_key = max_sender_key
+        self.messages = self.transforms = self.rejected = self.malformed = 0
+
+    def __call__(self, sample):
+        """Zenoh's callback: True if something got into the buffer."""
+        return self.handle(sample, None, False)
+
+    cdef bint handle(self, object sample, object raw, bint have_raw) except -1:
+        cdef Py_ssize_t accepted, rejected, malformed
+        try:
+            authority = self.fixed_authority
+            if authority is None:
+                if not have_raw:
+                    att = sample.attachment
+                    raw = att.to_bytes() if att is not None else None
+                authority = self.authorities.get(raw) if raw is not None else None
+                if authority is None:
+                    authority = self.authority_of(sample.attachment, str(sample.key_expr))
+                    if raw is not None and len(raw) <= self.max_sender_key and len(self.authorities) < 1024:
+                        self.authorities[raw] = authority
+            payload = sample.payload.to_bytes()
+            res = self.cingest.fast_c(payload, authority) if self.cingest is not None else None
+            if res is None:
+                # not a well-formed TFMessage (or a stamp too far ahead, or not a compiled buffer): the
+                # encoding is looked at now, so a mislabelled payload gets the type check's one line
+                if self.check_encoding is not None:
+                    enc = sample.encoding
+                    if enc != self.tf_encoding:  # cheap Rust-side compare for the common case
+                        self.check_encoding(enc)
+                if self.cingest is not None:
+                    res = self.cingest.slow_c(payload, authority)
+                else:
+                    res = self.ingest(payload, authority)
+            accepted, rejected, malformed, problem = <tuple>res
+        except Exception as e:
+            self.listener._bad_message(sample, e)
+            return False
+        # plain counters (statistics only; no lock on the hot path)
+        self.messages += 1
+        self.transforms += accepted
+        self.rejected += rejected
+        if malformed:
+            self.malformed += malformed
+            self.listener._log_malformed(sample, authority, malformed, problem)
+        return accepted > 0
+
+
+def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, Py_ssize_t max_pending,
+          Py_ssize_t suspect_after, Py_ssize_t suspect_queue, Py_ssize_t max_senders, bytes others,
+          Py_ssize_t max_sender_key, Py_ssize_t release_after, release, log, double tail_window,
+          release_later):
+    """The tf thread of a TransformListener (its ``_serve``, compiled; the constants are zentf.listener's):
+    drain the ring into per-sender FIFOs, then handle one message per sender in turn (issue 10's
+    fairness: a flood delays only its sender's data), shedding and logging as _serve did.
+
+    Memory (zentf.heap): when the ring runs empty after ``release_after`` messages, ``release()``; when it
+    runs empty within ``tail_window`` s of that with fewer messages since (the tail of a flood the thread
+    keeps up with, so it idles between messages), ``release_later()`` (the listener's timer releases
+    once the ring has stayed quiet)."""
+    recv, try_recv = ring.recv, ring.try_recv
+    cdef dict queues = {}
+    cdef dict strikes = {}          # messages in a row that put nothing into the buffer, per sender
+    cdef dict shed
+    cdef Py_ssize_t pending = 0, burst = 0, n, k, extra, j
+    cdef object q
+    cdef timespec ts
+    cdef int64_t last_release = 0, window = <int64_t>(tail_window * 1e9), mono
+    cdef bint tail
+    while True:
+        try:  # blocks in Zenoh (GIL released) when idle; fails once undeclared
+            if pending:
+                sample = try_recv()
+            else:
+                tail = False
+                if 0 < burst < release_after and last_release:
+                    clock_gettime(CLOCK_MONOTONIC, &ts)
+                    mono = ts.tv_sec * _NS + ts.tv_nsec
+                    tail = mono - last_release < window
+                sample = try_recv() if burst >= release_after or tail else None
+                if sample is None:
+                    if burst >= release_after:
+                        # a burst is over: glibc would keep the memory it freed (docs/protocol.md)
+                        release()
+                        log.debug("a burst of %d tf messages is over: freed memory released", burst)
+                        burst = 0
+                        clock_gettime(CLOCK_MONOTONIC, &ts)
+                        last_release = ts.tv_sec * _NS + ts.tv_nsec
+                    elif tail:
+                        release_later()
+                    sample = recv()
+        except Exception:
+            return
+        n = 0
+        shed = None
+        while sample is not None:
+            att = sample.attachment
+            if att is None:
+                raw = None
+                key = b""
+            else:  # read once: handle() gets it too (the authority), with the sample
+                key = raw = att.to_bytes()
+                if sender_of is not None:
+                    key = sender_of(raw)
+                if len(key) > max_sender_key:
+                    key = key[:max_sender_key]
+            q = queues.get(key)
+            if q is None:
+                if len(queues) >= max_senders:
+                    key = others
+                    q = queues.get(key)
+                if q is None:
+                    q = queues[key] = deque()
+            if len(q) >= suspect_queue and strikes and strikes.get(key, 0) >= suspect_after:
+                q.popleft()  # a suspect sender: its newest suspect_queue wait, the oldest goes
+                if shed is None:
+                    shed = {}
+                shed[key] = shed.get(key, 0) + 1
+                pending -= 1
+            q.append((sample, raw))
+            pending += 1
+            if pending > max_pending:
+                big = listener._shed(queues, q, key)
+                if shed is None:
+                    shed = {}
+                shed[big] = shed.get(big, 0) + 1
+                pending -= 1
+            n += 1
+            if n >= drain_batch:  # short rounds: a light sender is served often however big the flood
+                break
+            try:
+                sample = try_recv()
+            except Exception:
+                return
+        burst += n
+        if shed:
+            listener._log_shed(shed, queues)
+        for key in tuple(queues):
+            q = queues[key]
+            sample, raw = q.popleft()
+            if handle.handle(sample, raw, True):
+                if strikes and key in strikes:
+                    del strikes[key]
+            else:
+                k = strikes.get(key, 0) + 1
+                strikes[key] = k
+                if k >= suspect_after and len(q) > suspect_queue:  # queued before it turned suspect
+                    extra = len(q) - suspect_queue
+                    for j in range(extra):
+                        q.popleft()
+                    pending -= extra
+                    listener._log_shed({key: extra}, queues)
+                if len(strikes) > 4 * max_senders:
+                    strikes.clear()
+            pending -= 1
+            if not q:
+                del queues[key]

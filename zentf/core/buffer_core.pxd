@@ -30,6 +30,10 @@ cdef class BufferCore:
     cdef public list _names, _caches, _requests, _insert_callbacks
     cdef public int64_t _cache_ns
     cdef public int64_t _version
+    # waking waiters (zentf.buffer.Buffer): every successful insert bumps _generation in C; only while
+    # _wake_wanted (waiters, pending async waits) is non-zero does it call the Python ``_wake()``
+    cdef public int64_t _generation
+    cdef public Py_ssize_t _wake_wanted
     cdef _Memo* _memo
     cdef int64_t* _marks       # per frame id: the LCT walk that last saw it (membership test)
     cdef Py_ssize_t _marks_len

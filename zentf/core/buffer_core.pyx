@@ -378,6 +378,8 @@ cdef class BufferCore:
         self._requests = []
         self._request_counter = 0
         self._insert_callbacks = []
+        self._generation = 0
+        self._wake_wanted = 0
         # answers by (target, source, time), valid while _version (bumped by every change of
         # stored data or frame set) is unchanged; errors are never remembered
         self._version = 0
@@ -411,7 +413,7 @@ cdef class BufferCore:
         stamp = stamp._ns if type(stamp) is Time else stamp.nanoseconds
         ok = self._store(h.frame_id, transform.child_frame_id, stamp, v.x, v.y, v.z, q.x, q.y, q.z, q.w,
                          authority, is_static)
-        if ok and (self._requests or self._insert_callbacks):
+        if ok:
             self._after_insert()
         return ok
 
@@ -424,7 +426,7 @@ cdef class BufferCore:
                           bint is_static=False) -> bool:
         """set_transform without building a message (listener fast path); same semantics."""
         ok = self._store(parent, child, stamp_ns, tx, ty, tz, qx, qy, qz, qw, authority, is_static)
-        if ok and (self._requests or self._insert_callbacks):
+        if ok:
             self._after_insert()
         return ok
 
@@ -691,15 +693,26 @@ cdef class BufferCore:
         return fid
 
     cdef int _after_insert(self) except -1:
-        """After stored data changed (called unlocked): transformable requests, then insert callbacks."""
+        """After stored data changed (called unlocked): the generation, waiters' wake-up (only when some
+        wait: no Python call per insert otherwise), transformable requests, then insert callbacks."""
+        self._generation += 1
+        if self._wake_wanted:
+            try:
+                self._wake()
+            except Exception:  # a broken waiter must not break inserts
+                logger.exception("waking waiters failed")
         if self._requests:
             self._test_transformable_requests()
-        for cb in tuple(self._insert_callbacks):
-            try:
-                cb()
-            except Exception:  # a broken callback must not break inserts
-                logger.exception("insert callback %r failed", cb)
+        if self._insert_callbacks:
+            for cb in tuple(self._insert_callbacks):
+                try:
+                    cb()
+                except Exception:  # a broken callback must not break inserts
+                    logger.exception("insert callback %r failed", cb)
         return 0
+
+    def _wake(self) -> None:
+        """Called after an insert while ``_wake_wanted`` is non-zero (a subclass's waiters)."""
 
     def add_insert_callback(self, cb: Callable[[], None]) -> None:
         """Run ``cb()`` after every successful insert (outside the lock; used to wake waiters)."""
