@@ -67,6 +67,17 @@ def zopts(listen: str | None = None, connect: str | None = None):
                         mode="peer", no_multicast=True)
 
 
+def stop(procs: list[subprocess.Popen]) -> None:
+    """Terminate the bench's child processes (killed after 5 s)."""
+    for p in procs:
+        p.terminate()
+        try:
+            p.wait(5)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.wait()
+
+
 def cpu_seconds(pid: int) -> float:
     """user + system CPU seconds of a process (Linux /proc)."""
     fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
@@ -202,13 +213,7 @@ def run_stages(joints: int, rate: float, seconds: float) -> dict[str, list[float
     finally:
         if node is not None:
             node.shutdown()
-        for p in procs:
-            p.terminate()
-            try:
-                p.wait(5)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
+        stop(procs)
     rsp, rx, ins = out["rsp"][-count:], out["rx"][-count:], out["inserted"][-count:]
     if not len(rsp) == len(rx) == len(ins) == count:
         raise RuntimeError(f"stages: {count} sent, {len(rsp)} through the publisher, {len(rx)} received, "
@@ -336,14 +341,7 @@ def run_publisher_case(impl: str, urdf: Path, joints: int, rate: float, seconds:
             node.shutdown()
         if session is not None:
             session.close()
-        for p in (listener, rsp):
-            if p is not None:
-                p.terminate()
-                try:
-                    p.wait(5)
-                except subprocess.TimeoutExpired:
-                    p.kill()
-                    p.wait()
+        stop([p for p in (listener, rsp) if p is not None])
 
 
 def in_process_costs(joints: int, rate: float, n: int = 2000, n_paced: int = 200) -> dict:

@@ -18,7 +18,8 @@ ROOT = Path(__file__).resolve().parents[1]
 PKG = ROOT / "zentf"
 SUBPACKAGES = {"core": 0, "ros": 1, "urdf": 1, "tools": 3, "launch": 4, "cli": 4}
 TRANSPORT = {"options", "names", "wire", "entities", "heap", "node", "clock", "buffer", "listener", "broadcaster", "profile",
-             "message_filter", "graph", "router", "service", "parameters", "buffer_server", "tfwire"}
+             "message_filter", "graph", "router", "service", "parameters", "buffer_server", "tfwire",
+             "msgpack_reader"}
 #: Old module paths kept for one release; each only forwards to its new home (zentf/_moved.py).
 MOVED = {"time", "messages", "math3d", "exceptions", "buffer_core", "geometry", "_chain_kernel", "bag", "view",
          "_moved"}
@@ -38,7 +39,7 @@ _PYX_IMPORT = re.compile(r"^[ \t]*(?:from[ \t]+(\.*)([\w.]*)[ \t]+c?import[ \t]+
 def _import_statements(path: Path) -> list[tuple[int, str, list[str]]]:
     """(level, module, imported names) per import statement of a .py or .pyx file, lazy ones too."""
     out: list[tuple[int, str, list[str]]] = []
-    if path.suffix == ".pyx":
+    if path.suffix in (".pyx", ".pxd"):
         for dots, mod, names, plain in _PYX_IMPORT.findall(path.read_text()):
             if plain:
                 out.append((0, plain, []))
@@ -81,7 +82,7 @@ def _resolve(name: str) -> str | None:
     parts = name.split(".")
     while parts:
         p = ROOT.joinpath(*parts)
-        if p.with_suffix(".py").is_file() or p.with_suffix(".pyx").is_file() or (p / "__init__.py").is_file():
+        if any(p.with_suffix(x).is_file() for x in (".py", ".pyx", ".pxd")) or (p / "__init__.py").is_file():
             return ".".join(parts)
         parts.pop()
     return None
@@ -101,7 +102,8 @@ def _layer(module: str) -> int | None:
     raise AssertionError(f"{module} is in no layer: add it to tests/test_layers.py")
 
 
-FILES = sorted([*PKG.rglob("*.py"), *PKG.rglob("*.pyx")])
+FILES = sorted([*PKG.rglob("*.py"), *PKG.rglob("*.pyx"),
+                *(p for p in PKG.rglob("*.pxd") if not p.with_suffix(".pyx").is_file())])  # a .pxd of its own
 GRAPH = {_module_name(p): _imports(p) for p in FILES}
 
 

@@ -438,6 +438,8 @@ def test_rsp_reads_repeated_joint_states_in_c_as_the_general_path_would(node_opt
         ("an extra key", js(names, pos, 12, extra_field=[1, 2])),
         ("cut short", None),
         ("a string for a position", js(names, ["x"] + pos[1:], 13)),
+        ("a string for a velocity", js(names, pos, 16) | {"velocity": ["x"] * 12}),
+        ("negative integral positions", js(names, [-k for k in range(12)], 17)),
     ]
     for label, m in odd:
         if label == "float32":
@@ -449,7 +451,7 @@ def test_rsp_reads_repeated_joint_states_in_c_as_the_general_path_would(node_opt
         payloads += [(label, b), (label + ", then plain", msgpack.packb(js(names, pos, 20 + len(payloads))))]
     assert len({p for _, p in payloads}) == len(payloads)
     # read in C: the same names as the message before, however the rest is sent
-    must_read = {"keys reordered", "integral positions", "float32", "NaN, then plain", "an extra key, then plain"}
+    must_read = {"keys reordered", "integral positions", "negative integral positions", "float32", "NaN, then plain", "an extra key, then plain"}
     with Node("rsp_fast", options=node_options) as node, Node("rsp_ref", options=node_options) as ref_node, \
             Node("rsp_js", options=node_options) as sender:
         rsp = Probe(node, robot, ignore_timestamp=True)

@@ -20,6 +20,7 @@ from posix.time cimport CLOCK_MONOTONIC, clock_gettime, timespec
 from collections import deque
 
 from .core.buffer_core cimport BufferCore
+from .msgpack_reader cimport Cur, _be, _container, _float, _int, _skip, _str, _take
 
 __all__ = ["msgpack_tf", "cdr_tf", "TfIngest", "TfHandler", "serve", "MAX_PAYLOAD"]
 
@@ -27,7 +28,6 @@ from .ros.tf import MAX_PAYLOAD  # larger payloads are not decoded here (the Pyt
 cdef Py_ssize_t _MAX_PAYLOAD = MAX_PAYLOAD
 cdef int64_t _NS = 1000000000
 cdef int64_t _MAX_SEC = 9223372036  # (2**63 - 1) // 1e9: stamps are int64 nanoseconds
-cdef int _MAX_DEPTH = 16            # nesting skipped inside unknown fields
 
 cdef extern from "Python.h":
     void PyObject_GC_UnTrack(object)
@@ -91,19 +91,7 @@ cdef inline uint32_t _u32le(const uint8_t* p) noexcept nogil:
     return p[0] | (<uint32_t>p[1] << 8) | (<uint32_t>p[2] << 16) | (<uint32_t>p[3] << 24)
 
 
-cdef inline uint64_t _be(const uint8_t* p, int n) noexcept nogil:
-    cdef uint64_t u = 0
-    cdef int i
-    for i in range(n):
-        u = (u << 8) | p[i]
-    return u
-
-
 # ---------------------------------------------------------------- msgpack
-
-cdef struct Cur:
-    const uint8_t* p
-    const uint8_t* end
 
 
 cdef struct Sample:
@@ -173,184 +161,6 @@ cdef class _Batch:
         memcpy(&self.v[7 * self.n], s.v, 7 * sizeof(double))
         self.n += 1
         return 1
-
-
-cdef inline bint _take(Cur* c, Py_ssize_t n) noexcept nogil:
-    """Advance by n bytes if they are there."""
-    if c.end - c.p < n:
-        return False
-    c.p += n
-    return True
-
-
-cdef bint _container(Cur* c, uint8_t fix, uint8_t op16, Py_ssize_t* n) noexcept nogil:
-    """Length of a map (fix=0x80, op16=0xde) or array (fix=0x90, op16=0xdc); False if not one."""
-    if c.p >= c.end:
-        return False
-    cdef uint8_t t = c.p[0]
-    if (t & 0xf0) == fix:
-        n[0] = t & 0x0f
-        c.p += 1
-        return True
-    if t == op16 and c.end - c.p >= 3:
-        n[0] = <Py_ssize_t>_be(c.p + 1, 2)
-        c.p += 3
-        return True
-    if t == op16 + 1 and c.end - c.p >= 5:
-        n[0] = <Py_ssize_t>_be(c.p + 1, 4)
-        c.p += 5
-        return True
-    return False
-
-
-cdef bint _str(Cur* c, const uint8_t** s, Py_ssize_t* n) noexcept nogil:
-    """A msgpack str (not bin: the Python fast path wants str) -> its bytes."""
-    if c.p >= c.end:
-        return False
-    cdef uint8_t t = c.p[0]
-    cdef Py_ssize_t ln, head
-    if (t & 0xe0) == 0xa0:
-        ln = t & 0x1f
-        head = 1
-    elif t == 0xd9 and c.end - c.p >= 2:
-        ln = c.p[1]
-        head = 2
-    elif t == 0xda and c.end - c.p >= 3:
-        ln = <Py_ssize_t>_be(c.p + 1, 2)
-        head = 3
-    elif t == 0xdb and c.end - c.p >= 5:
-        ln = <Py_ssize_t>_be(c.p + 1, 4)
-        head = 5
-    else:
-        return False
-    if c.end - c.p - head < ln:
-        return False
-    s[0] = c.p + head
-    n[0] = ln
-    c.p += head + ln
-    return True
-
-
-cdef bint _int(Cur* c, int64_t* v) noexcept nogil:
-    """A msgpack integer that fits int64 (not a bool, not a float)."""
-    if c.p >= c.end:
-        return False
-    cdef uint8_t t = c.p[0]
-    cdef uint64_t u
-    if t <= 0x7f:
-        v[0] = t
-        c.p += 1
-        return True
-    if t >= 0xe0:
-        v[0] = <int64_t>t - 256
-        c.p += 1
-        return True
-    cdef int size
-    if 0xcc <= t <= 0xcf:
-        size = 1 << (t - 0xcc)
-        if c.end - c.p < 1 + size:
-            return False
-        u = _be(c.p + 1, size)
-        if u > 9223372036854775807ULL:
-            return False
-        v[0] = <int64_t>u
-    elif 0xd0 <= t <= 0xd3:
-        size = 1 << (t - 0xd0)
-        if c.end - c.p < 1 + size:
-            return False
-        u = _be(c.p + 1, size)
-        if size < 8 and (u >> (8 * size - 1)) & 1:  # sign-extend
-            u |= ~((<uint64_t>1 << (8 * size)) - 1)
-        v[0] = <int64_t>u
-    else:
-        return False
-    c.p += 1 + size
-    return True
-
-
-cdef bint _float(Cur* c, double* v) noexcept nogil:
-    """A msgpack float64/float32, or an integer as a float (as msgspec and ``+ 0.0`` take it)."""
-    if c.p >= c.end:
-        return False
-    cdef uint8_t t = c.p[0]
-    cdef uint64_t u
-    cdef uint32_t u32
-    cdef float f
-    cdef int64_t i
-    if t == 0xcb:
-        if c.end - c.p < 9:
-            return False
-        u = _be(c.p + 1, 8)
-        memcpy(v, &u, 8)
-        c.p += 9
-        return True
-    if t == 0xca:
-        if c.end - c.p < 5:
-            return False
-        u32 = <uint32_t>_be(c.p + 1, 4)
-        memcpy(&f, &u32, 4)
-        v[0] = f
-        c.p += 5
-        return True
-    if t == 0xcf:  # uint64 beyond int64
-        if c.end - c.p < 9:
-            return False
-        v[0] = <double>_be(c.p + 1, 8)
-        c.p += 9
-        return True
-    if not _int(c, &i):
-        return False
-    v[0] = <double>i
-    return True
-
-
-cdef bint _skip(Cur* c, int depth) noexcept nogil:
-    """Step over one value of an unknown field; False for anything the Python paths might read
-    differently (ext types, container map keys, deep nesting, truncation)."""
-    if c.p >= c.end or depth > _MAX_DEPTH:
-        return False
-    cdef uint8_t t = c.p[0]
-    cdef Py_ssize_t n, i
-    cdef const uint8_t* s
-    if t <= 0x7f or t >= 0xe0 or t == 0xc0 or t == 0xc2 or t == 0xc3:
-        c.p += 1
-        return True
-    if (t & 0xe0) == 0xa0 or 0xd9 <= t <= 0xdb:
-        return _str(c, &s, &n)
-    if 0xc4 <= t <= 0xc6:  # bin 8/16/32
-        n = 1 << (t - 0xc4)
-        if c.end - c.p < 1 + n:
-            return False
-        i = <Py_ssize_t>_be(c.p + 1, <int>n)
-        return _take(c, 1 + n + i)
-    if t == 0xca:
-        return _take(c, 5)
-    if t == 0xcb:
-        return _take(c, 9)
-    if 0xcc <= t <= 0xcf:
-        return _take(c, 1 + (1 << (t - 0xcc)))
-    if 0xd0 <= t <= 0xd3:
-        return _take(c, 1 + (1 << (t - 0xd0)))
-    if (t & 0xf0) == 0x90 or t == 0xdc or t == 0xdd:
-        if not _container(c, 0x90, 0xdc, &n):
-            return False
-        for i in range(n):
-            if not _skip(c, depth + 1):
-                return False
-        return True
-    if (t & 0xf0) == 0x80 or t == 0xde or t == 0xdf:
-        if not _container(c, 0x80, 0xde, &n):
-            return False
-        for i in range(n):
-            if c.p >= c.end:
-                return False
-            t = c.p[0]
-            if (t & 0xf0) == 0x90 or (t & 0xf0) == 0x80 or 0xdc <= t <= 0xdf:
-                return False  # unhashable as a dict key: msgpack fails the whole payload
-            if not _skip(c, depth + 1) or not _skip(c, depth + 1):
-                return False
-        return True
-    return False  # ext types and 0xc1: leave them to msgpack
 
 
 cdef inline bint _is(const uint8_t* k, Py_ssize_t n, const char* name, Py_ssize_t m) noexcept nogil:

@@ -14,6 +14,8 @@ from libc.stdint cimport int64_t, uint8_t, uint32_t, uint64_t
 from libc.stdlib cimport free, malloc
 from libc.string cimport memcmp, memcpy
 
+from ..msgpack_reader cimport Cur, _container, _float, _int, _skip, _str
+
 __all__ = ["JointTfFiller"]
 
 
@@ -32,101 +34,37 @@ cdef inline void _be64(char* p, double d) noexcept nogil:
         p[i] = <char>(u >> (56 - 8 * i))
 
 
-cdef inline uint64_t _rd(const uint8_t* p, int n) noexcept nogil:
-    """n big-endian bytes at p as an unsigned integer."""
-    cdef uint64_t v = 0
-    cdef int i
-    for i in range(n):
-        v = (v << 8) | p[i]
-    return v
-
-
-cdef struct _Reader:
-    const uint8_t* p
-    const uint8_t* end
-
-
-cdef inline Py_ssize_t _head(_Reader* r, uint8_t fix, uint8_t fixmask, uint8_t b16, uint8_t b32) noexcept nogil:
-    """The length of a msgpack map/array/str header of one family (fix form, 16/32-bit forms); -1 if another."""
-    cdef uint8_t b
-    if r.p >= r.end:
-        return -1
-    b = r.p[0]
-    if (b & fixmask) == fix:
-        r.p += 1
-        return b & (~fixmask & 0xff)
-    if b == b16 and r.end - r.p >= 3:
-        r.p += 3
-        return <Py_ssize_t>_rd(r.p - 2, 2)
-    if b == b32 and r.end - r.p >= 5:
-        r.p += 5
-        return <Py_ssize_t>_rd(r.p - 4, 4)
-    return -1
-
-
-cdef inline Py_ssize_t _str(_Reader* r) noexcept nogil:
-    """Skip a msgpack str; its length, -1 if not a str (or cut short)."""
-    cdef Py_ssize_t n
-    if r.p < r.end and r.p[0] == 0xd9 and r.end - r.p >= 2:
-        n = r.p[1]
-        r.p += 2
-    else:
-        n = _head(r, 0xa0, 0xe0, 0xda, 0xdb)
-    if n < 0 or r.end - r.p < n:
-        return -1
-    r.p += n
-    return n
-
-
-cdef inline bint _key(_Reader* r, const char* name, Py_ssize_t n) noexcept nogil:
-    """True (and past it) when the next item is the str ``name``; the reader does not move otherwise."""
-    cdef const uint8_t* p = r.p
-    if _str(r) == n and memcmp(r.p - n, name, n) == 0:
+cdef inline bint _key(Cur* c, const char* name, Py_ssize_t n) noexcept nogil:
+    """True (and past it) when the next item is the str ``name``; the cursor does not move otherwise."""
+    cdef const uint8_t* start = c.p
+    cdef const uint8_t* k
+    cdef Py_ssize_t m
+    if _str(c, &k, &m) and m == n and memcmp(k, name, n) == 0:
         return True
-    r.p = p
+    c.p = start
     return False
 
 
-cdef inline bint _uint(_Reader* r, uint64_t* out) noexcept nogil:
-    """A non-negative msgpack integer."""
-    cdef uint8_t b
-    cdef int n
-    if r.p >= r.end:
-        return False
-    b = r.p[0]
-    if b < 0x80:
-        out[0] = b
-        r.p += 1
-        return True
-    if 0xcc <= b <= 0xcf:
-        n = 1 << (b - 0xcc)
-        if r.end - r.p < 1 + n:
-            return False
-        out[0] = _rd(r.p + 1, n)
-        r.p += 1 + n
-        return True
-    return False
-
-
-cdef inline bint _float(_Reader* r, double* out) noexcept nogil:
-    """A msgpack float64 or float32 (what encoders write for a float)."""
-    cdef uint64_t u
-    cdef uint32_t u32
-    cdef float f
-    if r.p >= r.end:
-        return False
-    if r.p[0] == 0xcb and r.end - r.p >= 9:
-        u = _rd(r.p + 1, 8)
-        memcpy(out, &u, 8)
-        r.p += 9
-        return True
-    if r.p[0] == 0xca and r.end - r.p >= 5:
-        u32 = <uint32_t>_rd(r.p + 1, 4)
-        memcpy(&f, &u32, 4)
-        out[0] = f
-        r.p += 5
-        return True
-    return False
+cdef const uint8_t* _names_at(Cur* c, Py_ssize_t n_names) noexcept nogil:
+    """Move c past a JointState map's head to the end of its "name" value (n_names strs); that value's
+    start, NULL if it is not there or not so."""
+    cdef Py_ssize_t m, i, j, n, ln
+    cdef const uint8_t* start
+    cdef const uint8_t* s
+    if not _container(c, 0x80, 0xde, &m):
+        return NULL
+    for i in range(m):
+        if _key(c, "name", 4):
+            start = c.p
+            if not _container(c, 0x90, 0xdc, &n) or n != n_names:
+                return NULL
+            for j in range(n):
+                if not _str(c, &s, &ln):
+                    return NULL
+            return start
+        if not (_str(c, &s, &ln) and _skip(c, 0)):
+            return NULL
+    return NULL
 
 
 cdef class JointTfFiller:
@@ -205,11 +143,11 @@ cdef class JointTfFiller:
     def learn(self, bytes payload, Py_ssize_t n_names):
         """Remember the name list's bytes of a JointState this plan was made for (msgpack, as sent), so
         that ``read`` knows the next ones without decoding a name."""
-        cdef _Reader r
+        cdef Cur c
         cdef const uint8_t* at
-        r.p = <const uint8_t*>PyBytes_AS_STRING(payload)
-        r.end = r.p + PyBytes_GET_SIZE(payload)
-        at = self._names_at(&r, n_names)
+        c.p = <const uint8_t*>PyBytes_AS_STRING(payload)
+        c.end = c.p + PyBytes_GET_SIZE(payload)
+        at = _names_at(&c, n_names)
         if at == NULL:
             return
         if self.given == NULL or n_names != self.n_names:
@@ -219,106 +157,60 @@ cdef class JointTfFiller:
                 self.n_names = -1
                 raise MemoryError()
         self.n_names = n_names
-        self.names_raw = PyBytes_FromStringAndSize(<const char*>at, r.p - at)
-
-    cdef const uint8_t* _names_at(self, _Reader* r, Py_ssize_t n_names) noexcept:
-        """Move r past the map head and to the end of the "name" value; its start (NULL: not there)."""
-        cdef Py_ssize_t m = _head(r, 0x80, 0xf0, 0xde, 0xdf), i, j
-        cdef const uint8_t* start = NULL
-        for i in range(m):
-            if _key(r, "name", 4):
-                start = r.p
-                if _head(r, 0x90, 0xf0, 0xdc, 0xdd) != n_names:
-                    return NULL
-                for j in range(n_names):
-                    if _str(r) < 0:
-                        return NULL
-                return start
-            if _str(r) < 0 or not self._skip(r):
-                return NULL
-        return NULL
-
-    cdef bint _skip(self, _Reader* r) noexcept:
-        """Skip one value of a JointState field: a header map, a str, an array of numbers or of strs."""
-        cdef Py_ssize_t n, i
-        cdef uint64_t u
-        cdef double d
-        cdef const uint8_t* p = r.p
-        n = _head(r, 0x80, 0xf0, 0xde, 0xdf)
-        if n >= 0:  # a map (the header, its stamp): str keys, values a str, an int or a map
-            for i in range(n):
-                if _str(r) < 0:
-                    return False
-                if not (_uint(r, &u) or _str(r) >= 0 or self._skip(r)):
-                    return False
-            return True
-        r.p = p
-        n = _head(r, 0x90, 0xf0, 0xdc, 0xdd)
-        if n >= 0:
-            for i in range(n):
-                if not (_float(r, &d) or _uint(r, &u) or _str(r) >= 0):
-                    return False
-            return True
-        r.p = p
-        return _str(r) >= 0
+        self.names_raw = PyBytes_FromStringAndSize(<const char*>at, c.p - at)
 
     def read(self, bytes payload):
         """A JointState payload whose names are the learned ones, as sent: (sec, nanosec) with its positions
         taken in, ready for ``build``; None when anything is unlike that (names, types, sizes, a value that
         is not finite): then the general decoder takes the message and says what is wrong."""
-        cdef _Reader r
-        cdef Py_ssize_t m, i, n, nr = PyBytes_GET_SIZE(self.names_raw)
-        cdef uint64_t sec = (<uint64_t>1) << 40, nsec = (<uint64_t>1) << 40, u
+        cdef Cur c
+        cdef Py_ssize_t m, i, n, k, nr = PyBytes_GET_SIZE(self.names_raw)
+        cdef int64_t sec = -1, nsec = -1
+        cdef double v
         cdef bint got_names = False, got_pos = False, got_head = False
         cdef double* given = self.given
         cdef double[::1] values = self.values
-        cdef const uint8_t* p
+        cdef const uint8_t* s
         if nr == 0 or given == NULL:
             return None
-        r.p = <const uint8_t*>PyBytes_AS_STRING(payload)
-        r.end = r.p + PyBytes_GET_SIZE(payload)
-        m = _head(&r, 0x80, 0xf0, 0xde, 0xdf)
-        if m < 3:
+        c.p = <const uint8_t*>PyBytes_AS_STRING(payload)
+        c.end = c.p + PyBytes_GET_SIZE(payload)
+        if not _container(&c, 0x80, 0xde, &m) or m < 3:
             return None
         for i in range(m):
-            if _key(&r, "name", 4):
-                if got_names or r.end - r.p < nr or memcmp(r.p, PyBytes_AS_STRING(self.names_raw), nr) != 0:
+            if _key(&c, "name", 4):
+                if got_names or c.end - c.p < nr or memcmp(c.p, PyBytes_AS_STRING(self.names_raw), nr) != 0:
                     return None
-                r.p += nr
+                c.p += nr
                 got_names = True
-            elif _key(&r, "position", 8):
-                if got_pos or _head(&r, 0x90, 0xf0, 0xdc, 0xdd) != self.n_names:
+            elif _key(&c, "position", 8):
+                if got_pos or not _container(&c, 0x90, 0xdc, &n) or n != self.n_names:
                     return None
-                for n in range(self.n_names):
-                    if not _float(&r, &given[n]):
-                        if not _uint(&r, &u):  # an integral position, as a dict-built message may hold
-                            return None
-                        given[n] = <double>u
+                for k in range(n):
+                    if not _float(&c, &given[k]):  # a float, or an integer as the general decoder takes it
+                        return None
                 got_pos = True
-            elif _key(&r, "header", 6):
-                if got_head or _head(&r, 0x80, 0xf0, 0xde, 0xdf) != 2:
+            elif _key(&c, "header", 6):
+                if got_head or not _container(&c, 0x80, 0xde, &n) or n != 2:
                     return None
-                for n in range(2):
-                    if _key(&r, "stamp", 5):
-                        if _head(&r, 0x80, 0xf0, 0xde, 0xdf) != 2:
+                for k in range(2):
+                    if _key(&c, "stamp", 5):
+                        if not (_container(&c, 0x80, 0xde, &n) and n == 2 and _key(&c, "sec", 3)
+                                and _int(&c, &sec) and _key(&c, "nanosec", 7) and _int(&c, &nsec)):
                             return None
-                        if not (_key(&r, "sec", 3) and _uint(&r, &sec) and _key(&r, "nanosec", 7)
-                                and _uint(&r, &nsec)):
-                            return None
-                    elif not (_key(&r, "frame_id", 8) and _str(&r) >= 0):
+                    elif not (_key(&c, "frame_id", 8) and _str(&c, &s, &n)):
                         return None
                 got_head = True
-            elif _key(&r, "velocity", 8) or _key(&r, "effort", 6):
-                p = r.p
-                if _head(&r, 0x90, 0xf0, 0xdc, 0xdd) < 0:
+            elif _key(&c, "velocity", 8) or _key(&c, "effort", 6):  # numbers, not read
+                if not _container(&c, 0x90, 0xdc, &n):
                     return None
-                r.p = p
-                if not self._skip(&r):
-                    return None
+                for k in range(n):
+                    if not _float(&c, &v):
+                        return None
             else:
                 return None
-        if not (got_names and got_pos and got_head) or r.p != r.end or sec >= ((<uint64_t>1) << 32) \
-                or nsec >= 1_000_000_000:
+        if not (got_names and got_pos and got_head) or c.p != c.end or not (0 <= sec < (<int64_t>1 << 32)) \
+                or not (0 <= nsec < 1_000_000_000):
             return None
         for i in range(self.n_sel):
             values[i] = given[self.sel[i]]
