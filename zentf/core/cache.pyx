@@ -17,7 +17,7 @@ from libc.math cimport acos, cos, sin, sqrt
 from libc.stdint cimport UINT32_MAX, int32_t, int64_t, uint32_t
 from libc.stdlib cimport free, malloc, realloc
 from libc.string cimport memcpy, memmove
-from posix.mman cimport MAP_ANONYMOUS, MAP_FAILED, MAP_PRIVATE, PROT_READ, PROT_WRITE, mmap, mremap, munmap
+from posix.mman cimport MAP_ANONYMOUS, MAP_FAILED, MAP_PRIVATE, PROT_READ, PROT_WRITE, mmap, munmap
 
 from .constants import INSERT_OK, INSERT_OLD, INSERT_REPEATED
 from .time import fmt_stamp
@@ -81,8 +81,30 @@ cdef class CacheBase:
 cdef enum:
     _MAP_MIN = 65536     # a ring whose values take this many bytes or more gets mappings of its own
 
-cdef extern from "<sys/mman.h>" nogil:
-    int MREMAP_MAYMOVE               # Linux (Python.h defines _GNU_SOURCE)
+cdef extern from * nogil:
+    """
+    #include <string.h>
+    #include <sys/mman.h>
+    #if defined(MREMAP_MAYMOVE) && !defined(ZENTF_NO_MREMAP)
+    #define zentf_mremap(p, old, new_, flags) mremap((p), (old), (new_), (flags))
+    #else
+    /* no mremap (macOS, the BSDs; or ZENTF_NO_MREMAP to test this path): a new mapping and a copy */
+    #ifndef MREMAP_MAYMOVE
+    #define MREMAP_MAYMOVE 1
+    #endif
+    static void* zentf_mremap(void* p, size_t old, size_t new_, int flags) {
+        void* q = mmap(NULL, new_, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+        (void)flags;
+        if (q == MAP_FAILED)
+            return MAP_FAILED;
+        memcpy(q, p, old < new_ ? old : new_);
+        munmap(p, old);
+        return q;
+    }
+    #endif
+    """
+    int MREMAP_MAYMOVE               # Linux's mremap (Python.h defines _GNU_SOURCE), else the copy above
+    void* zentf_mremap(void* p, size_t old, size_t new, int flags)
 
 cdef extern from "<unistd.h>" nogil:
     long sysconf(int name)
@@ -117,7 +139,7 @@ cdef void* _arr_resize(void* p, size_t old, size_t new, bint* mapped, bint want_
         return NULL
     if want_map:
         if p != NULL and mapped[0]:
-            q = mremap(p, _pages(old), _pages(new), MREMAP_MAYMOVE)
+            q = zentf_mremap(p, _pages(old), _pages(new), MREMAP_MAYMOVE)
             return NULL if q == MAP_FAILED else q
         q = mmap(NULL, _pages(new), PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0)
         if q != MAP_FAILED:
@@ -132,7 +154,7 @@ cdef void* _arr_resize(void* p, size_t old, size_t new, bint* mapped, bint want_
     q = malloc(new)
     if q == NULL:
         if p != NULL and new < old:  # a mapped array shrinking below _MAP_MIN: stay mapped
-            q = mremap(p, _pages(old), _pages(new), MREMAP_MAYMOVE)
+            q = zentf_mremap(p, _pages(old), _pages(new), MREMAP_MAYMOVE)
             return p if q == MAP_FAILED else q
         return NULL
     if p != NULL:
