@@ -67,6 +67,60 @@ def zopts(listen: str | None = None, connect: str | None = None):
                         mode="peer", no_multicast=True)
 
 
+def child_env() -> dict[str, str]:
+    """The bench's child processes: this checkout first, no ZENTF_* endpoints from the caller's shell."""
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    for var in ("ZENTF_CONNECT", "ZENTF_LISTEN", "ZENTF_NAMESPACE", "ZENTF_MODE"):
+        env.pop(var, None)
+    return env
+
+
+def read_result(proc: subprocess.Popen, what: str) -> dict:
+    """The JSON of a child's ``RESULT`` line (lines before it skipped)."""
+    assert proc.stdout is not None
+    line = proc.stdout.readline()
+    while line and not line.startswith("RESULT "):
+        line = proc.stdout.readline()
+    if not line:
+        raise RuntimeError(f"{what} gave no result")
+    return json.loads(line[len("RESULT "):])
+
+
+def joint_state_sender(ep: str, joints: int):
+    """(node, send): a zentf node publishing JointStates of ``joints`` joints; ``send(i)`` publishes the
+    i-th, stamped with the send time (ns, returned), its message built before the clock is read."""
+    from zentf.core.messages import Header, JointState
+    from zentf.core.time import Time
+    from zentf.node import Node
+    from zentf.options import NodeOptions
+
+    node = Node("bench_joint_states", options=NodeOptions(namespace="bench", zenoh=zopts(connect=ep)),
+                check_unique=False)
+    pub = node.create_publisher("joint_states", JointState)
+    if not pub.wait_for_subscribers(20):
+        node.shutdown()
+        raise RuntimeError("robot_state_publisher never matched")
+    names = [f"j{i}" for i in range(1, joints + 1)]
+
+    def send(i: int) -> int:
+        msg = JointState(Header(Time()), names, [0.1 + 1e-4 * i] * joints, [], [])
+        t0 = time.time_ns()
+        msg.header.stamp = Time(nanoseconds=t0)
+        pub.publish(msg)
+        return t0
+
+    return node, send
+
+
+def paced(count: int, rate: float, send) -> None:
+    """send(0 .. count-1) at ``rate`` per second."""
+    next_t = time.monotonic()
+    for i in range(count):
+        send(i)
+        next_t += 1.0 / rate
+        time.sleep(max(0.0, next_t - time.monotonic()))
+
+
 def stop(procs: list[subprocess.Popen]) -> None:
     """Terminate the bench's child processes (killed after 5 s)."""
     for p in procs:
@@ -166,50 +220,28 @@ def role_listen_timed(args: argparse.Namespace) -> None:
 
 def run_stages(joints: int, rate: float, seconds: float) -> dict[str, list[float]]:
     """One more zentf run, timed stage by stage (us per message, sorted): see the module doc."""
-    from zentf.core.messages import Header, JointState
-    from zentf.core.time import Time
-    from zentf.node import Node
-    from zentf.options import NodeOptions
-
     ep = f"tcp/127.0.0.1:{free_port()}"
     count = int(seconds * rate)
-    env = {**os.environ, "PYTHONPATH": str(REPO)}
     procs = []
     node = None
     try:
         for role, ready in (("rsp_timed", "publishing robot"), ("listen_timed", "ready")):
             p = subprocess.Popen([sys.executable, __file__, "--role", role, "--endpoint", ep, "--joints", str(joints)],
-                                 env=env, cwd=REPO, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+                                 env=child_env(), cwd=REPO, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
             procs.append(p)
             assert p.stdout is not None
             if ready not in p.stdout.readline():
                 raise RuntimeError(f"{role} failed to start")
-        node = Node("bench_joint_states", options=NodeOptions(namespace="bench", zenoh=zopts(connect=ep)),
-                    check_unique=False)
-        pub = node.create_publisher("joint_states", JointState)
-        if not pub.wait_for_subscribers(20):
-            raise RuntimeError("robot_state_publisher never matched")
+        node, send = joint_state_sender(ep, joints)
         time.sleep(0.5)
-        names = [f"j{i}" for i in range(1, joints + 1)]
         sent: list[tuple[int, int]] = []
-        next_t = time.monotonic()
-        for i in range(count):
-            msg = JointState(Header(Time()), names, [0.1 + 1e-4 * i] * joints, [], [])
-            t0 = time.time_ns()
-            msg.header.stamp = Time(nanoseconds=t0)
-            pub.publish(msg)
-            sent.append((t0, time.time_ns()))
-            next_t += 1.0 / rate
-            time.sleep(max(0.0, next_t - time.monotonic()))
+        paced(count, rate, lambda i: sent.append((send(i), time.time_ns())))
         time.sleep(0.5)  # the last message's way through (nothing to wait on across three processes)
         out = {}
         for p in procs:
             p.stdin.write("\n")
             p.stdin.flush()
-            line = p.stdout.readline()
-            while line and not line.startswith("RESULT "):
-                line = p.stdout.readline()
-            out.update(json.loads(line[len("RESULT "):]))
+            out.update(read_result(p, p.args[3]))
     finally:
         if node is not None:
             node.shutdown()
@@ -263,9 +295,7 @@ def role_raw_listen(args: argparse.Namespace) -> None:
 def run_publisher_case(impl: str, urdf: Path, joints: int, rate: float, seconds: float, out_size: int) -> dict:
     ep = f"tcp/127.0.0.1:{free_port()}"
     count = int(seconds * rate)
-    env = {**os.environ, "PYTHONPATH": str(REPO)}
-    for var in ("ZENTF_CONNECT", "ZENTF_LISTEN", "ZENTF_NAMESPACE", "ZENTF_MODE"):
-        env.pop(var, None)
+    env = child_env()
     if impl == "zentf":
         pub_cmd = [sys.executable, "-m", "nodes.robot_state_publisher", str(urdf), "--listen", ep, "--mode", "peer",
                    "--no-multicast", "--namespace", "bench", "-p", "publish_frequency:=10000"]
@@ -287,24 +317,8 @@ def run_publisher_case(impl: str, urdf: Path, joints: int, rate: float, seconds:
         assert listener.stdout is not None
         if not listener.stdout.readline().startswith("ready"):
             raise RuntimeError("listener failed to start")
-        names = [f"j{i}" for i in range(1, joints + 1)]
-        positions = [0.1] * joints
         if impl == "zentf":
-            from zentf.core.messages import Header, JointState
-            from zentf.core.time import Time
-            from zentf.node import Node
-            from zentf.options import NodeOptions
-
-            node = Node("bench_joint_states", options=NodeOptions(namespace="bench", zenoh=zopts(connect=ep)),
-                        check_unique=False)
-            pub = node.create_publisher("joint_states", JointState)
-            if not pub.wait_for_subscribers(20):
-                raise RuntimeError("robot_state_publisher never matched")
-
-            def send(i: int) -> None:
-                msg = JointState(Header(Time()), names, [p + 1e-4 * i for p in positions], [], [])
-                msg.header.stamp = Time(nanoseconds=time.time_ns())
-                pub.publish(msg)
+            node, send = joint_state_sender(ep, joints)
         else:
             import zenoh
 
@@ -315,26 +329,17 @@ def run_publisher_case(impl: str, urdf: Path, joints: int, rate: float, seconds:
             raw = session.declare_publisher("bench/joint_states", congestion_control=zenoh.CongestionControl.BLOCK)
             while not raw.matching_status.matching:
                 time.sleep(0.005)
-            pad = wire.encode(JointState(Header(), names, positions, [], []))[8:]
+            pad = wire.encode(JointState(Header(), [f"j{i}" for i in range(1, joints + 1)], [0.1] * joints, [],
+                                         []))[8:]
 
             def send(i: int) -> None:
                 raw.put(time.time_ns().to_bytes(8, "little") + pad)
         time.sleep(0.5)
-        period = 1.0 / rate
         cpu0, wall0 = cpu_seconds(rsp.pid), time.monotonic()
-        next_t = time.monotonic()
-        for i in range(count):
-            send(i)
-            next_t += period
-            time.sleep(max(0.0, next_t - time.monotonic()))
+        paced(count, rate, send)
         cpu = cpu_seconds(rsp.pid) - cpu0
         wall = time.monotonic() - wall0
-        out = listener.stdout.readline()
-        while out and not out.startswith("RESULT "):
-            out = listener.stdout.readline()
-        if not out:
-            raise RuntimeError(f"{impl}: the listener gave no result")
-        lat = json.loads(out[len("RESULT "):])["lat_ns"]
+        lat = read_result(listener, f"{impl}: the listener")["lat_ns"]
         return {"cpu": cpu / wall, "lat_us": sorted(v / 1000 for v in lat), "n": len(lat)}
     finally:
         if node is not None:
@@ -470,7 +475,7 @@ def main() -> None:
           f" the run (cold caches, median): robot_state_publisher decode + kinematics + encoding {costs['rsp']:.0f} |"
           f" {costs['rsp_paced']:.0f} us; the listener inserting its {args.joints} transforms {costs['ingest']:.0f} |"
           f" {costs['ingest_paced']:.0f} us")
-    print(f"\nwhere zentf's time goes, in a third run of the same three processes (us; stages overlap: the")
+    print("\nwhere zentf's time goes, in a third run of the same three processes (us; stages overlap: the")
     print("sender's put wakes Zenoh's I/O thread before it returns, the publisher's put is inside its callback)")
     print(f"{'':46}{'p50':>8}{'p90':>8}")
     for label, vals in stages.items():
