@@ -11,7 +11,7 @@ the reference and the fallback without build_ext; tests/test_urdf_publishers.py 
 from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes_GET_SIZE
 from libc.math cimport cos, isfinite, sin
 from libc.stdint cimport int64_t, uint8_t, uint32_t, uint64_t
-from libc.stdlib cimport free, malloc
+from libc.stdlib cimport free, realloc
 from libc.string cimport memcmp, memcpy
 
 from ..msgpack_reader cimport Cur, _container, _float, _int, _skip, _str
@@ -79,7 +79,8 @@ cdef class JointTfFiller:
     cdef int64_t[::1] last
     cdef Py_ssize_t n_names
     cdef bytes names_raw     # the msgpack bytes of the name list last seen with this plan (b"": none yet)
-    cdef double* given       # positions read by read(), n_names of them
+    cdef double* given       # a message's positions by index (read: all n_names; payload: the ones used)
+    cdef Py_ssize_t given_cap
 
     def __init__(self, bytes template, Py_ssize_t[::1] sel, Py_ssize_t[::1] mimic_src, double[::1] mimic_mult,
                  double[::1] mimic_off, Py_ssize_t[::1] known, int64_t[::1] last, double[:, ::1] t0,
@@ -105,9 +106,35 @@ cdef class JointTfFiller:
         self.n_names = -1
         self.names_raw = b""
         self.given = NULL
+        self.given_cap = 0
 
     def __dealloc__(self):
         free(self.given)
+
+    cdef int _room(self, Py_ssize_t n) except -1:
+        """``given`` holds at least n positions."""
+        cdef double* p
+        if n > self.given_cap:
+            p = <double*>realloc(self.given, n * sizeof(double))
+            if p == NULL:
+                raise MemoryError()
+            self.given, self.given_cap = p, n
+        return 0
+
+    cdef bint _values(self) noexcept:
+        """The joint values from ``given`` (selected, then mimics from their masters); False if one is not
+        finite."""
+        cdef Py_ssize_t i
+        cdef double* given = self.given
+        cdef double[::1] values = self.values
+        for i in range(self.n_sel):
+            values[i] = given[self.sel[i]]
+        for i in range(self.k - self.n_sel):
+            values[self.n_sel + i] = given[self.mimic_src[i]] * self.mimic_mult[i] + self.mimic_off[i]
+        for i in range(self.k):
+            if not isfinite(values[i]):
+                return False
+        return True
 
     def fresh(self, int64_t stamp, int64_t interval):
         """True when some joint of the list was last published at least ``interval`` before ``stamp``."""
@@ -129,15 +156,16 @@ cdef class JointTfFiller:
 
     def payload(self, position, uint32_t sec, uint32_t nsec):
         """The TFMessage bytes at these positions and stamp; None when a value is not finite."""
-        cdef Py_ssize_t i
-        cdef double[::1] values = self.values
-        for i in range(self.n_sel):
-            values[i] = <double>position[self.sel[i]]
+        cdef Py_ssize_t i, j
+        self._room(len(position))
+        for i in range(self.n_sel):  # only the positions the plan uses are taken (as floats)
+            j = self.sel[i]
+            self.given[j] = <double>position[j]
         for i in range(self.k - self.n_sel):
-            values[self.n_sel + i] = (<double>position[self.mimic_src[i]]) * self.mimic_mult[i] + self.mimic_off[i]
-        for i in range(self.k):
-            if not isfinite(values[i]):
-                return None
+            j = self.mimic_src[i]
+            self.given[j] = <double>position[j]
+        if not self._values():
+            return None
         return self.build(sec, nsec)
 
     def learn(self, bytes payload, Py_ssize_t n_names):
@@ -150,12 +178,7 @@ cdef class JointTfFiller:
         at = _names_at(&c, n_names)
         if at == NULL:
             return
-        if self.given == NULL or n_names != self.n_names:
-            free(self.given)
-            self.given = <double*>malloc(max(n_names, 1) * sizeof(double))
-            if self.given == NULL:
-                self.n_names = -1
-                raise MemoryError()
+        self._room(n_names)
         self.n_names = n_names
         self.names_raw = PyBytes_FromStringAndSize(<const char*>at, c.p - at)
 
@@ -169,7 +192,6 @@ cdef class JointTfFiller:
         cdef double v
         cdef bint got_names = False, got_pos = False, got_head = False
         cdef double* given = self.given
-        cdef double[::1] values = self.values
         cdef const uint8_t* s
         if nr == 0 or given == NULL:
             return None
@@ -212,13 +234,8 @@ cdef class JointTfFiller:
         if not (got_names and got_pos and got_head) or c.p != c.end or not (0 <= sec < (<int64_t>1 << 32)) \
                 or not (0 <= nsec < 1_000_000_000):
             return None
-        for i in range(self.n_sel):
-            values[i] = given[self.sel[i]]
-        for i in range(self.k - self.n_sel):
-            values[self.n_sel + i] = given[self.mimic_src[i]] * self.mimic_mult[i] + self.mimic_off[i]
-        for i in range(self.k):
-            if not isfinite(values[i]):
-                return None
+        if not self._values():
+            return None
         return (sec, nsec)
 
     def build(self, uint32_t sec, uint32_t nsec):
