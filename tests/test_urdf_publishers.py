@@ -449,9 +449,13 @@ def test_rsp_reads_repeated_joint_states_in_c_as_the_general_path_would(node_opt
         else:
             b = msgpack.packb(m)
         payloads += [(label, b), (label + ", then plain", msgpack.packb(js(names, pos, 20 + len(payloads))))]
+    with_unknown = names + ["bogus"]  # a joint the model does not have: logged, the others published
+    payloads += [("an unknown joint", msgpack.packb(js(with_unknown, pos + [0.5], 40))),
+                 ("an unknown joint again", msgpack.packb(js(with_unknown, pos[::-1] + [0.5], 41)))]
     assert len({p for _, p in payloads}) == len(payloads)
     # read in C: the same names as the message before, however the rest is sent
-    must_read = {"keys reordered", "integral positions", "negative integral positions", "float32", "NaN, then plain", "an extra key, then plain"}
+    must_read = {"keys reordered", "integral positions", "negative integral positions", "float32",
+                 "an unknown joint again", "NaN, then plain", "an extra key, then plain"}
     with Node("rsp_fast", options=node_options) as node, Node("rsp_ref", options=node_options) as ref_node, \
             Node("rsp_js", options=node_options) as sender:
         rsp = Probe(node, robot, ignore_timestamp=True)

@@ -226,7 +226,7 @@ class RobotStatePublisher:
     def on_payload(self, payload: bytes) -> None:
         """One JointState as received (its msgpack bytes): publish its transforms; raises on a bad one."""
         plan = self._last_plan
-        if plan is not None and plan.filler is not None and not plan.unknown:
+        if plan is not None and plan.filler is not None:
             # the same names as last time, sent the same way: positions and stamp read in C, no name decoded
             stamp = plan.filler.read(payload)
             if stamp is not None:
@@ -262,15 +262,8 @@ class RobotStatePublisher:
                 self._log("stamp", f"ignored a JointState with an out-of-range stamp ({sec}, {nsec})")
                 return False
             stamp = sec * _NS + nsec
-            now = self._clock.now_ns()
-            if now < self._last_callback:  # e.g. a bag played in a loop with --clock (ROS 2 does the same)
-                log.warning("Moved backwards in time, re-publishing joint transforms!")
-                self._last_publish[:] = 0
-            self._last_callback = now
             plan = self._plan(names)
-            if plan.unknown:
-                self._log(f"unknown:{plan.unknown[0]}", f"joint state names unknown joint '{plan.unknown[0]}' (not a "
-                          f"movable joint of robot '{self.robot.name}'); ignored")
+            self._arrived(plan)
             filler = plan.filler
             if filler is not None:  # compiled: throttle, finite check, kinematics and bytes, no numpy call
                 if not self.ignore_timestamp and not filler.fresh(stamp, self.publish_interval_ns):
@@ -309,11 +302,7 @@ class RobotStatePublisher:
             self.received += 1
             self.fast_reads += 1
             stamp = sec * _NS + nsec
-            now = self._clock.now_ns()
-            if now < self._last_callback:
-                log.warning("Moved backwards in time, re-publishing joint transforms!")
-                self._last_publish[:] = 0
-            self._last_callback = now
+            self._arrived(plan)
             if not self.ignore_timestamp and not filler.fresh(stamp, self.publish_interval_ns):
                 self.ignored += 1
                 return
@@ -321,6 +310,18 @@ class RobotStatePublisher:
             filler.mark(stamp)
             self.published += 1
         self._tf.publish_bytes(payload)
+
+    def _arrived(self, plan: _Plan) -> None:
+        """A valid JointState of this plan came (the caller holds the lock): its unknown names logged, the
+        clock noted (gone back: every joint is published again)."""
+        if plan.unknown:
+            self._log(f"unknown:{plan.unknown[0]}", f"joint state names unknown joint '{plan.unknown[0]}' (not a "
+                      f"movable joint of robot '{self.robot.name}'); ignored")
+        now = self._clock.now_ns()
+        if now < self._last_callback:  # e.g. a bag played in a loop with --clock (ROS 2 does the same)
+            log.warning("Moved backwards in time, re-publishing joint transforms!")
+            self._last_publish[:] = 0
+        self._last_callback = now
 
     def _non_finite(self, names: list[str], position: list[float]) -> bool:
         """Count and log a JointState with a non-finite position (the caller holds the lock)."""
