@@ -3,7 +3,7 @@
 TFMessage decoder, zentf/tfwire.pyx, and robot_state_publisher's JointState reader, zentf/tools/jointtf.pyx).
 Each returns False, without a Python exception, for anything unlike what it reads (or cut short)."""
 from libc.stdint cimport int64_t, uint8_t, uint32_t, uint64_t
-from libc.string cimport memcpy
+from libc.string cimport memcmp, memcpy
 
 cdef enum:
     _MAX_DEPTH = 16  # nesting skipped inside unknown fields
@@ -198,3 +198,8 @@ cdef inline bint _skip(Cur* c, int depth) noexcept nogil:
                 return False
         return True
     return False  # ext types and 0xc1: leave them to msgpack
+
+
+cdef inline bint _is(const uint8_t* k, Py_ssize_t n, const char* name, Py_ssize_t m) noexcept nogil:
+    """The n bytes at k are the m-byte name (a key read by _str)."""
+    return n == m and memcmp(k, name, m) == 0

@@ -20,7 +20,7 @@ from posix.time cimport CLOCK_MONOTONIC, clock_gettime, timespec
 from collections import deque
 
 from .core.buffer_core cimport BufferCore
-from .msgpack_reader cimport Cur, _be, _container, _float, _int, _skip, _str, _take
+from .msgpack_reader cimport Cur, _be, _container, _float, _int, _is, _skip, _str, _take
 
 __all__ = ["msgpack_tf", "cdr_tf", "TfIngest", "TfHandler", "serve", "MAX_PAYLOAD"]
 
@@ -161,10 +161,6 @@ cdef class _Batch:
         memcpy(&self.v[7 * self.n], s.v, 7 * sizeof(double))
         self.n += 1
         return 1
-
-
-cdef inline bint _is(const uint8_t* k, Py_ssize_t n, const char* name, Py_ssize_t m) noexcept nogil:
-    return n == m and memcmp(k, name, m) == 0
 
 
 cdef bint _key(Cur* c, const uint8_t** k, Py_ssize_t* n) noexcept nogil:

@@ -14,7 +14,7 @@ from libc.stdint cimport int64_t, uint8_t, uint32_t, uint64_t
 from libc.stdlib cimport free, realloc
 from libc.string cimport memcmp, memcpy
 
-from ..msgpack_reader cimport Cur, _container, _float, _int, _skip, _str
+from ..msgpack_reader cimport Cur, _container, _float, _int, _is, _skip, _str
 
 __all__ = ["JointTfFiller"]
 
@@ -39,7 +39,7 @@ cdef inline bint _key(Cur* c, const char* name, Py_ssize_t n) noexcept nogil:
     cdef const uint8_t* start = c.p
     cdef const uint8_t* k
     cdef Py_ssize_t m
-    if _str(c, &k, &m) and m == n and memcmp(k, name, n) == 0:
+    if _str(c, &k, &m) and _is(k, m, name, n):
         return True
     c.p = start
     return False
