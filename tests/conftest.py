@@ -188,6 +188,25 @@ def node_options(zenoh_options, test_namespace: str):
     return NodeOptions(namespace=test_namespace, zenoh=zenoh_options)
 
 
+def matched_tf_publisher(session: object, node: object, type_name: str) -> object:
+    """A raw Zenoh publisher on a node's ``tf`` key, labelled ``type_name`` (a forger's), once the node's
+    listener is matched (event-driven)."""
+    import zenoh
+
+    from zentf import wire
+    from zentf.listener import wire_key
+
+    pub = session.declare_publisher(wire_key(node, "tf"), encoding=wire.encoding_for(type_name),
+                                    congestion_control=zenoh.CongestionControl.BLOCK)
+    matched = threading.Event()
+    listener = pub.declare_matching_listener(lambda status: status.matching and matched.set())
+    try:
+        assert matched.is_set() or pub.matching_status.matching or matched.wait(30), "no listener matched"
+    finally:
+        listener.undeclare()
+    return pub
+
+
 @pytest.fixture
 def zenoh_session(zenoh_options) -> Iterator[object]:
     """A raw client-mode Zenoh session on the router (graph queries, raw puts, ...)."""

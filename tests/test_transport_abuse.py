@@ -391,22 +391,14 @@ def test_release_free_memory_gives_back_what_a_thread_freed(spawn) -> None:
 def test_a_huge_sender_attachment_is_not_kept(node_options, zenoh_session) -> None:
     """A sender naming itself with 100 kB attachments: its transforms apply (authority: the key) and the
     listener's authority cache keeps no such name (it kept up to 1024 of any size)."""
-    import threading
-
-    import zenoh
-
+    from conftest import matched_tf_publisher
     from zentf import wire
-    from zentf.listener import MAX_SENDER_KEY, wire_key
+    from zentf.listener import MAX_SENDER_KEY
 
     with Node("victim", options=node_options) as node:
         buf = Buffer(node=node)
         tl = TransformListener(buf, node)
-        pub = zenoh_session.declare_publisher(wire_key(node, "tf"),
-                                              encoding=wire.encoding_for("tf2_msgs/msg/TFMessage"),
-                                              congestion_control=zenoh.CongestionControl.BLOCK)
-        matched = threading.Event()
-        listener = pub.declare_matching_listener(lambda status: status.matching and matched.set())
-        assert matched.is_set() or pub.matching_status.matching or matched.wait(30)
+        pub = matched_tf_publisher(zenoh_session, node, "tf2_msgs/msg/TFMessage")
         now = node.get_clock().now()
         for i in range(20):
             payload = wire.encode_tf([TransformStamped(Header(now, "world"), f"huge_{i}", Transform(
@@ -415,4 +407,3 @@ def test_a_huge_sender_attachment_is_not_kept(node_options, zenoh_session) -> No
         assert buf.can_transform("world", "huge_19", Time(), timeout=30)
         assert all(len(k) <= MAX_SENDER_KEY for k in tl._authorities), [len(k) for k in tl._authorities]
         assert tl.stats()["transforms"] == 20
-        listener.undeclare()

@@ -440,23 +440,15 @@ def test_the_encoding_is_checked_when_the_payload_is_not_a_tfmessage(node_option
     """The handler reads a sample's encoding only when the payload is not a well-formed TFMessage: a
     Point labelled as a Point on tf gets the type check's one line (naming type and sender); a payload
     that is a TFMessage applies whatever its label."""
-    import threading
-
-    import zenoh
-
+    from conftest import matched_tf_publisher
     from zentf.buffer import Buffer
-    from zentf.listener import TransformListener, wire_key
+    from zentf.listener import TransformListener
     from zentf.node import Node
 
     with Node("labels", options=node_options) as node, caplog.at_level(logging.WARNING, logger="zentf"):
         buf = Buffer(node=node)
         tl = TransformListener(buf, node)
-        pub = zenoh_session.declare_publisher(wire_key(node, "tf"),
-                                              encoding=wire.encoding_for("geometry_msgs/msg/Point"),
-                                              congestion_control=zenoh.CongestionControl.BLOCK)
-        matched = threading.Event()
-        listener = pub.declare_matching_listener(lambda status: status.matching and matched.set())
-        assert matched.is_set() or pub.matching_status.matching or matched.wait(30)
+        pub = matched_tf_publisher(zenoh_session, node, "geometry_msgs/msg/Point")
         pub.put(msgpack.packb({"x": 1.0, "y": 2.0, "z": 3.0}), attachment=b"/liar")
         pub.put(wire.encode_tf([TransformStamped(Header(node.get_clock().now(), "world"), "labelled", Transform(
             Vector3(1.0, 0.0, 0.0), Quaternion(0.0, 0.0, 0.0, 1.0)))]), attachment=b"/liar")
@@ -464,4 +456,3 @@ def test_the_encoding_is_checked_when_the_payload_is_not_a_tfmessage(node_option
         assert tl.stats()["bad_messages"] == 1 and tl.stats()["transforms"] == 1
         lines = [r.getMessage() for r in caplog.records if "dropped bad message" in r.getMessage()]
         assert len(lines) == 1 and "wrong type geometry_msgs/msg/Point" in lines[0] and "/liar" in lines[0], lines
-        listener.undeclare()
