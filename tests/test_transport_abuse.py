@@ -255,6 +255,9 @@ LISTENER_HEAD = textwrap.dedent("""
         for line in open("/proc/self/status"):
             if line.startswith("VmRSS:"):
                 return int(line.split()[1])
+    def result(report):  # one write: a log line on stderr (the same pipe) cannot land inside it
+        sys.stdout.write("RESULT " + json.dumps(report) + "\\n")
+        sys.stdout.flush()
 """)
 
 LISTENER = LISTENER_HEAD + textwrap.dedent("""
@@ -265,8 +268,7 @@ LISTENER = LISTENER_HEAD + textwrap.dedent("""
     idle = rss_kb()
     print("ready", buf.max_frames, buf.max_frame_id_length, flush=True)
     ok = buf.wait_for(lambda: buf.lookup_transform("world", "done_distinct", Time()).header.stamp.nanoseconds > 1, 120)
-    print("RESULT " + json.dumps({"ok": ok, "frames": len(buf.get_frames()), "rss_mb": (rss_kb() - idle) / 1024,
-                                  "stats": tl.stats()}), flush=True)
+    result({"ok": ok, "frames": len(buf.get_frames()), "rss_mb": (rss_kb() - idle) / 1024, "stats": tl.stats()})
     node.shutdown()
 """)
 
@@ -318,8 +320,8 @@ MEMORY_LISTENER = LISTENER_HEAD + textwrap.dedent("""
     idle = rss_kb()
     print("ready", flush=True)
     ok = done.wait(120)
-    print("RESULT " + json.dumps({"ok": ok, "frames": len(buf.get_frames()), "rss_mb": (rss_kb() - idle) / 1024,
-                                  "shm_mb": shm_kb() / 1024, "stats": tl.stats()}), flush=True)
+    result({"ok": ok, "frames": len(buf.get_frames()), "rss_mb": (rss_kb() - idle) / 1024,
+            "shm_mb": shm_kb() / 1024, "stats": tl.stats()})
     node.shutdown()
 """)
 
