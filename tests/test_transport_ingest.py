@@ -12,7 +12,7 @@ import sys
 import msgpack
 import pytest
 
-from zentf import wire
+from zentf import tfwire, wire
 from zentf.core.buffer_core import BufferCore
 from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
 from zentf.core.time import Time
@@ -100,6 +100,32 @@ def tsm(ns: int, x: object = 1.0, parent: str = "world", child: str = "lat", w: 
 ], ids=["now", "zero", "sec>=2^32", "not-a-number", "bool", "long-names", "array16", "array32", "mixed", "empty"])
 def test_encode_tf_fast_path_decodes_like_plain(items: list) -> None:
     assert msgpack.unpackb(wire.encode_tf(items)) == msgpack.unpackb(plain_payload(items))
+
+
+def _no_nan(value: object) -> object:
+    """A decoded message with NaN spelled out (NaN != NaN would fail every comparison)."""
+    if isinstance(value, dict):
+        return {k: _no_nan(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_no_nan(v) for v in value]
+    return "nan" if isinstance(value, float) and math.isnan(value) else value
+
+
+def test_compiled_transform_encoder_writes_what_the_dict_path_writes() -> None:
+    """tfwire.ts_payload / ts_item (send_transform's path) against msgpack packing tf_to_plain's dicts."""
+    rng = random.Random(15)
+    odd = [float("nan"), float("inf"), -float("inf"), -0.0, 5e-324, 1.7976931348623157e308, 7, True]
+    for i in range(3000):
+        name = "".join(rng.choice("ab/_é π") for _ in range(rng.choice([0, 1, 31, 32, 255, 256, rng.randrange(60)])))
+        t = tsm(rng.choice([0, rng.randrange(2**32 * S), 2**32 * S - 1]), x=rng.choice(odd + [rng.uniform(-1e9, 1e9)]),
+                parent=name, child=name[::-1] + str(i % 7), w=rng.choice(odd + [1.0]))
+        want = _no_nan(msgpack.unpackb(plain_payload([t])))
+        assert _no_nan(msgpack.unpackb(tfwire.ts_payload(t))) == want
+        assert _no_nan(msgpack.unpackb(b"\x81\xaatransforms\x91" + tfwire.ts_item(t))) == want
+    # unusual: left to the dict path (which packs it or says why not)
+    for t in (tsm(2**32 * S), tsm(5, x="bad"), tsm(5, parent="\udc80"), wire.tf_to_plain(tsm(5)),
+              TransformStamped(Header(Time(nanoseconds=5), 5), "a")):  # type: ignore[arg-type]
+        assert tfwire.ts_payload(t) is None and tfwire.ts_item(t) is None
 
 
 def test_encode_tf_nan_and_ingest_round_trip() -> None:

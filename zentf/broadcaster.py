@@ -7,6 +7,7 @@ from typing import Any, Union
 
 from .core.messages import TFMessage, TransformStamped
 from .node import Node
+from .tfwire import ts_payload
 
 __all__ = ["TransformBroadcaster", "StaticTransformBroadcaster"]
 
@@ -32,9 +33,14 @@ class TransformBroadcaster:
         self.node = node
         self._pub = node.create_publisher(topic, TFMessage, qos)
         self._encode_tf = node.wire.encode_tf  # msgpack (zentf) or CDR (ros2)
+        # one TransformStamped on zentf's wire, the common call: compiled straight to the payload
+        self._one = ts_payload if node.wire.name == "zentf" else None
 
     def send_transform(self, transform: TransformsArg) -> None:
-        self._pub.publish_bytes(self._encode_tf(_as_list(transform)))
+        payload = self._one(transform) if self._one is not None else None
+        if payload is None:
+            payload = self._encode_tf(_as_list(transform))
+        self._pub.publish_bytes(payload)
 
     sendTransform = send_transform
 

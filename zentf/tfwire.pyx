@@ -10,6 +10,7 @@ names each problem (zentf/wire.py ``ingest_tf``, zentf/ros/tf.py ``tf_samples``)
 only ever gives the samples the Python path would give, never a message of its own.
 """
 from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes_GET_SIZE
+from cpython.float cimport PyFloat_AsDouble
 from cpython.object cimport PyObject
 from cpython.unicode cimport PyUnicode_DecodeUTF8
 from libc.stdint cimport int32_t, int64_t, uint8_t, uint32_t, uint64_t
@@ -22,7 +23,7 @@ from collections import deque
 from .core.buffer_core cimport BufferCore
 from .msgpack_reader cimport Cur, _be, _container, _float, _int, _is, _skip, _str, _take
 
-__all__ = ["msgpack_tf", "cdr_tf", "TfIngest", "TfHandler", "serve", "MAX_PAYLOAD"]
+__all__ = ["msgpack_tf", "cdr_tf", "TfIngest", "TfHandler", "serve", "ts_item", "ts_payload", "MAX_PAYLOAD"]
 
 from .ros.tf import MAX_PAYLOAD  # larger payloads are not decoded here (the Python paths refuse them)
 cdef Py_ssize_t _MAX_PAYLOAD = MAX_PAYLOAD
@@ -89,6 +90,133 @@ cdef inline double _f64le(const uint8_t* p) noexcept nogil:
 
 cdef inline uint32_t _u32le(const uint8_t* p) noexcept nogil:
     return p[0] | (<uint32_t>p[1] << 8) | (<uint32_t>p[2] << 16) | (<uint32_t>p[3] << 24)
+
+
+# ---------------------------------------------------------------- msgpack, out (the broadcasters' path)
+
+from msgpack import packb as _packb
+
+from .core.messages import TransformStamped as _TransformStamped
+from .core.time import Time as _Time
+
+# One TransformStamped is written straight as msgpack bytes: the map (field names and order)
+# msgpack.packb(wire.tf_to_plain(ts)) writes, with sec/nanosec as uint32 and every number as float64
+# (valid msgpack that any decoder reads back to the same dict, ints as floats). Anything unusual (a
+# stamp that is not a zentf Time, sec beyond uint32, a non-number, a frame id that is not a str) gives
+# None and the caller takes wire.py's dict path, which packs it or says why not.
+cdef bytes _TF_HEAD = b"\x81\xaatransforms\x91"
+cdef bytes _TS_HEAD = b"\x83\xa6header\x82\xa5stamp\x82\xa3sec\xce"
+cdef bytes _TS_NSEC = b"\xa7nanosec\xce"
+cdef bytes _TS_ROT = b"\xa8rotation\x84\xa1x\xcb"
+cdef dict _ts_frames = {}       # (frame_id, child_frame_id) -> the bytes between the stamp and the values
+cdef Py_ssize_t _TS_FRAMES_MAX = 10000
+
+
+cdef inline char* _w_put(char* o, bytes b) noexcept:
+    memcpy(o, PyBytes_AS_STRING(b), PyBytes_GET_SIZE(b))
+    return o + PyBytes_GET_SIZE(b)
+
+
+cdef inline char* _w_be32(char* o, uint32_t v) noexcept:
+    o[0] = <char>(v >> 24)
+    o[1] = <char>(v >> 16)
+    o[2] = <char>(v >> 8)
+    o[3] = <char>v
+    return o + 4
+
+
+cdef inline char* _w_key1(char* o, char c) noexcept:
+    """A one-letter msgpack key ("y", "z", "w")."""
+    o[0] = <char>0xa1
+    o[1] = c
+    return o + 2
+
+
+cdef inline char* _w_f64(char* o, double d) noexcept:
+    """A msgpack float64 (marker and big-endian bytes)."""
+    cdef uint64_t u
+    cdef int i
+    memcpy(&u, &d, 8)
+    o[0] = <char>0xcb
+    for i in range(8):
+        o[1 + i] = <char>(u >> (56 - 8 * i))
+    return o + 9
+
+
+cdef object _ts_write(object ts, bint whole):
+    """The bytes of one TransformStamped (with the TFMessage head around it when ``whole``); None if
+    it does not fit the template."""
+    cdef double v[7]
+    cdef object sec, nsec
+    cdef Py_ssize_t size
+    cdef char* o
+    if type(ts) is not _TransformStamped:
+        return None
+    h = ts.header
+    stamp = h.stamp
+    if type(stamp) is not _Time:
+        return None
+    key = (h.frame_id, ts.child_frame_id)
+    frames = _ts_frames.get(key)
+    if frames is None:
+        if type(key[0]) is not str or type(key[1]) is not str:
+            return None
+        try:
+            frames = (b"\xa8frame_id" + _packb(key[0]) + b"\xaechild_frame_id" + _packb(key[1])
+                      + b"\xa9transform\x82\xabtranslation\x83\xa1x\xcb")
+        except Exception:  # e.g. a lone surrogate: the dict path says what is wrong
+            return None
+        if len(_ts_frames) >= _TS_FRAMES_MAX:
+            _ts_frames.clear()
+        _ts_frames[key] = frames
+    sec, nsec = divmod(stamp._ns, _NS)
+    if not 0 <= sec <= 0xFFFFFFFF:
+        return None
+    tr = ts.transform
+    p = tr.translation
+    q = tr.rotation
+    try:
+        v[0] = PyFloat_AsDouble(p.x)
+        v[1] = PyFloat_AsDouble(p.y)
+        v[2] = PyFloat_AsDouble(p.z)
+        v[3] = PyFloat_AsDouble(q.x)
+        v[4] = PyFloat_AsDouble(q.y)
+        v[5] = PyFloat_AsDouble(q.z)
+        v[6] = PyFloat_AsDouble(q.w)
+    except Exception:
+        return None
+    size = ((PyBytes_GET_SIZE(_TF_HEAD) if whole else 0) + PyBytes_GET_SIZE(_TS_HEAD) + 4 + PyBytes_GET_SIZE(_TS_NSEC)
+            + 4 + PyBytes_GET_SIZE(<bytes>frames) - 1 + PyBytes_GET_SIZE(_TS_ROT) - 1 + 7 * 9 + 5 * 2)
+    out = PyBytes_FromStringAndSize(NULL, size)
+    o = PyBytes_AS_STRING(out)
+    if whole:
+        o = _w_put(o, _TF_HEAD)
+    o = _w_put(o, _TS_HEAD)
+    o = _w_be32(o, <uint32_t>sec)
+    o = _w_put(o, _TS_NSEC)
+    o = _w_be32(o, <uint32_t>nsec)
+    o = _w_put(o, <bytes>frames)
+    o = _w_f64(o - 1, v[0])      # (the frames part and _TS_ROT end with the float's 0xcb marker)
+    o = _w_f64(_w_key1(o, 0x79), v[1])
+    o = _w_f64(_w_key1(o, 0x7a), v[2])
+    o = _w_put(o, _TS_ROT)
+    o = _w_f64(o - 1, v[3])
+    o = _w_f64(_w_key1(o, 0x79), v[4])
+    o = _w_f64(_w_key1(o, 0x7a), v[5])
+    o = _w_f64(_w_key1(o, 0x77), v[6])
+    if o - PyBytes_AS_STRING(out) != size:
+        raise AssertionError("ts_write: size")
+    return out
+
+
+def ts_item(ts):
+    """One TransformStamped as msgpack bytes (an element of a TFMessage's list); None if unusual."""
+    return _ts_write(ts, False)
+
+
+def ts_payload(ts):
+    """A TFMessage payload holding one TransformStamped (send_transform's common case); None if unusual."""
+    return _ts_write(ts, True)
 
 
 # ---------------------------------------------------------------- msgpack
@@ -720,13 +848,43 @@ cdef class TfHandler:
         return accepted > 0
 
 
+cdef inline object _sender_key(object raw, object sender_of, Py_ssize_t max_sender_key):
+    """The queue key of a message: its sender (the attachment's bytes, or what the wire makes of them)."""
+    if raw is None:
+        return b""
+    key = sender_of(raw) if sender_of is not None else raw
+    if len(key) > max_sender_key:
+        key = key[:max_sender_key]
+    return key
+
+
+cdef inline bint _strike(dict strikes, object key, bint ok, Py_ssize_t suspect_after,
+                         Py_ssize_t max_senders) except -1:
+    """Note whether a sender's message put anything into the buffer; True once it is suspect."""
+    cdef Py_ssize_t k
+    if ok:
+        if strikes and key in strikes:
+            del strikes[key]
+        return False
+    k = strikes.get(key, 0) + 1
+    strikes[key] = k
+    if len(strikes) > 4 * max_senders:
+        strikes.clear()
+    return k >= suspect_after
+
+
 def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, Py_ssize_t max_pending,
           Py_ssize_t suspect_after, Py_ssize_t suspect_queue, Py_ssize_t max_senders, bytes others,
           Py_ssize_t max_sender_key, Py_ssize_t release_after, release, log, double tail_window,
-          release_later):
+          release_later, Py_ssize_t solo_batch=1):
     """The tf thread of a TransformListener (its ``_serve``, compiled; the constants are zentf.listener's):
     drain the ring into per-sender FIFOs, then handle one message per sender in turn (issue 10's
     fairness: a flood delays only its sender's data), shedding and logging as _serve did.
+
+    Two shortcuts that change no order: a message that arrives alone (nothing waiting, the ring empty
+    behind it) is handled at once, without a queue; when a single sender has messages waiting, up to
+    ``solo_batch`` of them are handled per round (nobody else is waiting; the ring is looked at again
+    after them).
 
     Memory (zentf.heap): when the ring runs empty after ``release_after`` messages, ``release()``; when it
     runs empty within ``tail_window`` s of that with fewer messages since (the tail of a flood the thread
@@ -736,7 +894,7 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
     cdef dict queues = {}
     cdef dict strikes = {}          # messages in a row that put nothing into the buffer, per sender
     cdef dict shed
-    cdef Py_ssize_t pending = 0, burst = 0, n, k, extra, j
+    cdef Py_ssize_t pending = 0, burst = 0, n, extra, j, per
     cdef object q
     cdef timespec ts
     cdef int64_t last_release = 0, window = <int64_t>(tail_window * 1e9), mono
@@ -769,15 +927,20 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
         shed = None
         while sample is not None:
             att = sample.attachment
-            if att is None:
-                raw = None
-                key = b""
-            else:  # read once: handle() gets it too (the authority), with the sample
-                key = raw = att.to_bytes()
-                if sender_of is not None:
-                    key = sender_of(raw)
-                if len(key) > max_sender_key:
-                    key = key[:max_sender_key]
+            raw = None if att is None else att.to_bytes()  # read once: handle() gets it too (the authority)
+            key = _sender_key(raw, sender_of, max_sender_key)
+            if not pending:
+                try:
+                    nxt = try_recv()
+                except Exception:
+                    return
+                if nxt is None:  # alone: nothing to be fair to, no queue
+                    _strike(strikes, key, handle.handle(sample, raw, True), suspect_after, max_senders)
+                    n += 1
+                    sample = None
+                    break
+            else:
+                nxt = None
             q = queues.get(key)
             if q is None:
                 if len(queues) >= max_senders:
@@ -800,6 +963,9 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
                 shed[big] = shed.get(big, 0) + 1
                 pending -= 1
             n += 1
+            if nxt is not None:  # read ahead above: it is next, where the ring would have given it
+                sample = nxt
+                continue
             if n >= drain_batch:  # short rounds: a light sender is served often however big the flood
                 break
             try:
@@ -809,23 +975,21 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
         burst += n
         if shed:
             listener._log_shed(shed, queues)
+        if not pending:
+            continue
+        per = solo_batch if len(queues) == 1 else 1
         for key in tuple(queues):
             q = queues[key]
-            sample, raw = q.popleft()
-            if handle.handle(sample, raw, True):
-                if strikes and key in strikes:
-                    del strikes[key]
-            else:
-                k = strikes.get(key, 0) + 1
-                strikes[key] = k
-                if k >= suspect_after and len(q) > suspect_queue:  # queued before it turned suspect
+            for j in range(min(per, len(q))):
+                sample, raw = q.popleft()
+                pending -= 1
+                if _strike(strikes, key, handle.handle(sample, raw, True), suspect_after, max_senders) \
+                        and len(q) > suspect_queue:  # queued before it turned suspect
                     extra = len(q) - suspect_queue
                     for j in range(extra):
                         q.popleft()
                     pending -= extra
                     listener._log_shed({key: extra}, queues)
-                if len(strikes) > 4 * max_senders:
-                    strikes.clear()
-            pending -= 1
+                    break
             if not q:
                 del queues[key]

@@ -8,7 +8,6 @@ skipped on its own; ``encode_tf`` is the broadcasters' (TransformStamped written
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
-import struct
 import threading
 from functools import lru_cache
 from typing import Any
@@ -16,7 +15,6 @@ from typing import Any
 import msgpack
 
 from .core.messages import Message, TransformStamped, message_type
-from .core.time import Time
 from .ros.tf import FRAME_CACHE_SIZE, frame_name  # the one bounded cache of frame names
 from .ros.tf import _FRAMES as _FRAME_CACHE
 
@@ -114,59 +112,23 @@ def tf_to_plain(ts: TransformStamped | dict) -> dict:
                           "rotation": {"x": q.x, "y": q.y, "z": q.z, "w": q.w}}}
 
 
-# Broadcaster fast path: a TransformStamped with a Time stamp is written straight as msgpack bytes,
-# the same map (field names and order) that pack(tf_to_plain(ts)) writes, with sec/nanosec as uint32
-# and every number as float64 (valid msgpack that any decoder reads back to the same dict, ints as
-# floats). ~3x cheaper than building 7 dicts and packing them; anything unusual takes the dict path.
-_TS_HEAD = b"\x83\xa6header\x82\xa5stamp\x82\xa3sec\xce"
-_TS_STAMP = struct.Struct(">I9sI")
-_TS_NSEC = b"\xa7nanosec\xce"
-_TS_VALUES = struct.Struct(">d3sd3sd13sd3sd3sd3sd")
-_TS_Y, _TS_Z, _TS_W = b"\xa1y\xcb", b"\xa1z\xcb", b"\xa1w\xcb"
-_TS_ROT = b"\xa8rotation\x84\xa1x\xcb"
-_TS_FRAMES: dict[tuple[str, str], bytes] = {}
-
-
-def _ts_bytes(ts: Any) -> bytes:
-    """One TransformStamped as msgpack bytes (fast path); raises if it does not fit the template."""
-    h = ts.header
-    stamp = h.stamp
-    if type(stamp) is not Time:
-        raise TypeError("stamp is not a zentf Time")
-    sec, nsec = divmod(stamp._ns, _NS)
-    key = (h.frame_id, ts.child_frame_id)
-    frames = _TS_FRAMES.get(key)
-    if frames is None:
-        if type(key[0]) is not str or type(key[1]) is not str:
-            raise TypeError("frame ids must be strings")
-        frames = (b"\xa8frame_id" + msgpack.packb(key[0]) + b"\xaechild_frame_id" + msgpack.packb(key[1])
-                  + b"\xa9transform\x82\xabtranslation\x83\xa1x\xcb")
-        if len(_TS_FRAMES) > 10_000:
-            _TS_FRAMES.clear()
-        _TS_FRAMES[key] = frames
-    tr = ts.transform
-    p = tr.translation
-    q = tr.rotation
-    return b"".join((_TS_HEAD, _TS_STAMP.pack(sec, _TS_NSEC, nsec), frames,
-                     _TS_VALUES.pack(p.x, _TS_Y, p.y, _TS_Z, p.z, _TS_ROT, q.x, _TS_Y, q.y, _TS_Z, q.z, _TS_W, q.w)))
+# Broadcaster fast path: a TransformStamped with a Time stamp is written straight as msgpack bytes by
+# zentf/tfwire.pyx (``ts_item``, ``ts_payload``): the same map (field names and order) that
+# pack(tf_to_plain(ts)) writes, with sec/nanosec as uint32 and every number as float64 (valid msgpack
+# that any decoder reads back to the same dict, ints as floats); anything unusual takes the dict path.
 
 
 def _tf_item(t: TransformStamped | dict) -> bytes:
-    if type(t) is TransformStamped:
-        try:
-            return _ts_bytes(t)
-        except Exception:  # e.g. a non-number, sec >= 2**32: the generic path packs it (or says why not)
-            pass
-    return pack(tf_to_plain(t))
+    item = _ts_item(t)  # None: a dict, or unusual (a non-number, sec >= 2**32): packed here (or said why not)
+    return item if item is not None else pack(tf_to_plain(t))
 
 
 def encode_tf(transforms: Iterable[TransformStamped | dict]) -> bytes:
     """A TFMessage payload from transforms (dataclasses or plain dicts)."""
-    if type(transforms) is list and len(transforms) == 1 and type(transforms[0]) is TransformStamped:
-        try:  # the common send_transform(one) case without the generic loop
-            return b"\x81\xaatransforms\x91" + _ts_bytes(transforms[0])
-        except Exception:
-            pass
+    if type(transforms) is list and len(transforms) == 1:  # the common send_transform(one) case
+        payload = _ts_payload(transforms[0])
+        if payload is not None:
+            return payload
     items = [_tf_item(t) for t in transforms]
     n = len(items)
     if n < 16:
@@ -237,6 +199,7 @@ def _tf_decoder() -> Any:
 _TF_DECODER = _tf_decoder()
 
 from .tfwire import msgpack_tf as _compiled_tf  # noqa: E402  (compiled decoder; None: Python only, for tests)
+from .tfwire import ts_item as _ts_item, ts_payload as _ts_payload  # noqa: E402  (compiled encoder)
 
 
 def ingest_tf(payload: bytes, core: Any, authority: str, is_static: bool) -> tuple[int, int, int, str | None]:
