@@ -8,6 +8,7 @@ zentf (msgpack, wire.ingest_tf) and ROS 2 (CDR, Ros2Profile.ingest_tf / zentf.ro
 from __future__ import annotations
 
 import logging
+import math
 import random
 import struct
 import sys
@@ -456,3 +457,36 @@ def test_the_encoding_is_checked_when_the_payload_is_not_a_tfmessage(node_option
         assert tl.stats()["bad_messages"] == 1 and tl.stats()["transforms"] == 1
         lines = [r.getMessage() for r in caplog.records if "dropped bad message" in r.getMessage()]
         assert len(lines) == 1 and "wrong type geometry_msgs/msg/Point" in lines[0] and "/liar" in lines[0], lines
+
+
+# ---------------------------------------------------------------- JointState, out
+
+def test_compiled_joint_state_encoder_writes_the_generic_bytes() -> None:
+    """tfwire.js_payload (wire.encode's JointState path) gives msgpack.packb(msg.to_dict())'s bytes when
+    every number is a float, the same decoded message when some are ints, and None (the generic path)
+    for anything unusual; the cached name list is not reused after the names change."""
+    from zentf.core.messages import Header as H, JointState
+    from zentf.tfwire import js_payload
+
+    rng = random.Random(12)
+    for i in range(2000):
+        n = rng.choice([0, 1, 15, 16, 100, 3] + ([70_000] if i % 400 == 0 else []))
+        names = [("j%dé" % k)[: rng.randrange(1, 5)] for k in range(n)]  # often equal to the last ones
+        ns = rng.choice([0, 127 * NS, 255 * NS + 5, 2**32 * NS + 7, rng.randrange(2**63)])
+        msg = JointState(H(Time(nanoseconds=ns), rng.choice(["", "base", "x" * 40])), names,
+                         [rng.uniform(-10, 10) for _ in range(n)], [math.nan] * rng.choice([0, n]),
+                         [-math.inf] * rng.choice([0, n]))
+        assert js_payload(msg) == msgpack.packb(msg.to_dict())
+    ints = JointState(H(Time(nanoseconds=5)), ["a", "b"], [1, 2.5], [0], [])
+    assert msgpack.unpackb(js_payload(ints)) == msgpack.unpackb(msgpack.packb(ints.to_dict()))
+    for odd in (JointState(H(Time()), ["a"], [True]), JointState(H(Time()), [5], [1.0]),  # type: ignore[list-item]
+                JointState(H(Time()), ["\udc80"], [1.0]), JointState(H(Time()), ("a",), [1.0]),  # type: ignore[arg-type]
+                JointState(H(Time(), 5), ["a"], [1.0]), JointState(H(Time()), ["a"], (1.0,))):  # type: ignore[arg-type]
+        assert js_payload(odd) is None
+        try:
+            want = msgpack.packb(odd.to_dict())
+        except Exception as e:  # the generic path's own error, as before
+            with pytest.raises(type(e)):
+                wire.encode(odd)
+        else:
+            assert wire.encode(odd) == want

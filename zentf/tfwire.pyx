@@ -23,7 +23,8 @@ from collections import deque
 from .core.buffer_core cimport BufferCore
 from .msgpack_reader cimport Cur, _be, _container, _float, _int, _is, _skip, _str, _take
 
-__all__ = ["msgpack_tf", "cdr_tf", "TfIngest", "TfHandler", "serve", "ts_item", "ts_payload", "MAX_PAYLOAD"]
+__all__ = ["msgpack_tf", "cdr_tf", "TfIngest", "TfHandler", "serve", "ts_item", "ts_payload", "js_payload",
+           "MAX_PAYLOAD"]
 
 from .ros.tf import MAX_PAYLOAD  # larger payloads are not decoded here (the Python paths refuse them)
 cdef Py_ssize_t _MAX_PAYLOAD = MAX_PAYLOAD
@@ -96,6 +97,7 @@ cdef inline uint32_t _u32le(const uint8_t* p) noexcept nogil:
 
 from msgpack import packb as _packb
 
+from .core.messages import JointState as _JointState
 from .core.messages import TransformStamped as _TransformStamped
 from .core.time import Time as _Time
 
@@ -217,6 +219,132 @@ def ts_item(ts):
 def ts_payload(ts):
     """A TFMessage payload holding one TransformStamped (send_transform's common case); None if unusual."""
     return _ts_write(ts, True)
+
+
+# A JointState (a joint_state_publisher's or a driver's hundred-hertz message) is written the same way:
+# the bytes msgpack.packb(msg.to_dict()) writes when every number is a float (ints are written as
+# float64), the name list packed once and reused while the next message's names are equal.
+cdef bytes _JS_HEAD = b"\x85\xa6header\x82\xa5stamp\x82\xa3sec"
+cdef list _js_names = None      # the last names (a copy) and their packed bytes
+cdef bytes _js_names_packed = None
+cdef str _js_frame = None       # the last frame_id and its packed bytes
+cdef bytes _js_frame_packed = None
+
+
+cdef inline char* _w_uint(char* o, uint64_t v) noexcept:
+    """A msgpack unsigned integer, in the smallest form (as msgpack-python writes it)."""
+    cdef int n, i
+    if v < 128:
+        o[0] = <char>v
+        return o + 1
+    if v < 0x100:
+        o[0] = <char>0xcc
+        n = 1
+    elif v < 0x10000:
+        o[0] = <char>0xcd
+        n = 2
+    elif v < 0x100000000:
+        o[0] = <char>0xce
+        n = 4
+    else:
+        o[0] = <char>0xcf
+        n = 8
+    for i in range(n):
+        o[1 + i] = <char>(v >> (8 * (n - 1 - i)))
+    return o + 1 + n
+
+
+cdef inline char* _w_array(char* o, Py_ssize_t n) noexcept:
+    """A msgpack array header."""
+    if n < 16:
+        o[0] = <char>(0x90 | n)
+        return o + 1
+    if n < 0x10000:
+        o[0] = <char>0xdc
+        o[1] = <char>(n >> 8)
+        o[2] = <char>n
+        return o + 3
+    o[0] = <char>0xdd
+    return _w_be32(o + 1, <uint32_t>n)
+
+
+cdef inline bint _numbers(object seq) noexcept:
+    """A list of floats (or ints): what the template writes as float64."""
+    if type(seq) is not list:
+        return False
+    for x in <list>seq:
+        if type(x) is not float and type(x) is not int:
+            return False
+    return True
+
+
+cdef char* _w_floats(char* o, list seq) except NULL:
+    o = _w_array(o, len(seq))
+    for x in seq:
+        o = _w_f64(o, PyFloat_AsDouble(x))
+    return o
+
+
+def js_payload(msg):
+    """A JointState as msgpack bytes (the generic encoder's map); None if anything is unusual (not a
+    JointState, a stamp that is not a zentf Time, a non-float number, a name list that is not strs)."""
+    global _js_names, _js_names_packed, _js_frame, _js_frame_packed
+    cdef Py_ssize_t size
+    cdef char* o
+    if type(msg) is not _JointState:
+        return None
+    h = msg.header
+    stamp = h.stamp
+    frame = h.frame_id
+    names = msg.name
+    pos, vel, eff = msg.position, msg.velocity, msg.effort
+    if type(stamp) is not _Time or type(frame) is not str or type(names) is not list:
+        return None
+    if not (_numbers(pos) and _numbers(vel) and _numbers(eff)):
+        return None
+    sec, nsec = divmod(stamp._ns, _NS)
+    if not 0 <= sec < 2 ** 64:
+        return None
+    if _js_names is None or names != _js_names:
+        for x in <list>names:
+            if type(x) is not str:
+                return None
+        try:
+            packed = _packb(names)
+        except Exception:  # a lone surrogate: the generic encoder says what is wrong
+            return None
+        _js_names, _js_names_packed = list(names), packed
+    if _js_frame is None or frame != _js_frame:
+        try:
+            packed = _packb(frame)
+        except Exception:
+            return None
+        _js_frame, _js_frame_packed = frame, packed
+    size = (PyBytes_GET_SIZE(_JS_HEAD) + 9 + 8 + 9 + 9 + PyBytes_GET_SIZE(_js_frame_packed)
+            + 5 + PyBytes_GET_SIZE(_js_names_packed) + 9 + 9 + 7 + 3 * 5 + 9 * (len(pos) + len(vel) + len(eff)))
+    buf = PyBytes_FromStringAndSize(NULL, size)  # an upper bound: cut to the length written below
+    o = PyBytes_AS_STRING(buf)
+    o = _w_put(o, _JS_HEAD)
+    o = _w_uint(o, <uint64_t>sec)
+    o[0] = <char>0xa7
+    memcpy(o + 1, b"nanosec", 7)
+    o = _w_uint(o + 8, <uint64_t>nsec)
+    o[0] = <char>0xa8
+    memcpy(o + 1, b"frame_id", 8)
+    o = _w_put(o + 9, _js_frame_packed)
+    o[0] = <char>0xa4
+    memcpy(o + 1, b"name", 4)
+    o = _w_put(o + 5, _js_names_packed)
+    o[0] = <char>0xa8
+    memcpy(o + 1, b"position", 8)
+    o = _w_floats(o + 9, pos)
+    o[0] = <char>0xa8
+    memcpy(o + 1, b"velocity", 8)
+    o = _w_floats(o + 9, vel)
+    o[0] = <char>0xa6
+    memcpy(o + 1, b"effort", 6)
+    o = _w_floats(o + 7, eff)
+    return buf[:o - PyBytes_AS_STRING(buf)]
 
 
 # ---------------------------------------------------------------- msgpack

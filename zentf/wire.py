@@ -14,7 +14,7 @@ from typing import Any
 
 import msgpack
 
-from .core.messages import Message, TransformStamped, message_type
+from .core.messages import JointState, Message, TransformStamped, message_type
 from .ros.tf import FRAME_CACHE_SIZE, frame_name  # the one bounded cache of frame names
 from .ros.tf import _FRAMES as _FRAME_CACHE
 
@@ -73,6 +73,10 @@ def unpack(payload: bytes | bytearray | memoryview) -> Any:
 
 
 def encode(msg: Message | dict) -> bytes:
+    if type(msg) is JointState:  # joint_states at hundreds of hertz: written in C (zentf/tfwire.pyx)
+        payload = _js_payload(msg)
+        if payload is not None:
+            return payload
     if isinstance(msg, Message):
         return pack(msg.to_dict())
     if isinstance(msg, dict):
@@ -199,7 +203,7 @@ def _tf_decoder() -> Any:
 _TF_DECODER = _tf_decoder()
 
 from .tfwire import msgpack_tf as _compiled_tf  # noqa: E402  (compiled decoder; None: Python only, for tests)
-from .tfwire import ts_item as _ts_item, ts_payload as _ts_payload  # noqa: E402  (compiled encoder)
+from .tfwire import js_payload as _js_payload, ts_item as _ts_item, ts_payload as _ts_payload  # noqa: E402
 
 
 def ingest_tf(payload: bytes, core: Any, authority: str, is_static: bool) -> tuple[int, int, int, str | None]:
