@@ -254,6 +254,13 @@ cdef inline char* _w_uint(char* o, uint64_t v) noexcept:
     return o + 1 + n
 
 
+cdef inline char* _w_key(char* o, const char* name, int n) noexcept:
+    """A short msgpack str (a field name)."""
+    o[0] = <char>(0xa0 | n)
+    memcpy(o + 1, name, n)
+    return o + 1 + n
+
+
 cdef inline char* _w_array(char* o, Py_ssize_t n) noexcept:
     """A msgpack array header."""
     if n < 16:
@@ -326,24 +333,12 @@ def js_payload(msg):
     o = PyBytes_AS_STRING(buf)
     o = _w_put(o, _JS_HEAD)
     o = _w_uint(o, <uint64_t>sec)
-    o[0] = <char>0xa7
-    memcpy(o + 1, b"nanosec", 7)
-    o = _w_uint(o + 8, <uint64_t>nsec)
-    o[0] = <char>0xa8
-    memcpy(o + 1, b"frame_id", 8)
-    o = _w_put(o + 9, _js_frame_packed)
-    o[0] = <char>0xa4
-    memcpy(o + 1, b"name", 4)
-    o = _w_put(o + 5, _js_names_packed)
-    o[0] = <char>0xa8
-    memcpy(o + 1, b"position", 8)
-    o = _w_floats(o + 9, pos)
-    o[0] = <char>0xa8
-    memcpy(o + 1, b"velocity", 8)
-    o = _w_floats(o + 9, vel)
-    o[0] = <char>0xa6
-    memcpy(o + 1, b"effort", 6)
-    o = _w_floats(o + 7, eff)
+    o = _w_uint(_w_key(o, b"nanosec", 7), <uint64_t>nsec)
+    o = _w_put(_w_key(o, b"frame_id", 8), _js_frame_packed)
+    o = _w_put(_w_key(o, b"name", 4), _js_names_packed)
+    o = _w_floats(_w_key(o, b"position", 8), pos)
+    o = _w_floats(_w_key(o, b"velocity", 8), vel)
+    o = _w_floats(_w_key(o, b"effort", 6), eff)
     return buf[:o - PyBytes_AS_STRING(buf)]
 
 
