@@ -145,3 +145,55 @@ def test_broadcaster_accepts_dicts_and_lists(node_options) -> None:
         with pytest.raises(TypeError):
             br.send_transform([42])  # type: ignore[list-item]
         assert math.isclose(buf.lookup_transform("r1", "r2", Time(sec=5)).transform.translation.x, 1.0)
+
+
+def test_compiled_send_transform_sends_what_the_python_path_sends(node_options, zenoh_session) -> None:
+    """send_transform(one TransformStamped) runs compiled (tfwire.OneTransformSender) to Zenoh's put:
+    a raw subscriber on the tf key gets the payload and attachment the Python path sends for the same
+    transform given as a list; a subclass overriding send_transform keeps its override."""
+    from zentf.listener import wire_key
+    from zentf.tfwire import OneTransformSender
+
+    got: list[tuple[bytes, bytes]] = []
+    arrived = threading.Condition()
+
+    def on_sample(sample) -> None:
+        with arrived:
+            got.append((sample.payload.to_bytes(), sample.attachment.to_bytes()))
+            arrived.notify_all()
+
+    with Node("compiled_sender", options=node_options) as node:
+        sub = zenoh_session.declare_subscriber(wire_key(node, "tf"), on_sample)
+        try:
+            br = TransformBroadcaster(node)
+            assert isinstance(br.send_transform, OneTransformSender)
+            assert br.wait_for_subscribers(10)
+            ts = _ts("world", "robot", 1.5, Time(sec=7, nanosec=9))
+            br.send_transform(ts)          # compiled
+            br.sendTransform(ts)           # the alias too
+            br.send_transform([ts])        # Python path (a list)
+            br.send_transform(ts.to_dict())  # Python path (a dict), same map
+            with arrived:
+                assert arrived.wait_for(lambda: len(got) == 4, 10), got
+            assert got[0] == got[1] == got[2]
+            assert got[0][1] == node.get_fully_qualified_name().encode()
+            assert wire_decode_tf(got[0][0]) == wire_decode_tf(got[3][0])
+        finally:
+            sub.undeclare()
+
+        class Counting(TransformBroadcaster):
+            calls = 0
+
+            def send_transform(self, transform):  # type: ignore[override]
+                Counting.calls += 1
+                super().send_transform(transform)
+
+        Counting(node).send_transform(ts)
+        assert Counting.calls == 1
+
+
+def wire_decode_tf(payload: bytes) -> list:
+    from zentf import wire
+    from zentf.core.messages import TFMessage
+
+    return [t.to_dict() for t in wire.decode(payload, TFMessage).transforms]

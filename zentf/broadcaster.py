@@ -7,7 +7,7 @@ from typing import Any, Union
 
 from .core.messages import TFMessage, TransformStamped
 from .node import Node
-from .tfwire import ts_payload
+from .tfwire import OneTransformSender
 
 __all__ = ["TransformBroadcaster", "StaticTransformBroadcaster"]
 
@@ -33,19 +33,26 @@ class TransformBroadcaster:
         self.node = node
         self._pub = node.create_publisher(topic, TFMessage, qos)
         self._encode_tf = node.wire.encode_tf  # msgpack (zentf) or CDR (ros2)
-        # one TransformStamped on zentf's wire, the common call: compiled straight to the payload
-        self._one = ts_payload if node.wire.name == "zentf" else None
+        att = self._pub._attach.constant
+        if node.wire.name == "zentf" and att is not None and type(self).send_transform is _send_transform:
+            # the common call, one TransformStamped on zentf's wire, compiled from here to Zenoh's put
+            # (zentf/tfwire.pyx); anything else reaches the method below
+            import zenoh
+
+            slow = self.send_transform
+            self.send_transform = self.sendTransform = OneTransformSender(  # type: ignore[method-assign]
+                self._pub._pub.put, zenoh.ZBytes(att), slow)
 
     def send_transform(self, transform: TransformsArg) -> None:
-        payload = self._one(transform) if self._one is not None else None
-        if payload is None:
-            payload = self._encode_tf(_as_list(transform))
-        self._pub.publish_bytes(payload)
+        self._pub.publish_bytes(self._encode_tf(_as_list(transform)))
 
     sendTransform = send_transform
 
     def wait_for_subscribers(self, timeout: float = 5.0) -> bool:
         return self._pub.wait_for_subscribers(timeout)
+
+
+_send_transform = TransformBroadcaster.send_transform
 
 
 class StaticTransformBroadcaster:

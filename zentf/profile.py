@@ -157,18 +157,21 @@ ZentfProfile = WireProfile
 class Attacher:
     """Makes the attachment of each sample a publisher sends."""
 
+    #: the attachment when it is the same for every sample (zentf's: the node name), else None
+    constant: bytes | None = None
+
     def __call__(self) -> bytes:  # pragma: no cover - interface
         raise NotImplementedError
 
 
 class _ConstAttacher(Attacher):
-    __slots__ = ("value",)
+    __slots__ = ("constant",)
 
     def __init__(self, value: bytes) -> None:
-        self.value = value
+        self.constant = value
 
     def __call__(self) -> bytes:
-        return self.value
+        return self.constant
 
 
 _ATT = struct.Struct("<qqB16s")

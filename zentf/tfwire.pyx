@@ -24,6 +24,7 @@ from .core.buffer_core cimport BufferCore
 from .msgpack_reader cimport Cur, _be, _container, _float, _int, _is, _skip, _str, _take
 
 __all__ = ["msgpack_tf", "cdr_tf", "TfIngest", "TfHandler", "serve", "ts_item", "ts_payload", "js_payload",
+           "OneTransformSender",
            "MAX_PAYLOAD"]
 
 from .ros.tf import MAX_PAYLOAD  # larger payloads are not decoded here (the Python paths refuse them)
@@ -219,6 +220,27 @@ def ts_item(ts):
 def ts_payload(ts):
     """A TFMessage payload holding one TransformStamped (send_transform's common case); None if unusual."""
     return _ts_write(ts, True)
+
+
+cdef class OneTransformSender:
+    """A TransformBroadcaster's ``send_transform`` on zentf's wire, compiled: one TransformStamped goes
+    from the caller to Zenoh's ``put`` in this one call (payload written in C, the constant attachment
+    made once); anything else (a list, a dict, an unusual value) goes to ``slow``, the Python method."""
+
+    cdef object put
+    cdef object attachment
+    cdef object slow
+
+    def __init__(self, put, attachment, slow):
+        self.put = put
+        self.attachment = attachment
+        self.slow = slow
+
+    def __call__(self, transform):
+        payload = _ts_write(transform, True)
+        if payload is None:
+            return self.slow(transform)
+        self.put(payload, attachment=self.attachment)
 
 
 # A JointState (a joint_state_publisher's or a driver's hundred-hertz message) is written the same way:
