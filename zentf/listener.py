@@ -34,9 +34,6 @@ DEFAULT_FUTURE_TOLERANCE = 5.0
 RING_CAPACITY = 16384
 #: Samples moved from the ring to the per-sender queues between two rounds (one message per sender).
 DRAIN_BATCH = 256
-#: Messages of a single waiting sender handled in a row before the ring is looked at again (with more
-#: than one sender waiting, one message each in turn).
-SOLO_BATCH = 16
 #: Messages waiting in the per-sender queues in all; beyond it the biggest backlog loses its oldest.
 MAX_PENDING = 100_000
 #: A sender none of whose last SUSPECT_AFTER messages put anything into the buffer (NaN, forged frames
@@ -229,7 +226,7 @@ class TransformListener:
         (compiled: zentf/tfwire.pyx ``serve``, with this module's bounds)."""
         serve(self, ring, handle, self.node.wire.sender_of, DRAIN_BATCH, MAX_PENDING,
               SUSPECT_AFTER, SUSPECT_QUEUE, MAX_SENDERS, _OTHERS, MAX_SENDER_KEY, RELEASE_AFTER,
-              release_free_memory, log, TAIL_WINDOW, self._release_later, SOLO_BATCH)
+              release_free_memory, log, TAIL_WINDOW, self._release_later)
 
     def _release_later(self) -> None:
         """The ring ran empty in a flood's tail: release once no message came for TAIL_DELAY s."""
