@@ -14,7 +14,7 @@ id is kept once per frame while it never changes (tf2 stores it in every sample)
 parent does change gets a per-sample int32 column from then on. Callers hold BufferCore's lock.
 """
 from libc.math cimport acos, cos, sin, sqrt
-from libc.stdint cimport UINT32_MAX, int32_t, int64_t, uint32_t
+from libc.stdint cimport UINT32_MAX, int32_t, int64_t, uint32_t, uint64_t
 from libc.stdlib cimport free, malloc, realloc
 from libc.string cimport memcpy, memmove
 from posix.mman cimport MAP_ANONYMOUS, MAP_FAILED, MAP_PRIVATE, PROT_READ, PROT_WRITE, mmap, munmap
@@ -164,15 +164,15 @@ cdef void* _arr_resize(void* p, size_t old, size_t new, bint* mapped, bint want_
     return q
 
 
-cdef inline bint _big(Py_ssize_t cap) noexcept:
-    """A ring of cap slots is large: its arrays get mappings of their own."""
-    return <size_t>cap * 7 * sizeof(double) >= _MAP_MIN
+cdef inline bint _big(Py_ssize_t cap, size_t w) noexcept:
+    """A ring of cap slots of w values is large: its arrays get mappings of their own."""
+    return <size_t>cap * w * sizeof(double) >= _MAP_MIN
 
 
-cdef inline Py_ssize_t _fit(Py_ssize_t cap) noexcept:
+cdef inline Py_ssize_t _fit(Py_ssize_t cap, size_t w) noexcept:
     """cap, or more slots if the ring is mapped: as many as the whole pages of its values hold."""
-    if _big(cap):
-        return <Py_ssize_t>(_pages(<size_t>cap * 7 * sizeof(double)) // (7 * sizeof(double)))
+    if _big(cap, w):
+        return <Py_ssize_t>(_pages(<size_t>cap * w * sizeof(double)) // (w * sizeof(double)))
     return cap
 
 
@@ -229,6 +229,9 @@ cdef class TimeCache(CacheBase):
         self._nruns = 0
         self._steady = False
         self._par0 = 0
+        self._cm = 0x7f                  # no sample yet: every column counts as constant until one differs
+        self._nv = 0
+        self._w = 1
         self.newest = -1
         self.oldest = -1
         if self._ip != NULL:
@@ -243,7 +246,7 @@ cdef class TimeCache(CacheBase):
         m = (self._mm & 1) != 0
         _arr_resize(self._lo, cap * sizeof(uint32_t), 0, &m, False)
         m = (self._mm & 2) != 0
-        _arr_resize(self._d, cap * 7 * sizeof(double), 0, &m, False)
+        _arr_resize(self._d, cap * self._w * sizeof(double), 0, &m, False)
         m = (self._mm & 4) != 0
         _arr_resize(self._par, cap * sizeof(int32_t), 0, &m, False)
         free(self._runs)
@@ -288,13 +291,14 @@ cdef class TimeCache(CacheBase):
         (then nothing changed). A wrapped ring keeps its order: growing moves the shorter of its
         two parts, shrinking unrolls it first."""
         cdef Py_ssize_t old = self._cap, h, r, t, grow
+        cdef size_t w = self._w
         cdef bint m0 = (self._mm & 1) != 0, m1 = (self._mm & 2) != 0, m2 = (self._mm & 4) != 0
         cdef void* lo
         cdef void* d
         cdef void* par = NULL
         cdef bint big
-        cap = _fit(cap)
-        big = _big(cap)
+        cap = _fit(cap, w)
+        big = _big(cap, w)
         if cap == old:
             return 0
         if cap < old and self._head + self._n > cap and self._unroll() < 0:
@@ -302,7 +306,7 @@ cdef class TimeCache(CacheBase):
         lo = _arr_resize(self._lo, old * sizeof(uint32_t), cap * sizeof(uint32_t), &m0, big)
         if lo == NULL:
             return -1
-        d = _arr_resize(self._d, old * 7 * sizeof(double), cap * 7 * sizeof(double), &m1, big)
+        d = _arr_resize(self._d, old * w * sizeof(double), cap * w * sizeof(double), &m1, big)
         if d == NULL:  # only growth fails: shrink the first array back
             self._lo = <uint32_t*>_arr_resize(lo, cap * sizeof(uint32_t), old * sizeof(uint32_t), &m0, m0)
             self._mm = (self._mm & ~1) | m0
@@ -311,7 +315,7 @@ cdef class TimeCache(CacheBase):
             par = _arr_resize(self._par, old * sizeof(int32_t), cap * sizeof(int32_t), &m2, big)
             if par == NULL:
                 self._lo = <uint32_t*>_arr_resize(lo, cap * sizeof(uint32_t), old * sizeof(uint32_t), &m0, m0)
-                self._d = <double*>_arr_resize(d, cap * 7 * sizeof(double), old * 7 * sizeof(double), &m1, m1)
+                self._d = <double*>_arr_resize(d, cap * w * sizeof(double), old * w * sizeof(double), &m1, m1)
                 self._mm = (self._mm & 4) | m0 | (m1 << 1)
                 return -1
         self._lo, self._d, self._par = <uint32_t*>lo, <double*>d, <int32_t*>par
@@ -324,12 +328,12 @@ cdef class TimeCache(CacheBase):
             grow = cap - old
             if r <= grow and r < t:          # the newest part fits right after the old end
                 memcpy(&self._lo[old], self._lo, r * sizeof(uint32_t))
-                memcpy(&self._d[7 * old], self._d, r * 7 * sizeof(double))
+                memcpy(&self._d[w * old], self._d, r * w * sizeof(double))
                 if self._par != NULL:
                     memcpy(&self._par[old], self._par, r * sizeof(int32_t))
             else:                            # the oldest part moves to the new end
                 memmove(&self._lo[h + grow], &self._lo[h], t * sizeof(uint32_t))
-                memmove(&self._d[7 * (h + grow)], &self._d[7 * h], t * 7 * sizeof(double))
+                memmove(&self._d[w * (h + grow)], &self._d[w * h], t * w * sizeof(double))
                 if self._par != NULL:
                     memmove(&self._par[h + grow], &self._par[h], t * sizeof(int32_t))
                 self._head = h + grow
@@ -338,27 +342,28 @@ cdef class TimeCache(CacheBase):
     cdef int _unroll(self) noexcept:
         """Move the samples to slots 0..n-1, oldest first; -1 if no memory (nothing changed)."""
         cdef Py_ssize_t h = self._head, n = self._n, cap = self._cap, r, t
+        cdef size_t w = self._w
         cdef char* tmp
         if h == 0:
             return 0
         if h + n <= cap:
             memmove(self._lo, &self._lo[h], n * sizeof(uint32_t))
-            memmove(self._d, &self._d[7 * h], n * 7 * sizeof(double))
+            memmove(self._d, &self._d[w * h], n * w * sizeof(double))
             if self._par != NULL:
                 memmove(self._par, &self._par[h], n * sizeof(int32_t))
             self._head = 0
             return 0
         r = h + n - cap                      # newest part, at [0, r)
         t = cap - h                          # oldest part, at [h, cap)
-        tmp = <char*>malloc(r * 7 * sizeof(double))
+        tmp = <char*>malloc(r * w * sizeof(double))
         if tmp == NULL:
             return -1
         memcpy(tmp, self._lo, r * sizeof(uint32_t))
         memmove(self._lo, &self._lo[h], t * sizeof(uint32_t))
         memcpy(&self._lo[t], tmp, r * sizeof(uint32_t))
-        memcpy(tmp, self._d, r * 7 * sizeof(double))
-        memmove(self._d, &self._d[7 * h], t * 7 * sizeof(double))
-        memcpy(&self._d[7 * t], tmp, r * 7 * sizeof(double))
+        memcpy(tmp, self._d, r * w * sizeof(double))
+        memmove(self._d, &self._d[w * h], t * w * sizeof(double))
+        memcpy(&self._d[w * t], tmp, r * w * sizeof(double))
         if self._par != NULL:
             memcpy(tmp, self._par, r * sizeof(int32_t))
             memmove(self._par, &self._par[h], t * sizeof(int32_t))
@@ -410,23 +415,38 @@ cdef class TimeCache(CacheBase):
         the malloc heap keeps no holes from its growth. Pruning then trims it to what it holds.
         """
         cdef Py_ssize_t n = self._n, cap = n + (n >> 3) + 4
+        cdef size_t w = self._w
         cdef int64_t span
         if self._steady:
             return n + (n >> 6) + 4
         if self._mm & 2:
             return 2 * n
-        if n >= 8 and not _big(cap):
+        if n >= 8 and not _big(cap, w):
             span = self.newest - self.oldest
-            if span > 0 and <double>self.max_ns / <double>span * <double>(n - 1) >= <double>(_MAP_MIN // (7 * sizeof(double))):
-                return _MAP_MIN // (7 * sizeof(double)) + 1
+            if span > 0 and <double>self.max_ns / <double>span * <double>(n - 1) >= <double>(_MAP_MIN // (w * sizeof(double))):
+                return _MAP_MIN // (w * sizeof(double)) + 1
         return cap
 
     cdef int insert_c(self, int64_t stamp, int32_t parent, const double* v) except -1:
         cdef int64_t newest = self.newest, hi, rel
         cdef Py_ssize_t i, j, k, lo, n = self._n
         cdef _Run* runs
+        cdef unsigned char cm = self._cm, diff = 0, c, q, nv, w
+        cdef const uint64_t* vb = <const uint64_t*>v
+        cdef const uint64_t* kb = <const uint64_t*>self._k
+        cdef double* slot
+        if n == 0:
+            memcpy(self._k, v, 7 * sizeof(double))  # every column constant so far: its value, once
+        elif cm:                         # a column held constant so far (bit for bit) changes: stored per slot
+            for c in range(7):
+                if (cm >> c) & 1 and vb[c] != kb[c]:
+                    diff |= 1 << c
+            if diff and self._widen(cm & ~diff) < 0:
+                raise MemoryError()
         if n == self._cap and self._set_cap(self._grown()) < 0:
             raise MemoryError()
+        nv = self._nv
+        w = self._w
         if n == 0:
             self._par0 = parent
             self._epoch = stamp          # runs count 2**32 ns from the first sample
@@ -440,7 +460,12 @@ cdef class TimeCache(CacheBase):
                     raise MemoryError()
             j = self._slot(n)
             self._lo[j] = <uint32_t>rel
-            memcpy(&self._d[7 * j], v, 7 * sizeof(double))
+            slot = &self._d[w * j]
+            if nv == 7:
+                memcpy(slot, v, 7 * sizeof(double))
+            else:
+                for q in range(nv):
+                    slot[q] = v[self._vc[q]]
             if self._par != NULL:
                 self._par[j] = parent
             self._n = n + 1
@@ -470,13 +495,15 @@ cdef class TimeCache(CacheBase):
                 j = self._slot(k)
                 i = self._slot(k - 1)
                 self._lo[j] = self._lo[i]
-                memcpy(&self._d[7 * j], &self._d[7 * i], 7 * sizeof(double))
+                memcpy(&self._d[w * j], &self._d[w * i], w * sizeof(double))
                 if self._par != NULL:
                     self._par[j] = self._par[i]
                 k -= 1
             j = self._slot(lo)
             self._lo[j] = <uint32_t>rel
-            memcpy(&self._d[7 * j], v, 7 * sizeof(double))
+            slot = &self._d[w * j]
+            for q in range(nv):
+                slot[q] = v[self._vc[q]]
             if self._par != NULL:
                 self._par[j] = parent
             self._n = n + 1
@@ -511,7 +538,7 @@ cdef class TimeCache(CacheBase):
             self._steady = True
             if self._cap > n + 1:
                 self._set_cap(n + 1)
-        elif self._cap > _fit(n + (n >> 3) + 16):  # fewer samples than before (a slower rate): give room back
+        elif self._cap > _fit(n + (n >> 3) + 16, self._w):  # fewer samples than before (a slower rate): give room back
             self._set_cap(n + (n >> 6) + 4)
 
     cdef Py_ssize_t _bound(self, int64_t t, bint right) noexcept:
@@ -609,10 +636,54 @@ cdef class TimeCache(CacheBase):
             run[0] = a
         return r - 1
 
+    cdef inline void _unpack(self, Py_ssize_t j, double* out) noexcept:
+        """The seven values of slot j: the constant columns from _k, the others from the slot."""
+        cdef const double* slot = &self._d[self._w * j]
+        cdef unsigned char q
+        memcpy(out, self._k, 7 * sizeof(double))
+        for q in range(self._nv):
+            out[self._vc[q]] = slot[q]
+
     cdef inline void _copy(self, Py_ssize_t i, int32_t* parent, double* out) noexcept:
         cdef Py_ssize_t j = self._slot(i)
         parent[0] = self._parent(j)
-        memcpy(out, &self._d[7 * j], 7 * sizeof(double))
+        if self._nv == 7:
+            memcpy(out, &self._d[7 * j], 7 * sizeof(double))
+        else:
+            self._unpack(j, out)
+
+    cdef int _widen(self, unsigned char cm) noexcept:
+        """Keep only the columns of cm constant: every slot gets the others (a new array, the
+        stored samples' values copied over); -1 if no memory (nothing changed)."""
+        cdef unsigned char nv = 0, w, c
+        cdef unsigned char vc[7]
+        cdef double full[7]
+        cdef bint m = False, m_old
+        cdef double* d
+        cdef double* slot
+        cdef Py_ssize_t i, j, cap = self._cap
+        for c in range(7):
+            if not (cm >> c) & 1:
+                vc[nv] = c
+                nv += 1
+        w = nv if nv else 1
+        if cap:
+            d = <double*>_arr_resize(NULL, 0, cap * w * sizeof(double), &m, _big(cap, w))
+            if d == NULL:
+                return -1
+            for i in range(self._n):
+                j = self._slot(i)
+                self._unpack(j, full)
+                slot = &d[w * j]
+                for c in range(nv):
+                    slot[c] = full[vc[c]]
+            m_old = (self._mm & 2) != 0
+            _arr_resize(self._d, cap * self._w * sizeof(double), 0, &m_old, False)
+            self._d = d
+            self._mm = (self._mm & ~2) | (m << 1)
+        memcpy(self._vc, vc, 7)
+        self._cm, self._nv, self._w = cm, nv, w
+        return 0
 
     cdef void _span(self, _Interp* ip, Py_ssize_t i, Py_ssize_t run) noexcept:
         """Constants to interpolate between samples i and i+1 exactly like tf2.
@@ -623,13 +694,23 @@ cdef class TimeCache(CacheBase):
         one cos and one sin. Translation: p0 + r·(p1 - p0).
         """
         cdef Py_ssize_t j0 = self._slot(i), j1 = self._slot(i + 1)
-        cdef double* a = &self._d[7 * j0]
-        cdef double* b = &self._d[7 * j1]
+        cdef double* a
+        cdef double* b
+        cdef double ua[7]
+        cdef double ub[7]
         cdef double* sp = ip.sp
         cdef double x1, y1, z1, w1, dot, c, theta, inv
         cdef int k
         cdef _Run* runs = self._runs
         cdef int64_t e = self._epoch + (runs[run].hi << 32)
+        if self._nv == 7:
+            a = &self._d[7 * j0]
+            b = &self._d[7 * j1]
+        else:                                # constant columns apply their one value: the same arithmetic
+            self._unpack(j0, ua)
+            self._unpack(j1, ub)
+            a = ua
+            b = ub
         ip.sp_t0 = e + <int64_t>self._lo[j0]
         if run + 1 < self._nruns and runs[run + 1].start == self._base + i + 1:
             e = self._epoch + (runs[run + 1].hi << 32)  # sample i + 1 begins the next run
@@ -765,7 +846,7 @@ cdef class TimeCache(CacheBase):
 
     def nbytes(self) -> int:
         """Bytes allocated for samples (capacity, not only the samples held) and their runs."""
-        return (self._cap * (sizeof(uint32_t) + 7 * sizeof(double) + (sizeof(int32_t) if self._par != NULL else 0))
+        return (self._cap * (sizeof(uint32_t) + self._w * sizeof(double) + (sizeof(int32_t) if self._par != NULL else 0))
                 + self._runs_cap * sizeof(_Run))
 
     @property
@@ -796,7 +877,7 @@ cdef class TimeCache(CacheBase):
                 k += 1
             stv[i] = self._epoch + ((self._runs[k].hi << 32) | <int64_t>self._lo[j])
             pv[i] = self._parent(j)
-            memcpy(&dv[i, 0], &self._d[7 * j], 7 * sizeof(double))
+            self._unpack(j, &dv[i, 0])
         return st, par, d
 
 
