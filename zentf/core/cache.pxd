@@ -45,7 +45,7 @@ cdef class TimeCache(CacheBase):
     # _k, not per slot: _cm has a bit per such column; the _nv others are stored, in the column order
     # _vc, _w = max(_nv, 1) doubles a slot (a fixed joint's translation, a planar base's z, roll, pitch)
     cdef unsigned char _cm, _nv, _w
-    cdef unsigned char _vc[7]
+    cdef unsigned char _vc[7]           # the varying columns, then (from _vc[_nv] on) the constant ones
     cdef double _k[7]
     cdef Py_ssize_t _cap, _head, _n
     cdef int64_t _base                  # virtual index of the oldest sample (samples pruned so far)
@@ -69,6 +69,8 @@ cdef class TimeCache(CacheBase):
     cdef Py_ssize_t _floor_runs(self, int64_t t, Py_ssize_t* run) noexcept
     cdef inline void _copy(self, Py_ssize_t i, int32_t* parent, double* out) noexcept
     cdef inline void _unpack(self, Py_ssize_t j, double* out) noexcept
+    cdef inline void _pack(self, double* slot, const double* v) noexcept
+    cdef inline void _unpack2(self, Py_ssize_t j0, Py_ssize_t j1, double* a, double* b) noexcept
     cdef int _widen(self, unsigned char cm) noexcept
 
 

@@ -222,6 +222,7 @@ cdef class TimeCache(CacheBase):
         self._release()
 
     cdef void _reset(self) noexcept:
+        cdef int k
         self._head = 0
         self._n = 0
         self._base = 0
@@ -232,6 +233,8 @@ cdef class TimeCache(CacheBase):
         self._cm = 0x7f                  # no sample yet: every column counts as constant until one differs
         self._nv = 0
         self._w = 1
+        for k in range(7):
+            self._vc[k] = k
         self.newest = -1
         self.oldest = -1
         if self._ip != NULL:
@@ -431,17 +434,18 @@ cdef class TimeCache(CacheBase):
         cdef int64_t newest = self.newest, hi, rel
         cdef Py_ssize_t i, j, k, lo, n = self._n
         cdef _Run* runs
-        cdef unsigned char cm = self._cm, diff = 0, c, q, nv, w
+        cdef unsigned char diff = 0, c, q, nv = self._nv, w
         cdef const uint64_t* vb = <const uint64_t*>v
         cdef const uint64_t* kb = <const uint64_t*>self._k
         cdef double* slot
         if n == 0:
             memcpy(self._k, v, 7 * sizeof(double))  # every column constant so far: its value, once
-        elif cm:                         # a column held constant so far (bit for bit) changes: stored per slot
-            for c in range(7):
-                if (cm >> c) & 1 and vb[c] != kb[c]:
+        elif nv != 7:                    # a column held constant so far (bit for bit) changes: stored per slot
+            for q in range(nv, 7):
+                c = self._vc[q]
+                if vb[c] != kb[c]:
                     diff |= 1 << c
-            if diff and self._widen(cm & ~diff) < 0:
+            if diff and self._widen(self._cm & ~diff) < 0:
                 raise MemoryError()
         if n == self._cap and self._set_cap(self._grown()) < 0:
             raise MemoryError()
@@ -464,8 +468,7 @@ cdef class TimeCache(CacheBase):
             if nv == 7:
                 memcpy(slot, v, 7 * sizeof(double))
             else:
-                for q in range(nv):
-                    slot[q] = v[self._vc[q]]
+                self._pack(slot, v)
             if self._par != NULL:
                 self._par[j] = parent
             self._n = n + 1
@@ -501,9 +504,7 @@ cdef class TimeCache(CacheBase):
                 k -= 1
             j = self._slot(lo)
             self._lo[j] = <uint32_t>rel
-            slot = &self._d[w * j]
-            for q in range(nv):
-                slot[q] = v[self._vc[q]]
+            self._pack(&self._d[w * j], v)
             if self._par != NULL:
                 self._par[j] = parent
             self._n = n + 1
@@ -639,10 +640,51 @@ cdef class TimeCache(CacheBase):
     cdef inline void _unpack(self, Py_ssize_t j, double* out) noexcept:
         """The seven values of slot j: the constant columns from _k, the others from the slot."""
         cdef const double* slot = &self._d[self._w * j]
-        cdef unsigned char q
-        memcpy(out, self._k, 7 * sizeof(double))
-        for q in range(self._nv):
-            out[self._vc[q]] = slot[q]
+        cdef const unsigned char* vc = self._vc
+        cdef unsigned char q, c, nv = self._nv, cm = self._cm
+        if cm & 0x78 == 0:                   # the rotation varies whole: the last 4 values of the slot
+            memcpy(&out[3], &slot[nv - 4], 4 * sizeof(double))
+            q = 0
+            for c in range(3):
+                if (cm >> c) & 1:
+                    out[c] = self._k[c]
+                else:
+                    out[c] = slot[q]
+                    q += 1
+            return
+        for q in range(nv):
+            out[vc[q]] = slot[q]
+        for q in range(nv, 7):
+            out[vc[q]] = self._k[vc[q]]
+
+    cdef inline void _pack(self, double* slot, const double* v) noexcept:
+        """Store the varying values of sample v in slot (_unpack's inverse)."""
+        cdef const unsigned char* vc = self._vc
+        cdef unsigned char q, c, nv = self._nv, cm = self._cm
+        if cm & 0x78 == 0:                   # the rotation varies whole: the last 4 values of the slot
+            memcpy(&slot[nv - 4], &v[3], 4 * sizeof(double))
+            q = 0
+            for c in range(3):
+                if not (cm >> c) & 1:
+                    slot[q] = v[c]
+                    q += 1
+            return
+        for q in range(nv):
+            slot[q] = v[vc[q]]
+
+    cdef inline void _unpack2(self, Py_ssize_t j0, Py_ssize_t j1, double* a, double* b) noexcept:
+        """_unpack of slots j0 and j1 at once (an interpolation's two samples)."""
+        cdef const double* s0 = &self._d[self._w * j0]
+        cdef const double* s1 = &self._d[self._w * j1]
+        cdef const unsigned char* vc = self._vc
+        cdef unsigned char q, c, nv = self._nv
+        for q in range(nv):
+            c = vc[q]
+            a[c] = s0[q]
+            b[c] = s1[q]
+        for q in range(nv, 7):
+            c = vc[q]
+            a[c] = b[c] = self._k[c]
 
     cdef inline void _copy(self, Py_ssize_t i, int32_t* parent, double* out) noexcept:
         cdef Py_ssize_t j = self._slot(i)
@@ -666,6 +708,11 @@ cdef class TimeCache(CacheBase):
             if not (cm >> c) & 1:
                 vc[nv] = c
                 nv += 1
+        w = nv
+        for c in range(7):
+            if (cm >> c) & 1:
+                vc[w] = c
+                w += 1
         w = nv if nv else 1
         if cap:
             d = <double*>_arr_resize(NULL, 0, cap * w * sizeof(double), &m, _big(cap, w))
@@ -694,53 +741,74 @@ cdef class TimeCache(CacheBase):
         one cos and one sin. Translation: p0 + r·(p1 - p0).
         """
         cdef Py_ssize_t j0 = self._slot(i), j1 = self._slot(i + 1)
-        cdef double* a
-        cdef double* b
+        cdef const double* a                 # translations (3 values)
+        cdef const double* b
+        cdef const double* qa                # rotations (4 values)
+        cdef const double* qb
         cdef double ua[7]
         cdef double ub[7]
         cdef double* sp = ip.sp
         cdef double x1, y1, z1, w1, dot, c, theta, inv
         cdef int k
+        cdef unsigned char nv = self._nv, cm, q
         cdef _Run* runs = self._runs
         cdef int64_t e = self._epoch + (runs[run].hi << 32)
-        if self._nv == 7:
+        if nv == 7:
             a = &self._d[7 * j0]
             b = &self._d[7 * j1]
+            qa = a + 3
+            qb = b + 3
         else:                                # constant columns apply their one value: the same arithmetic
-            self._unpack(j0, ua)
-            self._unpack(j1, ub)
-            a = ua
-            b = ub
+            cm = self._cm
+            a = &self._d[self._w * j0]
+            b = &self._d[self._w * j1]
+            if cm & 0x78:
+                self._unpack2(j0, j1, ua, ub)
+                a, b, qa, qb = ua, ub, &ua[3], &ub[3]
+            else:                            # the rotation varies whole: the last 4 values of a slot
+                qa = a + nv - 4
+                qb = b + nv - 4
+                q = 0
+                for k in range(3):
+                    if (cm >> k) & 1:
+                        ua[k] = ub[k] = self._k[k]
+                    else:
+                        ua[k] = a[q]
+                        ub[k] = b[q]
+                        q += 1
+                a = ua
+                b = ub
         ip.sp_t0 = e + <int64_t>self._lo[j0]
         if run + 1 < self._nruns and runs[run + 1].start == self._base + i + 1:
             e = self._epoch + (runs[run + 1].hi << 32)  # sample i + 1 begins the next run
         ip.sp_t1 = e + <int64_t>self._lo[j1]
         ip.sp_p = self._parent(j0)
         ip.sp_same = self._parent(j1) == ip.sp_p
-        if not ip.sp_same:
-            memcpy(&sp[1], a, 7 * sizeof(double))  # different parents: the older sample applies
+        if not ip.sp_same:                   # different parents: the older sample applies
+            memcpy(&sp[1], a, 3 * sizeof(double))
+            memcpy(&sp[4], qa, 4 * sizeof(double))
             return
         sp[0] = 1.0 / <double>(ip.sp_t1 - ip.sp_t0)
         for k in range(3):
             sp[1 + k] = a[k]
             sp[4 + k] = b[k] - a[k]
-        x1, y1, z1, w1 = b[3], b[4], b[5], b[6]
-        dot = a[3] * x1 + a[4] * y1 + a[5] * z1 + a[6] * w1
+        x1, y1, z1, w1 = qb[0], qb[1], qb[2], qb[3]
+        dot = qa[0] * x1 + qa[1] * y1 + qa[2] * z1 + qa[3] * w1
         c = (-dot if dot < 0 else dot) / sqrt(
-            (a[3] * a[3] + a[4] * a[4] + a[5] * a[5] + a[6] * a[6]) * (x1 * x1 + y1 * y1 + z1 * z1 + w1 * w1))
+            (qa[0] * qa[0] + qa[1] * qa[1] + qa[2] * qa[2] + qa[3] * qa[3]) * (x1 * x1 + y1 * y1 + z1 * z1 + w1 * w1))
         theta = acos(1.0 if c > 1.0 else c)
         for k in range(4):
-            sp[7 + k] = a[3 + k]
+            sp[7 + k] = qa[k]
         if theta != 0.0:
             if dot < 0:
                 x1, y1, z1, w1 = -x1, -y1, -z1, -w1
             if c > 1.0:
                 c = 1.0
             inv = 1.0 / sqrt((1.0 - c) * (1.0 + c))  # 1 / sin θ; cos θ is c itself
-            sp[11] = (x1 - a[3] * c) * inv
-            sp[12] = (y1 - a[4] * c) * inv
-            sp[13] = (z1 - a[5] * c) * inv
-            sp[14] = (w1 - a[6] * c) * inv
+            sp[11] = (x1 - qa[0] * c) * inv
+            sp[12] = (y1 - qa[1] * c) * inv
+            sp[13] = (z1 - qa[2] * c) * inv
+            sp[14] = (w1 - qa[3] * c) * inv
         else:
             sp[11] = sp[12] = sp[13] = sp[14] = 0.0
         sp[15] = theta
