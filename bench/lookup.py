@@ -11,7 +11,8 @@ sample is inserted into the chain every 10 lookups (so a cache is measured hones
 fresh interpolated time on every call (times marching monotonically), a "cold" row with a time drawn
 uniformly at random inside every link's buffered range on every call (drawn beforehand, same seed on
 both sides: no result memo nor per-frame interpolation state can help), bytes per stored sample (in
-the run, and in a fresh process per case: the ≤64 B target applies there),
+the run, and in a fresh process per case: the ≤64 B target applies there; both implementations are
+warmed on a throwaway buffer before the baseline, see memory_side),
 transform_points on 1M points, and lookup_transforms on 100k sorted stamps at each depth against a
 Python loop of single lookups at distinct times (the speed-up rows divide zentf's loop by zentf's
 vectorized call — the target — and, for reference, tf2's loop by it); plus memory once a 10 s cache is full and pruning (10 frames at 1 kHz for 15 s).
