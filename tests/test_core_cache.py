@@ -100,6 +100,21 @@ ops = st.lists(st.one_of(
 SCALES = [(0, 1000), (3 * 2 ** 32 - 20 * 2 ** 29, 2 ** 29), (2 ** 40, 2 ** 32 - 1), (7, 2 ** 32 + 1)]
 
 
+def _probe_time(origin: int, unit: int, i: int) -> int:
+    """A time to ask: a stored stamp's, or a third of a unit past one (between samples)."""
+    return origin + i * unit + (unit // 3 if i % 2 else 0)
+
+
+def _assert_answer(c: TimeCache, m: Model, t: int):
+    """The cache's answer at t is the model's (None alike; values within 1e-12); returns it."""
+    want, got = m.get(t), c.get(t)
+    assert (want is None) == (got is None), (t, want, got)
+    if want is not None:
+        assert got[0] == want[0]
+        assert max(abs(x - y) for x, y in zip(got[1:], want[1:])) < 1e-12, (t, want, got)
+    return got
+
+
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(ops, st.integers(3, 40), st.sampled_from(SCALES))
 def test_time_cache_equals_the_model(seq, max_units, scale) -> None:
@@ -112,12 +127,8 @@ def test_time_cache_equals_the_model(seq, max_units, scale) -> None:
             stamp = origin + k * unit
             assert c.insert(stamp, parent, v) == m.insert(stamp, parent, v)
         elif op[0] == "get":
-            t = origin + op[1] * unit + (unit // 3 if op[1] % 2 else 0)
-            want, got = m.get(t), c.get(t)
-            assert (want is None) == (got is None), (t, want, got)
-            if want is not None:
-                assert got[0] == want[0]
-                assert max(abs(x - y) for x, y in zip(got[1:], want[1:])) < 1e-12, (t, want, got)
+            t = _probe_time(origin, unit, op[1])
+            _assert_answer(c, m, t)
             assert c.parent_at(t) == m.parent_at(t)
         else:
             c.clear()
@@ -309,14 +320,10 @@ def test_constant_columns_are_stored_once_and_answers_stay_bit_identical(seq, ma
             assert c.insert(stamp, parent, v) == m.insert(stamp, parent, v)
             twin.insert(stamp, parent, v)
         else:
-            t = origin + op[1] * unit + (unit // 3 if op[1] % 2 else 0)
-            want, got = m.get(t), c.get(t)
-            assert (want is None) == (got is None), (t, want, got)
-            if want is not None:
-                assert got[0] == want[0]
-                assert max(abs(x - y) for x, y in zip(got[1:], want[1:])) < 1e-12, (t, want, got)
-                if m.s[0][0] <= t and twin.oldest_stamp() <= m.s[0][0]:  # the twin holds the same samples
-                    assert _bits(got[1:]) == _bits(twin.get(t)[1:]), (t, got, twin.get(t))
+            t = _probe_time(origin, unit, op[1])
+            got = _assert_answer(c, m, t)
+            if got is not None and m.s[0][0] <= t and twin.oldest_stamp() <= m.s[0][0]:  # same samples held
+                assert _bits(got[1:]) == _bits(twin.get(t)[1:]), (t, got, twin.get(t))
     st_, par, d = c.columns()
     assert list(st_) == [x[0] for x in m.s] and list(par) == [x[1] for x in m.s]
     assert [_bits(row) for row in d] == [_bits(x[2]) for x in m.s]
