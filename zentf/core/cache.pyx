@@ -646,7 +646,7 @@ cdef class TimeCache(CacheBase):
         cdef const double* slot = &self._d[self._w * j]
         cdef const unsigned char* vc = self._vc
         cdef unsigned char q, c, nv = self._nv, cm = self._cm
-        if cm & 0x78 == 0:                   # the rotation varies whole: the last 4 values of the slot
+        if (cm & 0x78) == 0:                 # the rotation varies whole: the last 4 values of the slot
             memcpy(&out[3], &slot[nv - 4], 4 * sizeof(double))
             q = 0
             for c in range(3):
@@ -665,7 +665,7 @@ cdef class TimeCache(CacheBase):
         """Store the varying values of sample v in slot (_unpack's inverse)."""
         cdef const unsigned char* vc = self._vc
         cdef unsigned char q, c, nv = self._nv, cm = self._cm
-        if cm & 0x78 == 0:                   # the rotation varies whole: the last 4 values of the slot
+        if (cm & 0x78) == 0:                 # the rotation varies whole: the last 4 values of the slot
             memcpy(&slot[nv - 4], &v[3], 4 * sizeof(double))
             q = 0
             for c in range(3):
@@ -701,22 +701,21 @@ cdef class TimeCache(CacheBase):
     cdef int _widen(self, unsigned char cm) noexcept:
         """Keep only the columns of cm constant: every slot gets the others (a new array, the
         stored samples' values copied over); -1 if no memory (nothing changed)."""
-        cdef unsigned char nv = 0, w, c
+        cdef unsigned char nv = 0, nk = 0, w, c
         cdef unsigned char vc[7]
         cdef double full[7]
         cdef bint m = False, m_old
         cdef double* d
         cdef double* slot
         cdef Py_ssize_t i, j, cap = self._cap
-        for c in range(7):
+        for c in range(7):                   # the varying columns, then the constant ones
             if not (cm >> c) & 1:
                 vc[nv] = c
                 nv += 1
-        w = nv
         for c in range(7):
             if (cm >> c) & 1:
-                vc[w] = c
-                w += 1
+                vc[nv + nk] = c
+                nk += 1
         w = nv if nv else 1
         if cap:
             d = <double*>_arr_resize(NULL, 0, cap * w * sizeof(double), &m, _big(cap, w))
@@ -766,7 +765,7 @@ cdef class TimeCache(CacheBase):
             cm = self._cm
             a = &self._d[self._w * j0]
             b = &self._d[self._w * j1]
-            if cm & 0x78:
+            if (cm & 0x78) != 0:             # a constant rotation column: merge all seven
                 self._unpack2(j0, j1, ua, ub)
                 a, b, qa, qb = ua, ub, &ua[3], &ub[3]
             else:                            # the rotation varies whole: the last 4 values of a slot
