@@ -45,13 +45,14 @@ cdef class TimeCache(CacheBase):
     # _k, not per slot: _cm has a bit per such column; the _nv others are stored, in the column order
     # _vc, _w = max(_nv, 1) doubles a slot (a fixed joint's translation, a planar base's z, roll, pitch)
     cdef unsigned char _cm, _nv, _w
-    cdef unsigned char _vc[7]           # the varying columns, then (from _vc[_nv] on) the constant ones
-    cdef double _k[7]
     cdef Py_ssize_t _cap, _head, _n
     cdef int64_t _base                  # virtual index of the oldest sample (samples pruned so far)
     cdef int64_t _epoch                 # stamps are stored as stamp - _epoch (the first sample's stamp)
     cdef public int64_t max_ns
     cdef int64_t oldest
+    # last, so that the fields every link of a walk reads stay together in the object's first lines
+    cdef unsigned char _vc[7]           # the varying columns, then (from _vc[_nv] on) the constant ones
+    cdef double _k[7]
     cdef inline Py_ssize_t _slot(self, Py_ssize_t i) noexcept
     cdef inline int32_t _parent(self, Py_ssize_t j) noexcept
     cdef inline int64_t _stamp(self, Py_ssize_t i) noexcept
