@@ -12,6 +12,7 @@ import bisect
 import importlib.machinery
 import math
 import random
+import struct
 import threading
 
 import pytest
@@ -99,6 +100,21 @@ ops = st.lists(st.one_of(
 SCALES = [(0, 1000), (3 * 2 ** 32 - 20 * 2 ** 29, 2 ** 29), (2 ** 40, 2 ** 32 - 1), (7, 2 ** 32 + 1)]
 
 
+def _probe_time(origin: int, unit: int, i: int) -> int:
+    """A time to ask: a stored stamp's, or a third of a unit past one (between samples)."""
+    return origin + i * unit + (unit // 3 if i % 2 else 0)
+
+
+def _assert_answer(c: TimeCache, m: Model, t: int):
+    """The cache's answer at t is the model's (None alike; values within 1e-12); returns it."""
+    want, got = m.get(t), c.get(t)
+    assert (want is None) == (got is None), (t, want, got)
+    if want is not None:
+        assert got[0] == want[0]
+        assert max(abs(x - y) for x, y in zip(got[1:], want[1:])) < 1e-12, (t, want, got)
+    return got
+
+
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(ops, st.integers(3, 40), st.sampled_from(SCALES))
 def test_time_cache_equals_the_model(seq, max_units, scale) -> None:
@@ -111,12 +127,8 @@ def test_time_cache_equals_the_model(seq, max_units, scale) -> None:
             stamp = origin + k * unit
             assert c.insert(stamp, parent, v) == m.insert(stamp, parent, v)
         elif op[0] == "get":
-            t = origin + op[1] * unit + (unit // 3 if op[1] % 2 else 0)
-            want, got = m.get(t), c.get(t)
-            assert (want is None) == (got is None), (t, want, got)
-            if want is not None:
-                assert got[0] == want[0]
-                assert max(abs(x - y) for x, y in zip(got[1:], want[1:])) < 1e-12, (t, want, got)
+            t = _probe_time(origin, unit, op[1])
+            _assert_answer(c, m, t)
             assert c.parent_at(t) == m.parent_at(t)
         else:
             c.clear()
@@ -269,3 +281,85 @@ def test_runs_of_high_words_fall_out_with_pruning() -> None:
             assert c.insert(late, 1, v) == m.insert(late, 1, v)
     _check_against(c, m, [m.s[0][0] + i * step // 7 for i in range(80)])
     assert c.capacity <= len(c) + 5 and c.nbytes() <= c.capacity * 60 + 8 * 16  # 4 + 56 B a slot, 16 B a run
+
+
+# Constant columns: a column that has held one value (bit for bit) since a frame's first sample is
+# stored once, not per slot, until a sample brings another value (then every slot gets the column).
+# Pools of a few values per column, -0.0 beside 0.0, keep columns constant for a while, then not.
+_POOLS = [(0.5, 0.25), (0.0, -0.0), (-1.5, 2.0), (0.0, -0.0, 0.125), (0.0, 0.6), (0.0, -0.0), (1.0, 0.8)]
+_TWIN = (1e6, 1e6, 1e6, 0.5, 0.5, 0.5, 0.5)  # differs from every pool value: a cache storing every column
+
+
+def _bits(values) -> list:
+    """Values as their IEEE bit patterns (-0.0 differs from 0.0; == would not tell)."""
+    return [struct.pack("<d", float(x)) for x in values]
+
+
+def _row(col_seeds: tuple) -> tuple:
+    return tuple(_POOLS[c][s % len(_POOLS[c])] for c, s in enumerate(col_seeds))
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(st.one_of(
+    st.tuples(st.just("ins"), st.integers(1, 60), st.integers(1, 2),
+              st.lists(st.integers(0, 20), min_size=7, max_size=7).map(tuple)),
+    st.tuples(st.just("get"), st.integers(0, 70))), min_size=1, max_size=80),
+    st.integers(3, 40), st.sampled_from(SCALES))
+def test_constant_columns_are_stored_once_and_answers_stay_bit_identical(seq, max_units, scale) -> None:
+    """Against the model (values), and against a twin cache whose extra oldest sample makes every
+    column vary from the start: the same stored bits, the same answers to the last bit."""
+    origin, unit = scale
+    c, m, twin = TimeCache(max_units * unit), Model(max_units * unit), TimeCache(max_units * unit)
+    twin.insert(origin, 1, _TWIN)
+    for op in seq:
+        if op[0] == "ins":
+            _, k, parent, seeds = op
+            # mostly the first value of each pool: columns stay constant for a while, then change
+            v = _row(tuple(s if s < len(_POOLS[i]) else 0 for i, s in enumerate(seeds)))
+            stamp = origin + k * unit
+            assert c.insert(stamp, parent, v) == m.insert(stamp, parent, v)
+            twin.insert(stamp, parent, v)
+        else:
+            t = _probe_time(origin, unit, op[1])
+            got = _assert_answer(c, m, t)
+            if got is not None and m.s[0][0] <= t and twin.oldest_stamp() <= m.s[0][0]:  # same samples held
+                assert _bits(got[1:]) == _bits(twin.get(t)[1:]), (t, got, twin.get(t))
+    st_, par, d = c.columns()
+    assert list(st_) == [x[0] for x in m.s] and list(par) == [x[1] for x in m.s]
+    assert [_bits(row) for row in d] == [_bits(x[2]) for x in m.s]
+
+
+def test_a_fixed_translation_costs_nothing_per_sample_until_it_moves() -> None:
+    """A joint that only rotates stores 4 values a sample, not 7; the first sample that moves it
+    (here by a sign bit: -0.0) widens every stored slot, and each sample keeps its own bits."""
+    c = TimeCache(10 ** 12)
+    for k in range(1, 301):
+        assert c.insert(k * 1000, 1, (0.25, 0.0, 1.5, *_quat(k))) == INSERT_OK
+    rotating = c.nbytes()
+    assert rotating <= c.capacity * (4 + 4 * 8) + 16 * 4     # low stamp word + 4 values, a few runs
+    assert c.insert(301_000, 1, (0.25, -0.0, 1.5, *_quat(301))) == INSERT_OK
+    assert c.nbytes() > rotating                             # ty now stored per slot
+    _, _, d = c.columns()
+    assert _bits(d[:, 1]) == _bits([0.0] * 300 + [-0.0])
+    assert _bits(c.get(300_500)[1:4]) == _bits([0.25, 0.0 + 0.5 * (-0.0 - 0.0), 1.5])  # tf2's lerp of them
+    assert c.get(150_000)[1:4] == (0.25, 0.0, 1.5) and _bits(c.get(301_000)[2:3]) == _bits([-0.0])
+
+
+def test_a_wrapped_mapped_ring_widens_in_place_like_the_model() -> None:
+    """A large ring (its own mapping), wrapped by pruning and holding out-of-order samples, whose
+    constant columns start to vary one by one: every slot keeps its sample."""
+    rng = random.Random(7)
+    c, m = TimeCache(3000), Model(3000)
+    for k in range(1, 12_000):
+        stamp = k if rng.random() > 0.02 else k - rng.randrange(1, 40)
+        if k < 5000:
+            v = (0.0, 2.0, -0.0, *_quat(k))
+        elif k < 8000:
+            v = (k * 1e-3, 2.0, -0.0, *_quat(k))             # tx varies from here on
+        else:
+            v = (k * 1e-3, 2.0, -0.0 if k % 3 else 0.0, 0.0, 0.0, math.sin(k), math.cos(k))
+        assert c.insert(stamp, 1, v) == m.insert(stamp, 1, v)
+        if k in (4999, 5001, 7999, 8001, 11_999):
+            _check_against(c, m, [rng.randint(m.s[0][0] - 5, m.s[-1][0] + 5) for _ in range(200)])
+            assert [_bits(row) for row in c.columns()[2]] == [_bits(x[2]) for x in m.s]
+    assert c.mapped

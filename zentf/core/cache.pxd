@@ -33,19 +33,26 @@ cdef struct _Interp:
 @cython.final
 cdef class TimeCache(CacheBase):
     cdef uint32_t* _lo                  # low 32 bits of the stamps (ns), a ring of _cap slots, logical 0 = oldest
-    cdef double* _d                     # tx, ty, tz, qx, qy, qz, qw per slot
+    cdef double* _d                     # per slot, the _nv varying values of tx, ty, tz, qx, qy, qz, qw (stride _w)
     cdef int32_t* _par                  # parent per slot; NULL while every sample has parent _par0
     cdef _Run* _runs                    # the high 32 bits: one entry per run of samples sharing them
     cdef _Interp* _ip                   # allocated by the first interpolated lookup
     cdef int32_t _par0
     cdef int32_t _nruns, _runs_cap
     cdef unsigned char _mm              # bit per array held in its own mapping: 1 _lo, 2 _d, 4 _par
-    cdef bint _steady                   # pruning has begun: the cache holds about as many samples as it will
+    cdef unsigned char _steady          # pruning has begun: the cache holds about as many samples as it will
+    # columns that have held one value (bit for bit) since the frame's first sample are kept once, in
+    # _k, not per slot: _cm has a bit per such column; the _nv others are stored, in the column order
+    # _vc, _w = max(_nv, 1) doubles a slot (a fixed joint's translation, a planar base's z, roll, pitch)
+    cdef unsigned char _cm, _nv, _w
     cdef Py_ssize_t _cap, _head, _n
     cdef int64_t _base                  # virtual index of the oldest sample (samples pruned so far)
     cdef int64_t _epoch                 # stamps are stored as stamp - _epoch (the first sample's stamp)
     cdef public int64_t max_ns
     cdef int64_t oldest
+    # last, so that the fields every link of a walk reads stay together in the object's first lines
+    cdef unsigned char _vc[7]           # the varying columns, then (from _vc[_nv] on) the constant ones
+    cdef double _k[7]
     cdef inline Py_ssize_t _slot(self, Py_ssize_t i) noexcept
     cdef inline int32_t _parent(self, Py_ssize_t j) noexcept
     cdef inline int64_t _stamp(self, Py_ssize_t i) noexcept
@@ -62,6 +69,10 @@ cdef class TimeCache(CacheBase):
     cdef inline Py_ssize_t _floor(self, int64_t t, Py_ssize_t* run) noexcept
     cdef Py_ssize_t _floor_runs(self, int64_t t, Py_ssize_t* run) noexcept
     cdef inline void _copy(self, Py_ssize_t i, int32_t* parent, double* out) noexcept
+    cdef inline void _unpack(self, Py_ssize_t j, double* out) noexcept
+    cdef inline void _pack(self, double* slot, const double* v) noexcept
+    cdef inline void _unpack2(self, Py_ssize_t j0, Py_ssize_t j1, double* a, double* b) noexcept
+    cdef int _widen(self, unsigned char cm) noexcept
 
 
 @cython.final

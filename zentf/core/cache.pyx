@@ -5,16 +5,20 @@ As in tf2 (cache.cpp, static_cache.cpp), BufferCore keeps one cache object per f
 for the sample at a time; the walk over the tree is in buffer_core.pyx, which calls these caches
 through their C methods (``get_c``, ``parent_at_c``, ...) without touching Python objects.
 
-Storage is a ring of plain C arrays per frame, oldest first, searched by bisection: seven float64
+Storage is a ring of plain C arrays per frame, oldest first, searched by bisection: the float64
 values (tx, ty, tz, qx, qy, qz, qw) and the low 32 bits of the stamp's offset from the frame's first
-stamp per sample, 60 bytes; the high bits once per run of samples sharing them (~4.3 s of stamps).
+stamp per sample, at most 60 bytes; the high bits once per run of samples sharing them (~4.3 s of
+stamps). A column that has held one value, bit for bit, since the frame's first sample (a fixed
+joint's translation, a planar base's z, roll and pitch) is kept once, not per slot, until a sample
+brings another value: then every slot gets the column (_widen). Answers are the same to the bit:
+the constant value goes through the same arithmetic as a stored one would.
 Large rings live in anonymous mappings of their own (mremap growth), small ones in malloc'd arrays
 (docs/architecture.md, "How samples are stored", has the why and the numbers). The parent
 id is kept once per frame while it never changes (tf2 stores it in every sample); a frame whose
 parent does change gets a per-sample int32 column from then on. Callers hold BufferCore's lock.
 """
 from libc.math cimport acos, cos, sin, sqrt
-from libc.stdint cimport UINT32_MAX, int32_t, int64_t, uint32_t
+from libc.stdint cimport UINT32_MAX, int32_t, int64_t, uint32_t, uint64_t
 from libc.stdlib cimport free, malloc, realloc
 from libc.string cimport memcpy, memmove
 from posix.mman cimport MAP_ANONYMOUS, MAP_FAILED, MAP_PRIVATE, PROT_READ, PROT_WRITE, mmap, munmap
@@ -164,15 +168,15 @@ cdef void* _arr_resize(void* p, size_t old, size_t new, bint* mapped, bint want_
     return q
 
 
-cdef inline bint _big(Py_ssize_t cap) noexcept:
-    """A ring of cap slots is large: its arrays get mappings of their own."""
-    return <size_t>cap * 7 * sizeof(double) >= _MAP_MIN
+cdef inline bint _big(Py_ssize_t cap, size_t w) noexcept:
+    """A ring of cap slots of w values is large: its arrays get mappings of their own."""
+    return <size_t>cap * w * sizeof(double) >= _MAP_MIN
 
 
-cdef inline Py_ssize_t _fit(Py_ssize_t cap) noexcept:
+cdef inline Py_ssize_t _fit(Py_ssize_t cap, size_t w) noexcept:
     """cap, or more slots if the ring is mapped: as many as the whole pages of its values hold."""
-    if _big(cap):
-        return <Py_ssize_t>(_pages(<size_t>cap * 7 * sizeof(double)) // (7 * sizeof(double)))
+    if _big(cap, w):
+        return <Py_ssize_t>(_pages(<size_t>cap * w * sizeof(double)) // (w * sizeof(double)))
     return cap
 
 
@@ -222,6 +226,7 @@ cdef class TimeCache(CacheBase):
         self._release()
 
     cdef void _reset(self) noexcept:
+        cdef int k
         self._head = 0
         self._n = 0
         self._base = 0
@@ -229,6 +234,11 @@ cdef class TimeCache(CacheBase):
         self._nruns = 0
         self._steady = False
         self._par0 = 0
+        self._cm = 0x7f                  # no sample yet: every column counts as constant until one differs
+        self._nv = 0
+        self._w = 1
+        for k in range(7):
+            self._vc[k] = k
         self.newest = -1
         self.oldest = -1
         if self._ip != NULL:
@@ -243,7 +253,7 @@ cdef class TimeCache(CacheBase):
         m = (self._mm & 1) != 0
         _arr_resize(self._lo, cap * sizeof(uint32_t), 0, &m, False)
         m = (self._mm & 2) != 0
-        _arr_resize(self._d, cap * 7 * sizeof(double), 0, &m, False)
+        _arr_resize(self._d, cap * self._w * sizeof(double), 0, &m, False)
         m = (self._mm & 4) != 0
         _arr_resize(self._par, cap * sizeof(int32_t), 0, &m, False)
         free(self._runs)
@@ -288,13 +298,14 @@ cdef class TimeCache(CacheBase):
         (then nothing changed). A wrapped ring keeps its order: growing moves the shorter of its
         two parts, shrinking unrolls it first."""
         cdef Py_ssize_t old = self._cap, h, r, t, grow
+        cdef size_t w = self._w
         cdef bint m0 = (self._mm & 1) != 0, m1 = (self._mm & 2) != 0, m2 = (self._mm & 4) != 0
         cdef void* lo
         cdef void* d
         cdef void* par = NULL
         cdef bint big
-        cap = _fit(cap)
-        big = _big(cap)
+        cap = _fit(cap, w)
+        big = _big(cap, w)
         if cap == old:
             return 0
         if cap < old and self._head + self._n > cap and self._unroll() < 0:
@@ -302,7 +313,7 @@ cdef class TimeCache(CacheBase):
         lo = _arr_resize(self._lo, old * sizeof(uint32_t), cap * sizeof(uint32_t), &m0, big)
         if lo == NULL:
             return -1
-        d = _arr_resize(self._d, old * 7 * sizeof(double), cap * 7 * sizeof(double), &m1, big)
+        d = _arr_resize(self._d, old * w * sizeof(double), cap * w * sizeof(double), &m1, big)
         if d == NULL:  # only growth fails: shrink the first array back
             self._lo = <uint32_t*>_arr_resize(lo, cap * sizeof(uint32_t), old * sizeof(uint32_t), &m0, m0)
             self._mm = (self._mm & ~1) | m0
@@ -311,7 +322,7 @@ cdef class TimeCache(CacheBase):
             par = _arr_resize(self._par, old * sizeof(int32_t), cap * sizeof(int32_t), &m2, big)
             if par == NULL:
                 self._lo = <uint32_t*>_arr_resize(lo, cap * sizeof(uint32_t), old * sizeof(uint32_t), &m0, m0)
-                self._d = <double*>_arr_resize(d, cap * 7 * sizeof(double), old * 7 * sizeof(double), &m1, m1)
+                self._d = <double*>_arr_resize(d, cap * w * sizeof(double), old * w * sizeof(double), &m1, m1)
                 self._mm = (self._mm & 4) | m0 | (m1 << 1)
                 return -1
         self._lo, self._d, self._par = <uint32_t*>lo, <double*>d, <int32_t*>par
@@ -324,12 +335,12 @@ cdef class TimeCache(CacheBase):
             grow = cap - old
             if r <= grow and r < t:          # the newest part fits right after the old end
                 memcpy(&self._lo[old], self._lo, r * sizeof(uint32_t))
-                memcpy(&self._d[7 * old], self._d, r * 7 * sizeof(double))
+                memcpy(&self._d[w * old], self._d, r * w * sizeof(double))
                 if self._par != NULL:
                     memcpy(&self._par[old], self._par, r * sizeof(int32_t))
             else:                            # the oldest part moves to the new end
                 memmove(&self._lo[h + grow], &self._lo[h], t * sizeof(uint32_t))
-                memmove(&self._d[7 * (h + grow)], &self._d[7 * h], t * 7 * sizeof(double))
+                memmove(&self._d[w * (h + grow)], &self._d[w * h], t * w * sizeof(double))
                 if self._par != NULL:
                     memmove(&self._par[h + grow], &self._par[h], t * sizeof(int32_t))
                 self._head = h + grow
@@ -338,27 +349,28 @@ cdef class TimeCache(CacheBase):
     cdef int _unroll(self) noexcept:
         """Move the samples to slots 0..n-1, oldest first; -1 if no memory (nothing changed)."""
         cdef Py_ssize_t h = self._head, n = self._n, cap = self._cap, r, t
+        cdef size_t w = self._w
         cdef char* tmp
         if h == 0:
             return 0
         if h + n <= cap:
             memmove(self._lo, &self._lo[h], n * sizeof(uint32_t))
-            memmove(self._d, &self._d[7 * h], n * 7 * sizeof(double))
+            memmove(self._d, &self._d[w * h], n * w * sizeof(double))
             if self._par != NULL:
                 memmove(self._par, &self._par[h], n * sizeof(int32_t))
             self._head = 0
             return 0
         r = h + n - cap                      # newest part, at [0, r)
         t = cap - h                          # oldest part, at [h, cap)
-        tmp = <char*>malloc(r * 7 * sizeof(double))
+        tmp = <char*>malloc(r * w * sizeof(double))
         if tmp == NULL:
             return -1
         memcpy(tmp, self._lo, r * sizeof(uint32_t))
         memmove(self._lo, &self._lo[h], t * sizeof(uint32_t))
         memcpy(&self._lo[t], tmp, r * sizeof(uint32_t))
-        memcpy(tmp, self._d, r * 7 * sizeof(double))
-        memmove(self._d, &self._d[7 * h], t * 7 * sizeof(double))
-        memcpy(&self._d[7 * t], tmp, r * 7 * sizeof(double))
+        memcpy(tmp, self._d, r * w * sizeof(double))
+        memmove(self._d, &self._d[w * h], t * w * sizeof(double))
+        memcpy(&self._d[w * t], tmp, r * w * sizeof(double))
         if self._par != NULL:
             memcpy(tmp, self._par, r * sizeof(int32_t))
             memmove(self._par, &self._par[h], t * sizeof(int32_t))
@@ -410,23 +422,39 @@ cdef class TimeCache(CacheBase):
         the malloc heap keeps no holes from its growth. Pruning then trims it to what it holds.
         """
         cdef Py_ssize_t n = self._n, cap = n + (n >> 3) + 4
+        cdef size_t w = self._w
         cdef int64_t span
         if self._steady:
             return n + (n >> 6) + 4
         if self._mm & 2:
             return 2 * n
-        if n >= 8 and not _big(cap):
+        if n >= 8 and not _big(cap, w):
             span = self.newest - self.oldest
-            if span > 0 and <double>self.max_ns / <double>span * <double>(n - 1) >= <double>(_MAP_MIN // (7 * sizeof(double))):
-                return _MAP_MIN // (7 * sizeof(double)) + 1
+            if span > 0 and <double>self.max_ns / <double>span * <double>(n - 1) >= <double>(_MAP_MIN // (w * sizeof(double))):
+                return _MAP_MIN // (w * sizeof(double)) + 1
         return cap
 
     cdef int insert_c(self, int64_t stamp, int32_t parent, const double* v) except -1:
         cdef int64_t newest = self.newest, hi, rel
         cdef Py_ssize_t i, j, k, lo, n = self._n
         cdef _Run* runs
+        cdef unsigned char diff = 0, c, q, nv = self._nv, w
+        cdef const uint64_t* vb = <const uint64_t*>v
+        cdef const uint64_t* kb = <const uint64_t*>self._k
+        cdef double* slot
+        if n == 0:
+            memcpy(self._k, v, 7 * sizeof(double))  # every column constant so far: its value, once
+        elif nv != 7:                    # a column held constant so far (bit for bit) changes: stored per slot
+            for q in range(nv, 7):
+                c = self._vc[q]
+                if vb[c] != kb[c]:
+                    diff |= 1 << c
+            if diff and self._widen(self._cm & ~diff) < 0:
+                raise MemoryError()
         if n == self._cap and self._set_cap(self._grown()) < 0:
             raise MemoryError()
+        nv = self._nv
+        w = self._w
         if n == 0:
             self._par0 = parent
             self._epoch = stamp          # runs count 2**32 ns from the first sample
@@ -440,7 +468,11 @@ cdef class TimeCache(CacheBase):
                     raise MemoryError()
             j = self._slot(n)
             self._lo[j] = <uint32_t>rel
-            memcpy(&self._d[7 * j], v, 7 * sizeof(double))
+            slot = &self._d[w * j]
+            if nv == 7:
+                memcpy(slot, v, 7 * sizeof(double))
+            else:
+                self._pack(slot, v)
             if self._par != NULL:
                 self._par[j] = parent
             self._n = n + 1
@@ -470,13 +502,13 @@ cdef class TimeCache(CacheBase):
                 j = self._slot(k)
                 i = self._slot(k - 1)
                 self._lo[j] = self._lo[i]
-                memcpy(&self._d[7 * j], &self._d[7 * i], 7 * sizeof(double))
+                memcpy(&self._d[w * j], &self._d[w * i], w * sizeof(double))
                 if self._par != NULL:
                     self._par[j] = self._par[i]
                 k -= 1
             j = self._slot(lo)
             self._lo[j] = <uint32_t>rel
-            memcpy(&self._d[7 * j], v, 7 * sizeof(double))
+            self._pack(&self._d[w * j], v)
             if self._par != NULL:
                 self._par[j] = parent
             self._n = n + 1
@@ -511,7 +543,7 @@ cdef class TimeCache(CacheBase):
             self._steady = True
             if self._cap > n + 1:
                 self._set_cap(n + 1)
-        elif self._cap > _fit(n + (n >> 3) + 16):  # fewer samples than before (a slower rate): give room back
+        elif self._cap > _fit(n + (n >> 3) + 16, self._w):  # fewer samples than before (a slower rate): give room back
             self._set_cap(n + (n >> 6) + 4)
 
     cdef Py_ssize_t _bound(self, int64_t t, bint right) noexcept:
@@ -609,10 +641,99 @@ cdef class TimeCache(CacheBase):
             run[0] = a
         return r - 1
 
+    cdef inline void _unpack(self, Py_ssize_t j, double* out) noexcept:
+        """The seven values of slot j: the constant columns from _k, the others from the slot."""
+        cdef const double* slot = &self._d[self._w * j]
+        cdef const unsigned char* vc = self._vc
+        cdef unsigned char q, c, nv = self._nv, cm = self._cm
+        if (cm & 0x78) == 0:                 # the rotation varies whole: the last 4 values of the slot
+            memcpy(&out[3], &slot[nv - 4], 4 * sizeof(double))
+            q = 0
+            for c in range(3):
+                if (cm >> c) & 1:
+                    out[c] = self._k[c]
+                else:
+                    out[c] = slot[q]
+                    q += 1
+            return
+        for q in range(nv):
+            out[vc[q]] = slot[q]
+        for q in range(nv, 7):
+            out[vc[q]] = self._k[vc[q]]
+
+    cdef inline void _pack(self, double* slot, const double* v) noexcept:
+        """Store the varying values of sample v in slot (_unpack's inverse)."""
+        cdef const unsigned char* vc = self._vc
+        cdef unsigned char q, c, nv = self._nv, cm = self._cm
+        if (cm & 0x78) == 0:                 # the rotation varies whole: the last 4 values of the slot
+            memcpy(&slot[nv - 4], &v[3], 4 * sizeof(double))
+            q = 0
+            for c in range(3):
+                if not (cm >> c) & 1:
+                    slot[q] = v[c]
+                    q += 1
+            return
+        for q in range(nv):
+            slot[q] = v[vc[q]]
+
+    cdef inline void _unpack2(self, Py_ssize_t j0, Py_ssize_t j1, double* a, double* b) noexcept:
+        """_unpack of slots j0 and j1 at once (an interpolation's two samples)."""
+        cdef const double* s0 = &self._d[self._w * j0]
+        cdef const double* s1 = &self._d[self._w * j1]
+        cdef const unsigned char* vc = self._vc
+        cdef unsigned char q, c, nv = self._nv
+        for q in range(nv):
+            c = vc[q]
+            a[c] = s0[q]
+            b[c] = s1[q]
+        for q in range(nv, 7):
+            c = vc[q]
+            a[c] = b[c] = self._k[c]
+
     cdef inline void _copy(self, Py_ssize_t i, int32_t* parent, double* out) noexcept:
         cdef Py_ssize_t j = self._slot(i)
         parent[0] = self._parent(j)
-        memcpy(out, &self._d[7 * j], 7 * sizeof(double))
+        if self._nv == 7:
+            memcpy(out, &self._d[7 * j], 7 * sizeof(double))
+        else:
+            self._unpack(j, out)
+
+    cdef int _widen(self, unsigned char cm) noexcept:
+        """Keep only the columns of cm constant: every slot gets the others (a new array, the
+        stored samples' values copied over); -1 if no memory (nothing changed)."""
+        cdef unsigned char nv = 0, nk = 0, w, c
+        cdef unsigned char vc[7]
+        cdef double full[7]
+        cdef bint m = False, m_old
+        cdef double* d
+        cdef double* slot
+        cdef Py_ssize_t i, j, cap = self._cap
+        for c in range(7):                   # the varying columns, then the constant ones
+            if not (cm >> c) & 1:
+                vc[nv] = c
+                nv += 1
+        for c in range(7):
+            if (cm >> c) & 1:
+                vc[nv + nk] = c
+                nk += 1
+        w = nv if nv else 1
+        if cap:
+            d = <double*>_arr_resize(NULL, 0, cap * w * sizeof(double), &m, _big(cap, w))
+            if d == NULL:
+                return -1
+            for i in range(self._n):
+                j = self._slot(i)
+                self._unpack(j, full)
+                slot = &d[w * j]
+                for c in range(nv):
+                    slot[c] = full[vc[c]]
+            m_old = (self._mm & 2) != 0
+            _arr_resize(self._d, cap * self._w * sizeof(double), 0, &m_old, False)
+            self._d = d
+            self._mm = (self._mm & ~2) | (m << 1)
+        memcpy(self._vc, vc, 7)
+        self._cm, self._nv, self._w = cm, nv, w
+        return 0
 
     cdef void _span(self, _Interp* ip, Py_ssize_t i, Py_ssize_t run) noexcept:
         """Constants to interpolate between samples i and i+1 exactly like tf2.
@@ -623,43 +744,74 @@ cdef class TimeCache(CacheBase):
         one cos and one sin. Translation: p0 + r·(p1 - p0).
         """
         cdef Py_ssize_t j0 = self._slot(i), j1 = self._slot(i + 1)
-        cdef double* a = &self._d[7 * j0]
-        cdef double* b = &self._d[7 * j1]
+        cdef const double* a                 # translations (3 values)
+        cdef const double* b
+        cdef const double* qa                # rotations (4 values)
+        cdef const double* qb
+        cdef double ua[7]
+        cdef double ub[7]
         cdef double* sp = ip.sp
         cdef double x1, y1, z1, w1, dot, c, theta, inv
         cdef int k
+        cdef unsigned char nv = self._nv, cm, q
         cdef _Run* runs = self._runs
         cdef int64_t e = self._epoch + (runs[run].hi << 32)
+        if nv == 7:
+            a = &self._d[7 * j0]
+            b = &self._d[7 * j1]
+            qa = a + 3
+            qb = b + 3
+        else:                                # constant columns apply their one value: the same arithmetic
+            cm = self._cm
+            a = &self._d[self._w * j0]
+            b = &self._d[self._w * j1]
+            if (cm & 0x78) != 0:             # a constant rotation column: merge all seven
+                self._unpack2(j0, j1, ua, ub)
+                a, b, qa, qb = ua, ub, &ua[3], &ub[3]
+            else:                            # the rotation varies whole: the last 4 values of a slot
+                qa = a + nv - 4
+                qb = b + nv - 4
+                q = 0
+                for k in range(3):
+                    if (cm >> k) & 1:
+                        ua[k] = ub[k] = self._k[k]
+                    else:
+                        ua[k] = a[q]
+                        ub[k] = b[q]
+                        q += 1
+                a = ua
+                b = ub
         ip.sp_t0 = e + <int64_t>self._lo[j0]
         if run + 1 < self._nruns and runs[run + 1].start == self._base + i + 1:
             e = self._epoch + (runs[run + 1].hi << 32)  # sample i + 1 begins the next run
         ip.sp_t1 = e + <int64_t>self._lo[j1]
         ip.sp_p = self._parent(j0)
         ip.sp_same = self._parent(j1) == ip.sp_p
-        if not ip.sp_same:
-            memcpy(&sp[1], a, 7 * sizeof(double))  # different parents: the older sample applies
+        if not ip.sp_same:                   # different parents: the older sample applies
+            memcpy(&sp[1], a, 3 * sizeof(double))
+            memcpy(&sp[4], qa, 4 * sizeof(double))
             return
         sp[0] = 1.0 / <double>(ip.sp_t1 - ip.sp_t0)
         for k in range(3):
             sp[1 + k] = a[k]
             sp[4 + k] = b[k] - a[k]
-        x1, y1, z1, w1 = b[3], b[4], b[5], b[6]
-        dot = a[3] * x1 + a[4] * y1 + a[5] * z1 + a[6] * w1
+        x1, y1, z1, w1 = qb[0], qb[1], qb[2], qb[3]
+        dot = qa[0] * x1 + qa[1] * y1 + qa[2] * z1 + qa[3] * w1
         c = (-dot if dot < 0 else dot) / sqrt(
-            (a[3] * a[3] + a[4] * a[4] + a[5] * a[5] + a[6] * a[6]) * (x1 * x1 + y1 * y1 + z1 * z1 + w1 * w1))
+            (qa[0] * qa[0] + qa[1] * qa[1] + qa[2] * qa[2] + qa[3] * qa[3]) * (x1 * x1 + y1 * y1 + z1 * z1 + w1 * w1))
         theta = acos(1.0 if c > 1.0 else c)
         for k in range(4):
-            sp[7 + k] = a[3 + k]
+            sp[7 + k] = qa[k]
         if theta != 0.0:
             if dot < 0:
                 x1, y1, z1, w1 = -x1, -y1, -z1, -w1
             if c > 1.0:
                 c = 1.0
             inv = 1.0 / sqrt((1.0 - c) * (1.0 + c))  # 1 / sin θ; cos θ is c itself
-            sp[11] = (x1 - a[3] * c) * inv
-            sp[12] = (y1 - a[4] * c) * inv
-            sp[13] = (z1 - a[5] * c) * inv
-            sp[14] = (w1 - a[6] * c) * inv
+            sp[11] = (x1 - qa[0] * c) * inv
+            sp[12] = (y1 - qa[1] * c) * inv
+            sp[13] = (z1 - qa[2] * c) * inv
+            sp[14] = (w1 - qa[3] * c) * inv
         else:
             sp[11] = sp[12] = sp[13] = sp[14] = 0.0
         sp[15] = theta
@@ -765,7 +917,7 @@ cdef class TimeCache(CacheBase):
 
     def nbytes(self) -> int:
         """Bytes allocated for samples (capacity, not only the samples held) and their runs."""
-        return (self._cap * (sizeof(uint32_t) + 7 * sizeof(double) + (sizeof(int32_t) if self._par != NULL else 0))
+        return (self._cap * (sizeof(uint32_t) + self._w * sizeof(double) + (sizeof(int32_t) if self._par != NULL else 0))
                 + self._runs_cap * sizeof(_Run))
 
     @property
@@ -796,7 +948,7 @@ cdef class TimeCache(CacheBase):
                 k += 1
             stv[i] = self._epoch + ((self._runs[k].hi << 32) | <int64_t>self._lo[j])
             pv[i] = self._parent(j)
-            memcpy(&dv[i, 0], &self._d[7 * j], 7 * sizeof(double))
+            self._unpack(j, &dv[i, 0])
         return st, par, d
 
 
