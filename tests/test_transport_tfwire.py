@@ -481,7 +481,8 @@ def test_compiled_joint_state_encoder_writes_the_generic_bytes() -> None:
     assert msgpack.unpackb(js_payload(ints)) == msgpack.unpackb(msgpack.packb(ints.to_dict()))
     for odd in (JointState(H(Time()), ["a"], [True]), JointState(H(Time()), [5], [1.0]),  # type: ignore[list-item]
                 JointState(H(Time()), ["\udc80"], [1.0]), JointState(H(Time()), ("a",), [1.0]),  # type: ignore[arg-type]
-                JointState(H(Time(), 5), ["a"], [1.0]), JointState(H(Time()), ["a"], (1.0,))):  # type: ignore[arg-type]
+                JointState(H(Time(), 5), ["a"], [1.0]), JointState(H(Time()), ["a"], (1.0,)),  # type: ignore[arg-type]
+                JointState(H(Time()), ["a"], [2**2000])):
         assert js_payload(odd) is None
         try:
             want = msgpack.packb(odd.to_dict())
