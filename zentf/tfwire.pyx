@@ -128,11 +128,11 @@ cdef inline char* _w_be32(char* o, uint32_t v) noexcept:
     return o + 4
 
 
-cdef inline char* _w_key1(char* o, char c) noexcept:
-    """A one-letter msgpack key ("y", "z", "w")."""
-    o[0] = <char>0xa1
-    o[1] = c
-    return o + 2
+cdef inline char* _w_key(char* o, const char* name, int n) noexcept:
+    """A short msgpack str (a field name)."""
+    o[0] = <char>(0xa0 | n)
+    memcpy(o + 1, name, n)
+    return o + 1 + n
 
 
 cdef inline char* _w_f64(char* o, double d) noexcept:
@@ -200,13 +200,13 @@ cdef object _ts_write(object ts, bint whole):
     o = _w_be32(o, <uint32_t>nsec)
     o = _w_put(o, <bytes>frames)
     o = _w_f64(o - 1, v[0])      # (the frames part and _TS_ROT end with the float's 0xcb marker)
-    o = _w_f64(_w_key1(o, 0x79), v[1])
-    o = _w_f64(_w_key1(o, 0x7a), v[2])
+    o = _w_f64(_w_key(o, b"y", 1), v[1])
+    o = _w_f64(_w_key(o, b"z", 1), v[2])
     o = _w_put(o, _TS_ROT)
     o = _w_f64(o - 1, v[3])
-    o = _w_f64(_w_key1(o, 0x79), v[4])
-    o = _w_f64(_w_key1(o, 0x7a), v[5])
-    o = _w_f64(_w_key1(o, 0x77), v[6])
+    o = _w_f64(_w_key(o, b"y", 1), v[4])
+    o = _w_f64(_w_key(o, b"z", 1), v[5])
+    o = _w_f64(_w_key(o, b"w", 1), v[6])
     if o - PyBytes_AS_STRING(out) != size:
         raise AssertionError("ts_write: size")
     return out
@@ -276,13 +276,6 @@ cdef inline char* _w_uint(char* o, uint64_t v) noexcept:
     return o + 1 + n
 
 
-cdef inline char* _w_key(char* o, const char* name, int n) noexcept:
-    """A short msgpack str (a field name)."""
-    o[0] = <char>(0xa0 | n)
-    memcpy(o + 1, name, n)
-    return o + 1 + n
-
-
 cdef inline char* _w_array(char* o, Py_ssize_t n) noexcept:
     """A msgpack array header."""
     if n < 16:
@@ -295,16 +288,6 @@ cdef inline char* _w_array(char* o, Py_ssize_t n) noexcept:
         return o + 3
     o[0] = <char>0xdd
     return _w_be32(o + 1, <uint32_t>n)
-
-
-cdef inline bint _numbers(object seq) noexcept:
-    """A list of floats (or ints): what the template writes as float64."""
-    if type(seq) is not list:
-        return False
-    for x in <list>seq:
-        if type(x) is not float and type(x) is not int:
-            return False
-    return True
 
 
 cdef char* _w_floats(char* o, list seq, Py_ssize_t n) except? NULL:
@@ -344,9 +327,8 @@ def js_payload(msg):
     frame = h.frame_id
     names = msg.name
     pos, vel, eff = msg.position, msg.velocity, msg.effort
-    if type(stamp) is not _Time or type(frame) is not str or type(names) is not list:
-        return None
-    if not (_numbers(pos) and _numbers(vel) and _numbers(eff)):
+    if (type(stamp) is not _Time or type(frame) is not str or type(names) is not list or type(pos) is not list
+            or type(vel) is not list or type(eff) is not list):  # (their numbers: checked as written)
         return None
     sec, nsec = divmod(stamp._ns, _NS)
     if not 0 <= sec < 2 ** 64:
