@@ -7,7 +7,6 @@ import math
 import threading
 import uuid
 import weakref
-from collections import deque
 from collections.abc import Callable
 from typing import Any
 
@@ -256,14 +255,15 @@ class TransformListener:
         release_free_memory()
         log.debug("the tail of a burst of tf messages is over: freed memory released")
 
-    def _shed(self, queues: dict[bytes, deque], q: deque, key: bytes) -> bytes:
-        """Too much waiting in all: the biggest backlog (usually the sender just heard) loses its oldest."""
+    def _shed(self, queues: dict[bytes, Any], q: Any, key: bytes) -> bytes:
+        """Too much waiting in all: the biggest backlog (usually the sender just heard) loses its oldest.
+        (``queues``: serve's per-sender FIFOs, tfwire._Fifo: ``len()`` and ``popleft()``.)"""
         if len(q) * len(queues) < MAX_PENDING:
             key, q = max(queues.items(), key=lambda kv: len(kv[1]))
         q.popleft()
         return key
 
-    def _log_shed(self, shed: dict[bytes, int], queues: dict[bytes, deque]) -> None:
+    def _log_shed(self, shed: dict[bytes, int], queues: dict[bytes, Any]) -> None:
         for key, n in shed.items():
             self.dropped += n
             sender = key.decode("utf-8", "replace") if key else "unknown sender"
