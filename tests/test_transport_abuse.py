@@ -35,15 +35,13 @@ HONEST = textwrap.dedent("""
     node.spin()
 """)
 
-#: A raw Zenoh session (no zentf node) putting hand-made TFMessages on <ns>/tf as '/attacker':
-#: argv = kind, count, per message; then a sentinel transform world -> done_<kind> (valid, stamped now),
-#: so a listener that has the sentinel has handled everything before it (one sender: order kept).
-ATTACKER = textwrap.dedent("""
+#: The head of the raw senders below: a Zenoh session (no zentf node), a publisher on <ns>/tf that has
+#: matched, and tf() for hand-made TransformStamped dicts.
+RAW_TF_PUBLISHER = textwrap.dedent("""
     import os, sys, time
     import msgpack, zenoh
     from zentf import wire
     from zentf.options import ZenohOptions
-    kind, count, per = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
     NS = 1_000_000_000
     s = ZenohOptions.from_env().open_session()
     pub = s.declare_publisher(os.environ["ZENTF_NAMESPACE"] + "/tf",
@@ -55,6 +53,12 @@ ATTACKER = textwrap.dedent("""
         return {"header": {"stamp": {"sec": stamp // NS, "nanosec": stamp % NS}, "frame_id": parent},
                 "child_frame_id": child, "transform": {"translation": {"x": x, "y": 0.0, "z": 0.0},
                                                         "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}
+""")
+#: A raw Zenoh session putting hand-made TFMessages on <ns>/tf as '/attacker':
+#: argv = kind, count, per message; then a sentinel transform world -> done_<kind> (valid, stamped now),
+#: so a listener that has the sentinel has handled everything before it (one sender: order kept).
+ATTACKER = RAW_TF_PUBLISHER + textwrap.dedent("""
+    kind, count, per = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
     now = time.time_ns()
     if kind == "future":   # one sample 100 years ahead for the honest edge
         msgs = [[tf("world", "av1", now + 100 * 365 * 86400 * NS)]]
@@ -230,26 +234,13 @@ def test_honest_edge_stays_fresh_and_logs_stay_short_under_a_flood(spawn, node_o
 
 #: A raw Zenoh session putting ``count`` one-transform messages world -> <child> as fast as it can
 #: (attachment ``/<child>``), x = 0, 1, 2, ... with strictly increasing stamps: argv = child, count.
-SEQUENCE = textwrap.dedent("""
-    import os, sys, time
-    import msgpack, zenoh
-    from zentf import wire
-    from zentf.options import ZenohOptions
+#: It prints "matched", waits for a line on stdin (so several start at once), sends, prints "sent".
+SEQUENCE = RAW_TF_PUBLISHER + textwrap.dedent("""
     child, count = sys.argv[1], int(sys.argv[2])
-    s = ZenohOptions.from_env().open_session()
-    pub = s.declare_publisher(os.environ["ZENTF_NAMESPACE"] + "/tf",
-                              encoding=wire.encoding_for("tf2_msgs/msg/TFMessage"),
-                              congestion_control=zenoh.CongestionControl.BLOCK)
-    while not pub.matching_status.matching:
-        time.sleep(0.01)
     print("matched", flush=True)
     sys.stdin.readline()
     t0 = time.time_ns()
-    msgs = [msgpack.packb({"transforms": [{
-        "header": {"stamp": {"sec": (t0 + i) // 10**9, "nanosec": (t0 + i) % 10**9}, "frame_id": "world"},
-        "child_frame_id": child, "transform": {"translation": {"x": float(i), "y": 0.0, "z": 0.0},
-                                               "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}]})
-            for i in range(count)]
+    msgs = [msgpack.packb({"transforms": [tf("world", child, t0 + i, float(i))]}) for i in range(count)]
     att = ("/" + child).encode()
     for m in msgs:
         pub.put(m, attachment=att)
