@@ -247,8 +247,10 @@ def run_case(impl: str, kind: str, count: int, per_msg: int) -> dict:
             pub = session.declare_publisher("bench/tf", congestion_control=zenoh.CongestionControl.BLOCK)
             while not pub.matching_status:
                 time.sleep(0.005)
-            # the ring floor reads an attachment as the listener does: send one as long as zentf's
-            send_raw = pub.put if impl == "raw" else functools.partial(pub.put, attachment=b"/bench/bench_sender")
+            # the ring floor reads an attachment as the listener does: send one like zentf's (its node name,
+            # bound once to put as zentf's publish_bytes does)
+            send_raw = pub.put if impl == "raw" else functools.partial(
+                pub.put, attachment=zenoh.ZBytes(b"/bench/bench_sender"))
             node = None
         else:
             from zentf.broadcaster import TransformBroadcaster

@@ -6,6 +6,7 @@ threads only copy bytes and return. Liveliness tokens announce the node and each
 """
 from __future__ import annotations
 
+import functools
 import logging
 import queue
 import signal
@@ -122,6 +123,11 @@ class Publisher:
                                                       depth=max(1, history) if latched else depth,
                                                       latched=latched, with_key=True)
         self._attach = profile.attacher(node, token_key)
+        if self._attach.constant is not None and type(self).publish_bytes is _publish_bytes:
+            # the same attachment on every sample (zentf's wire: the node name): publish_bytes is Zenoh's
+            # put with it bound, no Python frame per message (a subclass's override is kept)
+            self.publish_bytes = functools.partial(  # type: ignore[method-assign]
+                self._pub.put, attachment=zenoh.ZBytes(self._attach.constant))
 
     def wait_for_subscribers(self, timeout: float = 5.0) -> bool:
         """Block until at least one subscriber matches (event-driven); True at once for latched topics."""
@@ -155,6 +161,9 @@ class Publisher:
 
     def get_subscription_count(self) -> int:
         return 0  # Zenoh does not expose counts; kept for rclpy familiarity
+
+
+_publish_bytes = Publisher.publish_bytes
 
 
 class Subscription:
