@@ -1094,8 +1094,9 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
     fairness: a flood delays only its sender's data), shedding and logging as _serve did.
 
     A message that arrives alone (nothing waiting, the ring empty behind it) is handled at once, without
-    a queue (no order changes). When one sender has a backlog and the ring was just found empty, up to
-    _SOLO_RUN of its messages are handled in a row (the ring is looked at again ~25 us later). Not done:
+    a queue (no order changes). When one sender has a backlog, the ring was just found empty and no sender
+    is striking (see _strike), up to _SOLO_RUN of its messages are handled in a row (the ring is looked
+    at again ~25 us later). Not done:
     several messages of a lone backlogged sender per round while the ring still holds samples (measured:
     the legitimate edge's staleness p99 under bench/abuse.py's valid flood went from 35-42 to 92-93 ms with
     16 a round: the ring must be emptied into the per-sender queues as fast as it fills).
@@ -1198,9 +1199,10 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
             listener._log_shed(shed, queues)
         if not pending:
             continue
-        # one sender waiting and the ring just found empty (a backlog being worked off, nobody else
-        # to be fair to): a few of its messages in a row before looking at the ring again
-        run = _SOLO_RUN if sample is None and len(queues) == 1 else 1
+        # one sender waiting, the ring just found empty and no sender whose messages put nothing into
+        # the buffer (a valid backlog being worked off, nobody else to be fair to): a few of its
+        # messages in a row before looking at the ring again
+        run = _SOLO_RUN if sample is None and len(queues) == 1 and not strikes else 1
         emptied = None
         for key, value in queues.items():  # nothing below adds or removes a queue while this runs
             q = <_Fifo>value
