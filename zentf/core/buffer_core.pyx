@@ -265,6 +265,9 @@ cdef inline bint _valid_fast(double tx, double ty, double tz, double qx, double 
     return -0.01 < n < 0.01 and (tx + ty + tz) * 0.0 == 0.0
 
 
+_NO_AUTHORITY = "no recorded authority"  # a frame's authority before its first sample (tf2's text)
+
+
 cdef inline int32_t _usable_id(dict ids, object frame) noexcept:
     """Id of a frame name usable as given: a known name, not empty, no leading '/' (tf2 refuses
     those in lookups; "NO_PARENT" has id 0); 0 otherwise (the caller takes tf2's full path).
@@ -386,6 +389,9 @@ cdef class BufferCore:
         self._ids = {"NO_PARENT": 0}
         self._names = ["NO_PARENT"]
         self._caches = [None]
+        # per frame id, the authority of its last accepted sample (tf2 keeps it in the cache; here the
+        # caches hold no Python object, so the garbage collector does not track them)
+        self._auths = [_NO_AUTHORITY]
         self._requests = []
         self._request_counter = 0
         self._insert_callbacks = []
@@ -477,7 +483,7 @@ cdef class BufferCore:
         if type(cache) is not TimeCache or not st > (<TimeCache>cache).newest >= 0:
             return 0
         (<TimeCache>cache).insert_c(st, pid, v)
-        (<TimeCache>cache).authority = authority
+        self._auths[cid] = authority
         self._version += 1
         return 1
 
@@ -643,7 +649,7 @@ cdef class BufferCore:
                 res = cache.insert(stamp, pid, values)
                 if res == _OK:
                     self._version += 1
-                    cache.authority = authority
+                    self._auths[cid] = authority
                     return True
         if refused is not None:
             reason, name, size, limit = refused
@@ -693,6 +699,7 @@ cdef class BufferCore:
         self._ids[name] = fid
         self._names.append(name)
         self._caches.append(None)
+        self._auths.append(_NO_AUTHORITY)
         return fid
 
     cdef int _after_insert(self) except -1:
@@ -1229,7 +1236,7 @@ cdef class BufferCore:
             newest, oldest, n = cache.newest_stamp(), cache.oldest_stamp(), len(cache)
             out.append({
                 "frame": names[fid], "parent": names[s[0]],
-                "broadcaster": cache.authority,
+                "broadcaster": self._auths[fid],
                 "static": cache.is_static, "samples": n,
                 "most_recent_transform": Time(nanoseconds=newest),
                 "oldest_transform": Time(nanoseconds=oldest),

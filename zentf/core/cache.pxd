@@ -5,7 +5,8 @@ from libc.stdint cimport int32_t, int64_t, uint32_t
 
 cdef class CacheBase:
     """tf2's TimeCacheInterface: what the walk asks of a frame's cache, in C."""
-    cdef public object authority
+    # no Python object field: the caches are not tracked by the garbage collector (16 B each less);
+    # the authority of a frame's last sample is BufferCore's (_auths)
     cdef readonly int64_t newest        # newest stamp; -1 empty; 0 for statics (ignored by the LCT)
     cdef int insert_c(self, int64_t stamp, int32_t parent, const double* v) except -1
     cdef bint get_c(self, int64_t t, int32_t* parent, double* out) noexcept
@@ -38,7 +39,6 @@ cdef struct _Konst:
 
 
 @cython.final
-@cython.no_gc
 cdef class TimeCache(CacheBase):
     # the ring is one allocation (_d): _cap slots of _w doubles, then _cap uint32 low words (_lo)
     cdef double* _d                     # per slot, the _nv varying values of tx, ty, tz, qx, qy, qz, qw (stride _w)
@@ -50,8 +50,9 @@ cdef class TimeCache(CacheBase):
     cdef _Konst* _kc                    # NULL while _cm is 0 (every column varies)
     cdef int32_t _par0
     cdef int32_t _nruns, _runs_cap
-    cdef unsigned char _mm              # bit per array held in its own mapping: 2 the ring, 4 _par
-    cdef unsigned char _steady          # pruning has begun: the cache holds about as many samples as it will
+    # bit per array held in its own mapping: 2 the ring, 4 _par; and 1: pruning has begun (the cache
+    # holds about as many samples as it will)
+    cdef unsigned char _mm
     # columns that have held one value (bit for bit) since the frame's first sample are kept once, in
     # _kc, not per slot: _cm has a bit per such column; the _nv others are stored, in the column order
     # _kc.vc, _w = max(_nv, 1) doubles a slot (a fixed joint's translation, a planar base's z, roll, pitch)

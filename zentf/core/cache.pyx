@@ -216,7 +216,6 @@ cdef class TimeCache(CacheBase):
 
     def __cinit__(self, int64_t max_ns):
         self.max_ns = max_ns
-        self.authority = "no recorded authority"  # of the last accepted sample (tf2 keeps it too)
         self._lo = NULL
         self._d = NULL
         self._par = NULL
@@ -237,7 +236,7 @@ cdef class TimeCache(CacheBase):
         self._base = 0
         self._epoch = 0
         self._nruns = 0
-        self._steady = False
+        self._mm &= ~1
         self._par0 = 0
         self._cm = 0x7f                  # no sample yet: every column counts as constant until one differs
         self._nv = 0
@@ -340,11 +339,11 @@ cdef class TimeCache(CacheBase):
                 memmove(<double*>blk + <size_t>old * w, <double*>blk + <size_t>cap * w, old * sizeof(uint32_t))
                 blk = _arr_resize(blk, _ring_bytes(cap, w), _ring_bytes(old, w), &m1, m1)
                 self._place(blk, old, w)
-                self._mm = (self._mm & 4) | (m1 << 1)
+                self._mm = (self._mm & 5) | (m1 << 1)
                 return -1
             self._par = <int32_t*>par
         self._place(blk, cap, w)
-        self._mm = (m1 << 1) | (m2 << 2)
+        self._mm = (self._mm & 1) | (m1 << 1) | (m2 << 2)
         h = self._head
         if cap > old and h + self._n > old:  # wrapped: [h, old) is the oldest part, [0, r) the newest
             r = h + self._n - old
@@ -443,10 +442,10 @@ cdef class TimeCache(CacheBase):
         doubles there while it fills: untouched pages cost nothing, mremap copies nothing, and
         the malloc heap keeps no holes from its growth. Pruning then trims it to what it holds.
         """
-        cdef Py_ssize_t n = self._n, cap = n + (n >> 3) + 4
+        cdef Py_ssize_t n = self._n, cap = n + (n >> 4) + 4
         cdef size_t w = self._w
         cdef int64_t span
-        if self._steady:
+        if self._mm & 1:
             return n + (n >> 6) + 4
         if self._mm & 2:
             return 2 * n
@@ -570,8 +569,8 @@ cdef class TimeCache(CacheBase):
         if self._ip != NULL:
             self._ip.memo_t = -1     # the memoized time may have fallen out
         n = self._n
-        if not self._steady:  # the cache is full: from now on it holds about n samples, keep no slack
-            self._steady = True
+        if not self._mm & 1:  # the cache is full: from now on it holds about n samples, keep no slack
+            self._mm |= 1
             if self._cap > n + 1:
                 self._set_cap(n + 1)
         elif self._cap > _fit(n + (n >> 3) + 16, self._w):  # fewer samples than before (a slower rate): give room back
@@ -998,7 +997,6 @@ cdef class StaticCache(CacheBase):
     is_static = True
 
     def __cinit__(self):
-        self.authority = "no recorded authority"
         self.newest = 0   # statics report stamp 0 (ignored by the latest-common-time minimum)
         self._parent = 0
         self._v[:] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
