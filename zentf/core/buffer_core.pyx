@@ -272,11 +272,10 @@ cdef inline int32_t _usable_id(dict ids, object frame) noexcept:
     """Id of a frame name usable as given: a known name, not empty, no leading '/' (tf2 refuses
     those in lookups; "NO_PARENT" has id 0); 0 otherwise (the caller takes tf2's full path).
     One dict for every name: no second dict of the clean ones (~26 B a frame)."""
-    cdef PyObject* p
-    if not PyUnicode_Check(frame) or PyUnicode_GET_LENGTH(frame) == 0 or PyUnicode_READ_CHAR(frame, 0) == 47:
+    cdef PyObject* p = PyDict_GetItem(ids, frame)
+    if p == NULL or not PyUnicode_Check(frame) or PyUnicode_GET_LENGTH(frame) == 0 or PyUnicode_READ_CHAR(frame, 0) == 47:
         return 0
-    p = PyDict_GetItem(ids, frame)
-    return 0 if p == NULL else <int32_t><object>p
+    return <int32_t><object>p
 
 
 cdef class _Lock:
@@ -483,7 +482,8 @@ cdef class BufferCore:
         if type(cache) is not TimeCache or not st > (<TimeCache>cache).newest >= 0:
             return 0
         (<TimeCache>cache).insert_c(st, pid, v)
-        self._auths[cid] = authority
+        if PyList_GET_ITEM(self._auths, cid) != <PyObject*>authority:  # most often the same object
+            self._auths[cid] = authority
         self._version += 1
         return 1
 
