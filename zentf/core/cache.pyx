@@ -5,10 +5,10 @@ As in tf2 (cache.cpp, static_cache.cpp), BufferCore keeps one cache object per f
 for the sample at a time; the walk over the tree is in buffer_core.pyx, which calls these caches
 through their C methods (``get_c``, ``parent_at_c``, ...) without touching Python objects.
 
-Storage is a ring of plain C arrays per frame, oldest first, searched by bisection: the float64
-values (tx, ty, tz, qx, qy, qz, qw) and the low 32 bits of the stamp's offset from the frame's first
-stamp per sample, at most 60 bytes; the high bits once per run of samples sharing them (~4.3 s of
-stamps). A column that has held one value, bit for bit, since the frame's first sample (a fixed
+Storage is a ring per frame, oldest first, searched by bisection, in one allocation: the float64
+values (tx, ty, tz, qx, qy, qz, qw) of every slot, then the low 32 bits of each stamp's offset from
+the frame's first stamp, at most 60 bytes a sample; the high bits once per run of samples sharing
+them (~4.3 s of stamps; the first run in the object, a table only from the second on). A column that has held one value, bit for bit, since the frame's first sample (a fixed
 joint's translation, a planar base's z, roll and pitch) is kept once, not per slot, until a sample
 brings another value: then every slot gets the column (_widen). Answers are the same to the bit:
 the constant value goes through the same arithmetic as a stored one would.
