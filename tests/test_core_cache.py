@@ -363,3 +363,53 @@ def test_a_wrapped_mapped_ring_widens_in_place_like_the_model() -> None:
             _check_against(c, m, [rng.randint(m.s[0][0] - 5, m.s[-1][0] + 5) for _ in range(200)])
             assert [_bits(row) for row in c.columns()[2]] == [_bits(x[2]) for x in m.s]
     assert c.mapped
+
+
+# One allocation per ring: the values (stride _w doubles), then the stamps' low words. Growing moves
+# the low words up after the resize, shrinking moves them down first, a wrapped ring moves one of
+# its two parts: a low word left behind would pair a sample with another one's stamp.
+@pytest.mark.parametrize("steady", [300, 317, 333, 351])
+def test_a_ring_in_one_allocation_keeps_every_stamp_with_its_values(steady) -> None:
+    """Growth while filling, steady and wrapped (head at several places), wrapped growth (4x the
+    rate, out-of-order samples), a shrink (1/8 the rate), a column that starts to vary in the
+    wrapped ring: the stored columns and the answers equal the model's at every stage."""
+    rng = random.Random(steady)
+    c, m = TimeCache(100_000), Model(100_000)
+    k = 0.0
+
+    def feed(count: int, step: float, late: float = 0.0, ty=lambda k: 0.5) -> None:
+        nonlocal k
+        for _ in range(count):
+            k += step
+            stamp = int(k * 1000)
+            if late and rng.random() < late:
+                stamp -= rng.randrange(1, 20_000)
+            v = (rng.random(), ty(k), -k, *_quat(rng.randrange(100)))
+            assert c.insert(stamp, 1, v) == m.insert(stamp, 1, v)
+
+    def check() -> None:
+        _check_against(c, m, [rng.randint(m.s[0][0] - 500, m.s[-1][0] + 500) for _ in range(150)])
+        assert [_bits(row) for row in c.columns()[2]] == [_bits(x[2]) for x in m.s]
+
+    feed(60, 1.0)                              # filling: a resize every few samples, never wrapped
+    check()
+    feed(steady, 1.0)                          # steady at 101 samples, wrapped
+    check()
+    feed(800, 0.25, late=0.05)                 # 4x the rate: the full wrapped ring grows, and again
+    assert len(c) > 390
+    check()
+    feed(400, 8.0)                             # 1/8 the rate: the ring unrolls and shrinks
+    assert len(c) <= 14 and c.capacity < 60
+    check()
+    feed(150, 1.0, late=0.05, ty=lambda k: k)  # ty varies from here on: a wider ring, low words copied
+    check()
+    assert c.nbytes() == c.capacity * (4 + 7 * 8)  # one allocation, one run in the object, no constants block
+
+
+def test_caches_are_not_tracked_by_the_garbage_collector() -> None:
+    """The caches hold no Python object (the authority is BufferCore's): nothing for the GC to walk."""
+    import gc
+
+    c = TimeCache(1000)
+    c.insert(5, 1, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0))
+    assert not gc.is_tracked(c) and not gc.is_tracked(StaticCache())

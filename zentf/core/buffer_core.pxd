@@ -26,8 +26,8 @@ cdef class BufferCore:
     cdef dict __dict__          # attributes beyond these, as on the Python class it was
     cdef object __weakref__
     cdef readonly _Lock _lock
-    cdef public dict _ids, _clean
-    cdef public list _names, _caches, _requests, _insert_callbacks
+    cdef public dict _ids
+    cdef public list _names, _caches, _auths, _requests, _insert_callbacks
     cdef public int64_t _cache_ns
     cdef public int64_t _version
     # waking waiters (zentf.buffer.Buffer): every successful insert bumps _generation in C; only while

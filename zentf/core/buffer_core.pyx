@@ -20,6 +20,7 @@ version counter (bumped by every stored change) is unchanged.
 from libc.stdint cimport int32_t, int64_t, uint64_t
 from libc.stdlib cimport free, malloc, realloc
 from cpython.dict cimport PyDict_GetItem
+from cpython.unicode cimport PyUnicode_Check, PyUnicode_GET_LENGTH, PyUnicode_READ_CHAR
 from cpython.long cimport PyLong_AsLongLongAndOverflow
 from cpython.object cimport PyObject
 from cpython.tuple cimport PyTuple_GET_ITEM, PyTuple_GET_SIZE
@@ -264,6 +265,19 @@ cdef inline bint _valid_fast(double tx, double ty, double tz, double qx, double 
     return -0.01 < n < 0.01 and (tx + ty + tz) * 0.0 == 0.0
 
 
+_NO_AUTHORITY = "no recorded authority"  # a frame's authority before its first sample (tf2's text)
+
+
+cdef inline int32_t _usable_id(dict ids, object frame) noexcept:
+    """Id of a frame name usable as given: a known name, not empty, no leading '/' (tf2 refuses
+    those in lookups; "NO_PARENT" has id 0); 0 otherwise (the caller takes tf2's full path).
+    One dict for every name: no second dict of the clean ones (~26 B a frame)."""
+    cdef PyObject* p = PyDict_GetItem(ids, frame)
+    if p == NULL or not PyUnicode_Check(frame) or PyUnicode_GET_LENGTH(frame) == 0 or PyUnicode_READ_CHAR(frame, 0) == 47:
+        return 0
+    return <int32_t><object>p
+
+
 cdef class _Lock:
     """A plain (non-reentrant) lock like threading.Lock, which the compiled paths take without a
     Python call; Python code uses it as usual (``with core._lock:``, acquire/release)."""
@@ -372,9 +386,11 @@ cdef class BufferCore:
         self._lock = _Lock()
         # frame id 0 is tf2's "NO_PARENT" sentinel; it never has a cache
         self._ids = {"NO_PARENT": 0}
-        self._clean = {}  # ids of names usable as given (no leading '/')
         self._names = ["NO_PARENT"]
         self._caches = [None]
+        # per frame id, the authority of its last accepted sample (tf2 keeps it in the cache; here the
+        # caches hold no Python object, so the garbage collector does not track them)
+        self._auths = [_NO_AUTHORITY]
         self._requests = []
         self._request_counter = 0
         self._insert_callbacks = []
@@ -455,24 +471,19 @@ cdef class BufferCore:
                        object authority) except -1:
         """The common case, in C: a valid sample newer than everything stored, for an edge whose
         frames are known by clean names. 1 if stored, 0 if it needs tf2's full path. Lock held."""
-        cdef PyObject* c
-        cdef PyObject* p
         cdef int32_t cid, pid
         if st < 0 or not _valid_fast(v[0], v[1], v[2], v[3], v[4], v[5], v[6]):
             return 0
-        c = PyDict_GetItem(self._clean, child)
-        p = PyDict_GetItem(self._clean, parent)
-        if c == NULL or p == NULL:
-            return 0
-        cid = <int32_t><object>c
-        pid = <int32_t><object>p
-        if cid == pid:
+        cid = _usable_id(self._ids, child)
+        pid = _usable_id(self._ids, parent)
+        if not cid or not pid or cid == pid:
             return 0
         cache = self._caches[cid]
         if type(cache) is not TimeCache or not st > (<TimeCache>cache).newest >= 0:
             return 0
         (<TimeCache>cache).insert_c(st, pid, v)
-        (<TimeCache>cache).authority = authority
+        if PyList_GET_ITEM(self._auths, cid) != <PyObject*>authority:  # most often the same object
+            self._auths[cid] = authority
         self._version += 1
         return 1
 
@@ -615,7 +626,10 @@ cdef class BufferCore:
                            'stamp (%d ns) is beyond the largest the buffer holds (%d ns, int64)',
                            child, authority, stamp, MAX_STAMP_NS)
             return False
-        values = tuple(float(x) for x in (tx, ty, tz, qx, qy, qz, qw))
+        # a tuple display, not tuple(generator): CPython builds the latter at the length hint (10) and
+        # shrinks it, so each one ends in the 7-tuple free list instead of coming from it (96 B kept
+        # per new frame, up to 2000 of them, until a full collection)
+        values = (float(tx), float(ty), float(tz), float(qx), float(qy), float(qz), float(qw))
         with self._lock:
             ids = self._ids
             cid = ids.get(child)
@@ -638,7 +652,7 @@ cdef class BufferCore:
                 res = cache.insert(stamp, pid, values)
                 if res == _OK:
                     self._version += 1
-                    cache.authority = authority
+                    self._auths[cid] = authority
                     return True
         if refused is not None:
             reason, name, size, limit = refused
@@ -683,13 +697,12 @@ cdef class BufferCore:
         return None
 
     def _add_frame(self, name: str) -> int:
-        fid = len(self._names)
+        cdef object fid = len(self._names)   # one int object for the frame (an untyped local would be a C int)
         self._version += 1
         self._ids[name] = fid
-        if name[:1] != "/":
-            self._clean[name] = fid
         self._names.append(name)
         self._caches.append(None)
+        self._auths.append(_NO_AUTHORITY)
         return fid
 
     cdef int _after_insert(self) except -1:
@@ -738,8 +751,7 @@ cdef class BufferCore:
 
     cdef int32_t _clean_id(self, object frame) except -1:
         """Id of a frame usable as given (known, non-empty, no leading '/'); 0 otherwise."""
-        cdef PyObject* p = PyDict_GetItem(self._clean, frame)
-        return 0 if p == NULL else <int32_t><object>p
+        return _usable_id(self._ids, frame)
 
     def lookup_transform(self, target_frame: str, source_frame: str, time: TimeArg) -> TransformStamped:
         """Transform mapping data in source_frame into target_frame at time (0 = latest common)."""
@@ -1227,7 +1239,7 @@ cdef class BufferCore:
             newest, oldest, n = cache.newest_stamp(), cache.oldest_stamp(), len(cache)
             out.append({
                 "frame": names[fid], "parent": names[s[0]],
-                "broadcaster": cache.authority,
+                "broadcaster": self._auths[fid],
                 "static": cache.is_static, "samples": n,
                 "most_recent_transform": Time(nanoseconds=newest),
                 "oldest_transform": Time(nanoseconds=oldest),

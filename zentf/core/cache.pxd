@@ -5,7 +5,8 @@ from libc.stdint cimport int32_t, int64_t, uint32_t
 
 cdef class CacheBase:
     """tf2's TimeCacheInterface: what the walk asks of a frame's cache, in C."""
-    cdef public object authority
+    # no Python object field: the caches are not tracked by the garbage collector (16 B each less);
+    # the authority of a frame's last sample is BufferCore's (_auths)
     cdef readonly int64_t newest        # newest stamp; -1 empty; 0 for statics (ignored by the LCT)
     cdef int insert_c(self, int64_t stamp, int32_t parent, const double* v) except -1
     cdef bint get_c(self, int64_t t, int32_t* parent, double* out) noexcept
@@ -30,29 +31,38 @@ cdef struct _Interp:
     double sp[16]                       # inv_dt, p0 (3), dp (3), q0 (4), a (4), theta
 
 
+cdef struct _Konst:
+    # the columns that have held one value (bit for bit) since the frame's first sample, and the order
+    # of the columns in a slot; allocated by the first sample, freed once every column varies
+    double k[7]                         # the constant columns' values (the others' entries unused)
+    unsigned char vc[7]                 # the varying columns, then (from vc[_nv] on) the constant ones
+
+
 @cython.final
 cdef class TimeCache(CacheBase):
-    cdef uint32_t* _lo                  # low 32 bits of the stamps (ns), a ring of _cap slots, logical 0 = oldest
+    # the ring is one allocation (_d): _cap slots of _w doubles, then _cap uint32 low words (_lo)
     cdef double* _d                     # per slot, the _nv varying values of tx, ty, tz, qx, qy, qz, qw (stride _w)
+    cdef uint32_t* _lo                  # low 32 bits of the stamps (ns) = _d + _cap * _w; logical 0 = oldest
     cdef int32_t* _par                  # parent per slot; NULL while every sample has parent _par0
-    cdef _Run* _runs                    # the high 32 bits: one entry per run of samples sharing them
+    cdef _Run* _runs                    # the high 32 bits: one entry per run of samples sharing them (&_run0
+                                        # while there is room for one run only)
     cdef _Interp* _ip                   # allocated by the first interpolated lookup
+    cdef _Konst* _kc                    # NULL while _cm is 0 (every column varies)
     cdef int32_t _par0
     cdef int32_t _nruns, _runs_cap
-    cdef unsigned char _mm              # bit per array held in its own mapping: 1 _lo, 2 _d, 4 _par
-    cdef unsigned char _steady          # pruning has begun: the cache holds about as many samples as it will
+    # bit per array held in its own mapping: 2 the ring, 4 _par; and 1: pruning has begun (the cache
+    # holds about as many samples as it will)
+    cdef unsigned char _mm
     # columns that have held one value (bit for bit) since the frame's first sample are kept once, in
-    # _k, not per slot: _cm has a bit per such column; the _nv others are stored, in the column order
-    # _vc, _w = max(_nv, 1) doubles a slot (a fixed joint's translation, a planar base's z, roll, pitch)
+    # _kc, not per slot: _cm has a bit per such column; the _nv others are stored, in the column order
+    # _kc.vc, _w = max(_nv, 1) doubles a slot (a fixed joint's translation, a planar base's z, roll, pitch)
     cdef unsigned char _cm, _nv, _w
     cdef Py_ssize_t _cap, _head, _n
     cdef int64_t _base                  # virtual index of the oldest sample (samples pruned so far)
     cdef int64_t _epoch                 # stamps are stored as stamp - _epoch (the first sample's stamp)
     cdef public int64_t max_ns
     cdef int64_t oldest
-    # last, so that the fields every link of a walk reads stay together in the object's first lines
-    cdef unsigned char _vc[7]           # the varying columns, then (from _vc[_nv] on) the constant ones
-    cdef double _k[7]
+    cdef _Run _run0                     # the run table's room while it has one entry (no allocation)
     cdef inline Py_ssize_t _slot(self, Py_ssize_t i) noexcept
     cdef inline int32_t _parent(self, Py_ssize_t j) noexcept
     cdef inline int64_t _stamp(self, Py_ssize_t i) noexcept
@@ -73,6 +83,7 @@ cdef class TimeCache(CacheBase):
     cdef inline void _pack(self, double* slot, const double* v) noexcept
     cdef inline void _unpack2(self, Py_ssize_t j0, Py_ssize_t j1, double* a, double* b) noexcept
     cdef int _widen(self, unsigned char cm) noexcept
+    cdef inline void _place(self, void* blk, Py_ssize_t cap, size_t w) noexcept
 
 
 @cython.final

@@ -5,10 +5,10 @@ As in tf2 (cache.cpp, static_cache.cpp), BufferCore keeps one cache object per f
 for the sample at a time; the walk over the tree is in buffer_core.pyx, which calls these caches
 through their C methods (``get_c``, ``parent_at_c``, ...) without touching Python objects.
 
-Storage is a ring of plain C arrays per frame, oldest first, searched by bisection: the float64
-values (tx, ty, tz, qx, qy, qz, qw) and the low 32 bits of the stamp's offset from the frame's first
-stamp per sample, at most 60 bytes; the high bits once per run of samples sharing them (~4.3 s of
-stamps). A column that has held one value, bit for bit, since the frame's first sample (a fixed
+Storage is a ring per frame, oldest first, searched by bisection, in one allocation: the float64
+values (tx, ty, tz, qx, qy, qz, qw) of every slot, then the low 32 bits of each stamp's offset from
+the frame's first stamp, at most 60 bytes a sample; the high bits once per run of samples sharing
+them (~4.3 s of stamps; the first run in the object, a table only from the second on). A column that has held one value, bit for bit, since the frame's first sample (a fixed
 joint's translation, a planar base's z, roll and pitch) is kept once, not per slot, until a sample
 brings another value: then every slot gets the column (_widen). Answers are the same to the bit:
 the constant value goes through the same arithmetic as a stored one would.
@@ -173,10 +173,15 @@ cdef inline bint _big(Py_ssize_t cap, size_t w) noexcept:
     return <size_t>cap * w * sizeof(double) >= _MAP_MIN
 
 
+cdef inline size_t _ring_bytes(Py_ssize_t cap, size_t w) noexcept:
+    """Bytes of a ring of cap slots of w values: the values, then the stamps' low words."""
+    return <size_t>cap * (w * sizeof(double) + sizeof(uint32_t))
+
+
 cdef inline Py_ssize_t _fit(Py_ssize_t cap, size_t w) noexcept:
-    """cap, or more slots if the ring is mapped: as many as the whole pages of its values hold."""
+    """cap, or more slots if the ring is mapped: as many as its whole pages hold."""
     if _big(cap, w):
-        return <Py_ssize_t>(_pages(<size_t>cap * w * sizeof(double)) // (w * sizeof(double)))
+        return <Py_ssize_t>(_pages(_ring_bytes(cap, w)) // (w * sizeof(double) + sizeof(uint32_t)))
     return cap
 
 
@@ -211,34 +216,31 @@ cdef class TimeCache(CacheBase):
 
     def __cinit__(self, int64_t max_ns):
         self.max_ns = max_ns
-        self.authority = "no recorded authority"  # of the last accepted sample (tf2 keeps it too)
         self._lo = NULL
         self._d = NULL
         self._par = NULL
-        self._runs = NULL
+        self._runs = &self._run0
         self._ip = NULL
+        self._kc = NULL
         self._mm = 0
         self._cap = 0
-        self._runs_cap = 0
+        self._runs_cap = 1
         self._reset()
 
     def __dealloc__(self):
         self._release()
 
     cdef void _reset(self) noexcept:
-        cdef int k
         self._head = 0
         self._n = 0
         self._base = 0
         self._epoch = 0
         self._nruns = 0
-        self._steady = False
+        self._mm &= ~1
         self._par0 = 0
         self._cm = 0x7f                  # no sample yet: every column counts as constant until one differs
         self._nv = 0
         self._w = 1
-        for k in range(7):
-            self._vc[k] = k
         self.newest = -1
         self.oldest = -1
         if self._ip != NULL:
@@ -247,25 +249,26 @@ cdef class TimeCache(CacheBase):
             self._ip.sp_t1 = 0  # empty interval: never matches
 
     cdef void _release(self) noexcept:
-        """Give every array back (the ring, the parents, the runs, the interpolation state)."""
+        """Give every array back (the ring, the parents, the runs, the interpolation state, the constants)."""
         cdef bint m
         cdef size_t cap = <size_t>self._cap
-        m = (self._mm & 1) != 0
-        _arr_resize(self._lo, cap * sizeof(uint32_t), 0, &m, False)
         m = (self._mm & 2) != 0
-        _arr_resize(self._d, cap * self._w * sizeof(double), 0, &m, False)
+        _arr_resize(self._d, _ring_bytes(cap, self._w), 0, &m, False)
         m = (self._mm & 4) != 0
         _arr_resize(self._par, cap * sizeof(int32_t), 0, &m, False)
-        free(self._runs)
+        if self._runs != &self._run0:
+            free(self._runs)
         free(self._ip)
+        free(self._kc)
         self._lo = NULL
         self._d = NULL
         self._par = NULL
-        self._runs = NULL
+        self._runs = &self._run0
         self._ip = NULL
+        self._kc = NULL
         self._mm = 0
         self._cap = 0
-        self._runs_cap = 0
+        self._runs_cap = 1
 
     cdef void clear_c(self) noexcept:
         self._release()
@@ -293,41 +296,54 @@ cdef class TimeCache(CacheBase):
                 b = mid
         return self._epoch + ((runs[a].hi << 32) | <int64_t>self._lo[self._slot(i)])
 
+    cdef inline void _place(self, void* blk, Py_ssize_t cap, size_t w) noexcept:
+        """The ring is blk, cap slots of w values: the values first, then the low words."""
+        self._d = <double*>blk
+        self._lo = <uint32_t*>(<double*>blk + <size_t>cap * w) if blk != NULL else NULL
+        self._cap = cap
+
     cdef int _set_cap(self, Py_ssize_t cap) noexcept:
         """Resize the ring to cap slots (>= n, more if mapped pages hold more); -1 if no memory
-        (then nothing changed). A wrapped ring keeps its order: growing moves the shorter of its
-        two parts, shrinking unrolls it first."""
+        (then nothing changed). The values and the low words share one allocation, values first:
+        growing moves the low words up after the resize, shrinking moves them down before it. A
+        wrapped ring keeps its order: growing moves the shorter of its two parts, shrinking
+        unrolls it first."""
         cdef Py_ssize_t old = self._cap, h, r, t, grow
         cdef size_t w = self._w
-        cdef bint m0 = (self._mm & 1) != 0, m1 = (self._mm & 2) != 0, m2 = (self._mm & 4) != 0
-        cdef void* lo
-        cdef void* d
+        cdef bint m1 = (self._mm & 2) != 0, m2 = (self._mm & 4) != 0
+        cdef void* blk
         cdef void* par = NULL
         cdef bint big
         cap = _fit(cap, w)
         big = _big(cap, w)
         if cap == old:
             return 0
-        if cap < old and self._head + self._n > cap and self._unroll() < 0:
-            return -1
-        lo = _arr_resize(self._lo, old * sizeof(uint32_t), cap * sizeof(uint32_t), &m0, big)
-        if lo == NULL:
-            return -1
-        d = _arr_resize(self._d, old * w * sizeof(double), cap * w * sizeof(double), &m1, big)
-        if d == NULL:  # only growth fails: shrink the first array back
-            self._lo = <uint32_t*>_arr_resize(lo, cap * sizeof(uint32_t), old * sizeof(uint32_t), &m0, m0)
-            self._mm = (self._mm & ~1) | m0
-            return -1
+        if cap < old:
+            if self._head + self._n > cap and self._unroll() < 0:
+                return -1
+            # the low words go down to where they sit in the smaller ring (slots past n hold nothing)
+            memmove(self._d + <size_t>cap * w, self._lo, cap * sizeof(uint32_t))
+            blk = _arr_resize(self._d, _ring_bytes(old, w), _ring_bytes(cap, w), &m1, big)
+            if blk == NULL:              # a shrink does not fail; were it to, put the low words back
+                memmove(self._lo, self._d + <size_t>cap * w, cap * sizeof(uint32_t))
+                return -1
+        else:
+            blk = _arr_resize(self._d, _ring_bytes(old, w), _ring_bytes(cap, w), &m1, big)
+            if blk == NULL:
+                return -1
+            if old:                      # the low words up to their new place, after cap values
+                memmove(<double*>blk + <size_t>cap * w, <double*>blk + <size_t>old * w, old * sizeof(uint32_t))
         if self._par != NULL:
             par = _arr_resize(self._par, old * sizeof(int32_t), cap * sizeof(int32_t), &m2, big)
-            if par == NULL:
-                self._lo = <uint32_t*>_arr_resize(lo, cap * sizeof(uint32_t), old * sizeof(uint32_t), &m0, m0)
-                self._d = <double*>_arr_resize(d, cap * w * sizeof(double), old * w * sizeof(double), &m1, m1)
-                self._mm = (self._mm & 4) | m0 | (m1 << 1)
+            if par == NULL:              # only growth fails: shrink the ring back
+                memmove(<double*>blk + <size_t>old * w, <double*>blk + <size_t>cap * w, old * sizeof(uint32_t))
+                blk = _arr_resize(blk, _ring_bytes(cap, w), _ring_bytes(old, w), &m1, m1)
+                self._place(blk, old, w)
+                self._mm = (self._mm & 5) | (m1 << 1)
                 return -1
-        self._lo, self._d, self._par = <uint32_t*>lo, <double*>d, <int32_t*>par
-        self._mm = m0 | (m1 << 1) | (m2 << 2)
-        self._cap = cap
+            self._par = <int32_t*>par
+        self._place(blk, cap, w)
+        self._mm = (self._mm & 1) | (m1 << 1) | (m2 << 2)
         h = self._head
         if cap > old and h + self._n > old:  # wrapped: [h, old) is the oldest part, [0, r) the newest
             r = h + self._n - old
@@ -396,9 +412,14 @@ cdef class TimeCache(CacheBase):
         """Insert run (hi, start) at index k; -1 if no memory (nothing changed)."""
         cdef _Run* runs = self._runs
         cdef int32_t cap
-        if self._nruns == self._runs_cap:
-            cap = self._runs_cap * 2 if self._runs_cap else 2
-            runs = <_Run*>realloc(runs, cap * sizeof(_Run))
+        if self._nruns == self._runs_cap:    # a table of its own (the object's room holds one run)
+            cap = self._runs_cap * 2
+            if runs == &self._run0:
+                runs = <_Run*>malloc(cap * sizeof(_Run))
+                if runs != NULL:
+                    runs[0] = self._run0
+            else:
+                runs = <_Run*>realloc(runs, cap * sizeof(_Run))
             if runs == NULL:
                 return -1
             self._runs = runs
@@ -421,10 +442,10 @@ cdef class TimeCache(CacheBase):
         doubles there while it fills: untouched pages cost nothing, mremap copies nothing, and
         the malloc heap keeps no holes from its growth. Pruning then trims it to what it holds.
         """
-        cdef Py_ssize_t n = self._n, cap = n + (n >> 3) + 4
+        cdef Py_ssize_t n = self._n, cap = n + (n >> 4) + 4
         cdef size_t w = self._w
         cdef int64_t span
-        if self._steady:
+        if self._mm & 1:
             return n + (n >> 6) + 4
         if self._mm & 2:
             return 2 * n
@@ -440,13 +461,22 @@ cdef class TimeCache(CacheBase):
         cdef _Run* runs
         cdef unsigned char diff = 0, c, q, nv = self._nv, w
         cdef const uint64_t* vb = <const uint64_t*>v
-        cdef const uint64_t* kb = <const uint64_t*>self._k
+        cdef const uint64_t* kb
         cdef double* slot
-        if n == 0:
-            memcpy(self._k, v, 7 * sizeof(double))  # every column constant so far: its value, once
+        cdef _Konst* kc = self._kc
+        if n == 0:                       # every column constant so far: its value, once
+            if kc == NULL:
+                kc = <_Konst*>malloc(sizeof(_Konst))
+                if kc == NULL:
+                    raise MemoryError()
+                self._kc = kc
+            memcpy(kc.k, v, 7 * sizeof(double))
+            for q in range(7):
+                kc.vc[q] = q
         elif nv != 7:                    # a column held constant so far (bit for bit) changes: stored per slot
+            kb = <const uint64_t*>kc.k
             for q in range(nv, 7):
-                c = self._vc[q]
+                c = kc.vc[q]
                 if vb[c] != kb[c]:
                     diff |= 1 << c
             if diff and self._widen(self._cm & ~diff) < 0:
@@ -539,8 +569,8 @@ cdef class TimeCache(CacheBase):
         if self._ip != NULL:
             self._ip.memo_t = -1     # the memoized time may have fallen out
         n = self._n
-        if not self._steady:  # the cache is full: from now on it holds about n samples, keep no slack
-            self._steady = True
+        if not self._mm & 1:  # the cache is full: from now on it holds about n samples, keep no slack
+            self._mm |= 1
             if self._cap > n + 1:
                 self._set_cap(n + 1)
         elif self._cap > _fit(n + (n >> 3) + 16, self._w):  # fewer samples than before (a slower rate): give room back
@@ -642,28 +672,29 @@ cdef class TimeCache(CacheBase):
         return r - 1
 
     cdef inline void _unpack(self, Py_ssize_t j, double* out) noexcept:
-        """The seven values of slot j: the constant columns from _k, the others from the slot."""
+        """The seven values of slot j: the constant columns from _kc, the others from the slot."""
         cdef const double* slot = &self._d[self._w * j]
-        cdef const unsigned char* vc = self._vc
+        cdef const unsigned char* vc
         cdef unsigned char q, c, nv = self._nv, cm = self._cm
         if (cm & 0x78) == 0:                 # the rotation varies whole: the last 4 values of the slot
             memcpy(&out[3], &slot[nv - 4], 4 * sizeof(double))
             q = 0
             for c in range(3):
                 if (cm >> c) & 1:
-                    out[c] = self._k[c]
+                    out[c] = self._kc.k[c]
                 else:
                     out[c] = slot[q]
                     q += 1
             return
+        vc = self._kc.vc
         for q in range(nv):
             out[vc[q]] = slot[q]
         for q in range(nv, 7):
-            out[vc[q]] = self._k[vc[q]]
+            out[vc[q]] = self._kc.k[vc[q]]
 
     cdef inline void _pack(self, double* slot, const double* v) noexcept:
         """Store the varying values of sample v in slot (_unpack's inverse)."""
-        cdef const unsigned char* vc = self._vc
+        cdef const unsigned char* vc
         cdef unsigned char q, c, nv = self._nv, cm = self._cm
         if (cm & 0x78) == 0:                 # the rotation varies whole: the last 4 values of the slot
             memcpy(&slot[nv - 4], &v[3], 4 * sizeof(double))
@@ -673,6 +704,7 @@ cdef class TimeCache(CacheBase):
                     slot[q] = v[c]
                     q += 1
             return
+        vc = self._kc.vc
         for q in range(nv):
             slot[q] = v[vc[q]]
 
@@ -680,7 +712,7 @@ cdef class TimeCache(CacheBase):
         """_unpack of slots j0 and j1 at once (an interpolation's two samples)."""
         cdef const double* s0 = &self._d[self._w * j0]
         cdef const double* s1 = &self._d[self._w * j1]
-        cdef const unsigned char* vc = self._vc
+        cdef const unsigned char* vc = self._kc.vc   # some column is constant: _kc is there
         cdef unsigned char q, c, nv = self._nv
         for q in range(nv):
             c = vc[q]
@@ -688,7 +720,7 @@ cdef class TimeCache(CacheBase):
             b[c] = s1[q]
         for q in range(nv, 7):
             c = vc[q]
-            a[c] = b[c] = self._k[c]
+            a[c] = b[c] = self._kc.k[c]
 
     cdef inline void _copy(self, Py_ssize_t i, int32_t* parent, double* out) noexcept:
         cdef Py_ssize_t j = self._slot(i)
@@ -699,8 +731,9 @@ cdef class TimeCache(CacheBase):
             self._unpack(j, out)
 
     cdef int _widen(self, unsigned char cm) noexcept:
-        """Keep only the columns of cm constant: every slot gets the others (a new array, the
-        stored samples' values copied over); -1 if no memory (nothing changed)."""
+        """Keep only the columns of cm constant: every slot gets the others (a new ring, the
+        stored samples' values and low words copied over); -1 if no memory (nothing changed).
+        Once every column varies (cm 0), the constants' block is given back."""
         cdef unsigned char nv = 0, nk = 0, w, c
         cdef unsigned char vc[7]
         cdef double full[7]
@@ -718,7 +751,7 @@ cdef class TimeCache(CacheBase):
                 nk += 1
         w = nv if nv else 1
         if cap:
-            d = <double*>_arr_resize(NULL, 0, cap * w * sizeof(double), &m, _big(cap, w))
+            d = <double*>_arr_resize(NULL, 0, _ring_bytes(cap, w), &m, _big(cap, w))
             if d == NULL:
                 return -1
             for i in range(self._n):
@@ -727,12 +760,17 @@ cdef class TimeCache(CacheBase):
                 slot = &d[w * j]
                 for c in range(nv):
                     slot[c] = full[vc[c]]
+            memcpy(d + <size_t>cap * w, self._lo, cap * sizeof(uint32_t))
             m_old = (self._mm & 2) != 0
-            _arr_resize(self._d, cap * self._w * sizeof(double), 0, &m_old, False)
-            self._d = d
+            _arr_resize(self._d, _ring_bytes(cap, self._w), 0, &m_old, False)
+            self._place(d, cap, w)
             self._mm = (self._mm & ~2) | (m << 1)
-        memcpy(self._vc, vc, 7)
         self._cm, self._nv, self._w = cm, nv, w
+        if cm == 0:
+            free(self._kc)
+            self._kc = NULL
+        else:
+            memcpy(self._kc.vc, vc, 7)
         return 0
 
     cdef void _span(self, _Interp* ip, Py_ssize_t i, Py_ssize_t run) noexcept:
@@ -774,7 +812,7 @@ cdef class TimeCache(CacheBase):
                 q = 0
                 for k in range(3):
                     if (cm >> k) & 1:
-                        ua[k] = ub[k] = self._k[k]
+                        ua[k] = ub[k] = self._kc.k[k]
                     else:
                         ua[k] = a[q]
                         ub[k] = b[q]
@@ -918,7 +956,8 @@ cdef class TimeCache(CacheBase):
     def nbytes(self) -> int:
         """Bytes allocated for samples (capacity, not only the samples held) and their runs."""
         return (self._cap * (sizeof(uint32_t) + self._w * sizeof(double) + (sizeof(int32_t) if self._par != NULL else 0))
-                + self._runs_cap * sizeof(_Run))
+                + (self._runs_cap * sizeof(_Run) if self._runs != &self._run0 else 0)
+                + (sizeof(_Konst) if self._kc != NULL else 0))
 
     @property
     def capacity(self) -> int:
@@ -958,7 +997,6 @@ cdef class StaticCache(CacheBase):
     is_static = True
 
     def __cinit__(self):
-        self.authority = "no recorded authority"
         self.newest = 0   # statics report stamp 0 (ignored by the latest-common-time minimum)
         self._parent = 0
         self._v[:] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
