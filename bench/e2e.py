@@ -204,20 +204,19 @@ def ring_floor(args: argparse.Namespace) -> None:
     count = [0, 0, 0, 0]  # messages, first ns, last ns, process CPU ns at the first
     done = threading.Event()
 
-    def loop() -> None:
+    def loop() -> None:  # timed from the first message's arrival to the moment the last one is read
         recv, try_recv = sub.handler.recv, sub.handler.try_recv
-        while count[0] < args.count:
-            sample = recv()
-            while sample is not None:
-                sample.payload.to_bytes()
-                sample.attachment.to_bytes()
-                now = time.perf_counter_ns()
-                if count[0] == 0:
-                    count[1] = now
-                    count[3] = proc_cpu_ns()
-                count[0] += 1
-                count[2] = now
-                sample = try_recv()
+        sample = recv()
+        count[1], count[3] = time.perf_counter_ns(), proc_cpu_ns()
+        n = 0
+        while n < args.count:
+            if sample is None:
+                sample = recv()
+            sample.payload.to_bytes()
+            sample.attachment.to_bytes()
+            n += 1
+            sample = try_recv()
+        count[0], count[2] = n, time.perf_counter_ns()
         done.set()
 
     threading.Thread(target=loop, daemon=True).start()
