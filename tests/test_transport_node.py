@@ -146,6 +146,31 @@ def test_sigint_exits_zero(spawn) -> None:
     assert "Traceback" not in p.output() and "KeyboardInterrupt" not in p.output()
 
 
+#: A node whose constructor gets SIGINT just after its node token is out (the moment `zentf node list`
+#: can first see it): declare_parameter("use_sim_time") comes next, and this one sends the signal first.
+EARLY_SIGINT = textwrap.dedent("""
+    import os, signal
+    from zentf.node import Node
+    signal.signal(signal.SIGINT, signal.default_int_handler)  # Python's own, whatever the parent set
+    real = Node.declare_parameter
+    def declare_after_a_sigint(self, *args, **kwargs):
+        os.kill(os.getpid(), signal.SIGINT)
+        return real(self, *args, **kwargs)
+    Node.declare_parameter = declare_after_a_sigint
+    node = Node("early_sigint")
+    print("came up shut down" if not node.ok() else "came up running", flush=True)
+    node.shutdown()
+""")
+
+
+def test_sigint_while_a_node_starts_stops_it_cleanly(spawn) -> None:
+    """The node owns SIGINT before anything can see it: a Ctrl-C as soon as it shows up in the graph
+    (CI caught `zentf topic pub` exiting by SIGINT there) makes it come up shut down, exit 0."""
+    p = spawn.python("-c", EARLY_SIGINT)
+    assert p.wait(30) == 0, p.output()
+    assert "came up shut down" in p.output() and "KeyboardInterrupt" not in p.output(), p.output()
+
+
 def test_wait_for_subscribers_waits_for_a_real_match(node_options) -> None:
     # zenoh's MatchingStatus has no __bool__: testing the object itself was always true, so the
     # wait returned at once and the first put of a fresh publisher was lost in ~3 % of runs.

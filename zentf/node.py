@@ -366,6 +366,9 @@ class Node:
         try:
             if check_unique and self.wire.name == "zentf":  # ROS 2 allows (and warns about) duplicates
                 self._check_unique()
+            # SIGINT/SIGTERM are this node's before anything can see it: a Ctrl-C as soon as it shows up
+            # in the graph stops it cleanly instead of interrupting the rest of this constructor
+            _register_node(self)
             self._tokens.append(self.session.liveliness().declare_token(self.wire.node_token(self)))
             use_sim = self.declare_parameter("use_sim_time", False).value
             if isinstance(use_sim, str):
@@ -385,8 +388,8 @@ class Node:
             self._executor = threading.Thread(target=self._run_executor, name=f"zentf-exec{self._fq_name}",
                                               daemon=True)
             self._executor.start()
-            _register_node(self)
         except BaseException:
+            _unregister_node(self)
             self._close_session()
             raise
 
@@ -668,7 +671,9 @@ class Node:
     def request_shutdown(self) -> None:
         """Make spin() return and ok() False (safe from signal handlers and other threads)."""
         self._shutdown.set()
-        self._clock.wake()
+        clock = self.__dict__.get("_clock")  # None while the constructor has not made it yet
+        if clock is not None:
+            clock.wake()
 
     def spin(self, timeout_sec: float | None = None) -> None:
         """Block until shutdown, SIGINT or SIGTERM (then shut down cleanly) or ``timeout_sec``."""
