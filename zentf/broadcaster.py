@@ -33,15 +33,13 @@ class TransformBroadcaster:
         self.node = node
         self._pub = node.create_publisher(topic, TFMessage, qos)
         self._encode_tf = node.wire.encode_tf  # msgpack (zentf) or CDR (ros2)
-        att = self._pub._attach.constant
+        att = self._pub._const_attachment
         if node.wire.name == "zentf" and att is not None and type(self).send_transform is _send_transform:
             # the common call, one TransformStamped on zentf's wire, compiled from here to Zenoh's put
             # (zentf/tfwire.pyx); anything else reaches the method below
-            import zenoh
-
             slow = self.send_transform
             self.send_transform = self.sendTransform = OneTransformSender(  # type: ignore[method-assign]
-                self._pub._pub.put, zenoh.ZBytes(att), slow)
+                self._pub._pub.put, att, slow)
 
     def send_transform(self, transform: TransformsArg) -> None:
         self._pub.publish_bytes(self._encode_tf(_as_list(transform)))

@@ -123,11 +123,14 @@ class Publisher:
                                                       depth=max(1, history) if latched else depth,
                                                       latched=latched, with_key=True)
         self._attach = profile.attacher(node, token_key)
-        if self._attach.constant is not None and type(self).publish_bytes is _publish_bytes:
-            # the same attachment on every sample (zentf's wire: the node name): publish_bytes is Zenoh's
-            # put with it bound, no Python frame per message (a subclass's override is kept)
+        #: the attachment as Zenoh bytes, made once, when it is the same on every sample (zentf's wire:
+        #: the node name); None when the wire makes one per sample (ROS 2: sequence number, time)
+        self._const_attachment = None if self._attach.constant is None else zenoh.ZBytes(self._attach.constant)
+        if self._const_attachment is not None and type(self).publish_bytes is _publish_bytes:
+            # publish_bytes is Zenoh's put with it bound: no Python frame per message (a subclass's
+            # override is kept)
             self.publish_bytes = functools.partial(  # type: ignore[method-assign]
-                self._pub.put, attachment=zenoh.ZBytes(self._attach.constant))
+                self._pub.put, attachment=self._const_attachment)
 
     def wait_for_subscribers(self, timeout: float = 5.0) -> bool:
         """Block until at least one subscriber matches (event-driven); True at once for latched topics."""
