@@ -285,6 +285,57 @@ def test_backlogged_senders_are_inserted_whole_and_each_in_order(spawn, node_opt
     assert stats["messages"] == 2 * count and stats["dropped"] == 0, stats
 
 
+BACKLOG_WITH_BAD = RAW_TF_PUBLISHER + textwrap.dedent("""
+    count = int(sys.argv[1])
+    t0 = time.time_ns()
+    good = [msgpack.packb({"transforms": [tf("world", "seq", t0 + i, float(i))]}) for i in range(count)]
+    # in the middle: one payload that starts as a TFMessage and is cut short, one with a bad element
+    cut = good[0][:30]
+    bad_elem = msgpack.packb({"transforms": [{"header": {"stamp": {"sec": 1, "nanosec": 0}, "frame_id": "world"},
+                                              "transform": 7}]})
+    msgs = good[:count // 2] + [cut, bad_elem] + good[count // 2:]
+    for m in msgs:
+        pub.put(m, attachment=b"/attacker")
+    print("sent", flush=True)
+    time.sleep(0.5)
+    s.close()
+""")
+
+
+def test_a_backlog_is_queued_as_payload_bytes_and_its_bad_messages_still_get_their_lines(
+        spawn, node_options, caplog) -> None:
+    """Messages waiting in the listener's per-sender queue are kept as their payload's bytes, not as
+    Zenoh samples (which pin Zenoh's receive buffers): a cut-short TFMessage and one with a bad element
+    among them still get their one line each, naming the topic's key and the sender, and every good
+    message of the backlog is inserted in order."""
+    from zentf import tfwire
+
+    count = 3000
+    xs: list[float] = []
+    with Node("victim", options=node_options) as node, caplog.at_level(logging.WARNING, "zentf.listener"):
+        buf = Buffer(node=node)
+
+        def on_insert() -> None:  # slows the listener's thread, so the flood waits in its queue
+            x = buf.lookup_transform("world", "seq", Time()).transform.translation.x
+            if not xs or xs[-1] != x:
+                xs.append(x)
+
+        buf.add_insert_callback(on_insert)
+        tl = TransformListener(buf, node)
+        before = tfwire.payload_messages()
+        spawn.python("-c", BACKLOG_WITH_BAD, str(count)).wait_for_line("^sent", timeout=60)
+        assert buf.wait_for(lambda: xs and xs[-1] == count - 1, 60), (xs[-3:], tl.stats())
+        stats = tl.stats()
+        queued = tfwire.payload_messages() - before
+    key = f"{node_options.namespace.strip('/')}/tf"
+    text = "\n".join(r.getMessage() for r in caplog.records)
+    assert xs == [float(i) for i in range(count)], [b for a, b in zip(xs, xs[1:]) if b != a + 1][:5]
+    assert queued > count // 2, queued  # the backlog went through the queue as bytes
+    assert f"dropped bad message on '{key}' from /attacker" in text, text
+    assert f"skipped 1 malformed transform(s) on '{key}' from /attacker" in text, text
+    assert stats["bad_messages"] == 1 and stats["malformed"] == 1, stats
+
+
 # ------------------------------------------------------------------ point 7: escaped names, listener side
 
 def test_frame_ids_with_control_characters_are_logged_escaped(spawn, node_options, caplog) -> None:

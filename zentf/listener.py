@@ -206,7 +206,9 @@ class TransformListener:
             self._declare_token(key)
             # the thread reads the ring through its handler object: undeclaring the subscriber while
             # the thread waits in sub.recv() fails ("Already borrowed") and leaves it blocked
-            self._thread = threading.Thread(target=self._serve, args=(sub.handler, self._handler(False)), daemon=True,
+            handler = self._handler(False)
+            handler.topic = key  # the lines of a message kept as bytes name the subscription's key
+            self._thread = threading.Thread(target=self._serve, args=(sub.handler, handler), daemon=True,
                                             name=f"zentf-listener-{key}")
             self._thread.start()
             _LIVE.add(self)
@@ -282,9 +284,8 @@ class TransformListener:
         self._handlers.append(handler)
         return handler
 
-    def _log_malformed(self, sample: Any, authority: str, malformed: int, problem: str | None) -> None:
+    def _log_malformed(self, key: str, authority: str, malformed: int, problem: str | None) -> None:
         """Malformed transform elements in a message: one rate-limited line naming the key and sender."""
-        key = str(sample.key_expr)
         self._limiter.log(logging.WARNING, ("malformed", key, authority),
                           "skipped %d malformed transform(s) on '%s' from %s: %s",
                           malformed, key, authority, problem or "")
@@ -335,6 +336,13 @@ class TransformListener:
             sender = self._authority(sample.attachment, "unknown sender")
         except Exception:
             key, sender = "?", "unknown sender"
+        self._limiter.log(logging.WARNING, ("bad", key, sender), "dropped bad message on '%s' from %s: %s",
+                          key, sender, str(e))
+
+    def _bad_payload(self, key: str, sender: str | None, e: Exception) -> None:
+        """_bad_message for a message the tf thread kept as its payload's bytes (the sample is gone)."""
+        self.bad_messages += 1
+        sender = sender or "unknown sender"
         self._limiter.log(logging.WARNING, ("bad", key, sender), "dropped bad message on '%s' from %s: %s",
                           key, sender, str(e))
 

@@ -37,6 +37,12 @@ LOCAL_PORT = 7448
 #: How sessions retry their connect endpoints (a restarted router, the local rendezvous taken over by
 #: a later process): every 0.25 s growing to 1 s, as configs/zenoh/client.json5 does.
 _RETRY = "{period_init_ms: 250, period_max_ms: 1000, period_increase_factor: 2}"
+# Zenoh reads each link into a pool of rx_buffer_size / batch size buffers, one by default; a buffer
+# comes back to the pool only once every sample cut from it is dropped, so while a subscriber's
+# RingChannel still holds the previous batch's samples, every read callocs a fresh 64 kB buffer and
+# zeroes it (callgrind, a 1-transform tf flood: 2.7k of the rx thread's 6.3k instructions a message).
+# Four batches (at most 256 kB a link) let the reads recycle (docs/protocol.md, "Sessions").
+_RX_BUFFER = 4 * 65535
 log = logging.getLogger("zentf.network")
 _warned_exposed = False
 
@@ -180,6 +186,7 @@ class ZenohOptions:
                 # messages counted ~35 MB of such mappings in its RSS, kept after the flood (bench/abuse.py).
                 # Off, as in rmw_zenoh's default session; a config file may turn it back on.
                 cfg.insert_json5("transport/shared_memory/enabled", "false")
+                cfg.insert_json5("transport/link/rx/buffer_size", str(_RX_BUFFER))
             if self.mode:
                 cfg.insert_json5("mode", json.dumps(self.mode))
             if self.connect:

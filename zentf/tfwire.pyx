@@ -636,6 +636,14 @@ cdef inline bint _element(Cur* c, Sample* s, bint canonical) noexcept nogil:
     return _stamped(c, s)
 
 
+cdef int64_t _payload_messages = 0  # queued messages kept as payload bytes and handled (tests)
+
+
+def payload_messages():
+    """How many queued messages serve kept as their payload's bytes (TfHandler.queued) and handled (tests)."""
+    return _payload_messages
+
+
 def canonical_hits():
     """How many elements the canonical-layout path has read (tests)."""
     return _canonical_hits
@@ -942,6 +950,8 @@ cdef class TfHandler:
     cdef object last_raw, last_authority  # the previous message's attachment and authority (one sender's run)
     cdef Py_ssize_t max_sender_key
     cdef public Py_ssize_t messages, transforms, rejected, malformed
+    cdef public object topic        # the key expression the handler's subscriber was declared on (lines)
+    cdef object queued_authority    # the authority of the payload queued() gave last
 
     def __init__(self, listener, ingest, tf_encoding, check_encoding, fixed_authority, authority_of,
                  dict authorities, Py_ssize_t max_sender_key):
@@ -955,37 +965,85 @@ cdef class TfHandler:
         self.authorities = authorities
         self.max_sender_key = max_sender_key
         self.messages = self.transforms = self.rejected = self.malformed = 0
+        self.topic = "?"
 
     def __call__(self, sample):
         """Zenoh's callback: True if something got into the buffer."""
         return self.handle(sample, None, False)
 
+    cdef object _authority_of(self, object sample, object raw):
+        """The authority of a sample whose attachment bytes are ``raw`` (the previous message's, the
+        cache's, else the wire's reading of the attachment)."""
+        authority = self.fixed_authority
+        if authority is None:
+            if raw is None:
+                authority = None
+            elif self.last_raw is not None and raw == self.last_raw:
+                authority = self.last_authority
+            else:
+                authority = self.authorities.get(raw)
+            if authority is None:
+                authority = self.authority_of(sample.attachment, str(sample.key_expr))
+                if raw is not None and len(raw) <= self.max_sender_key and len(self.authorities) < 1024:
+                    self.authorities[raw] = authority
+            if raw is not None:
+                self.last_raw, self.last_authority = raw, authority
+        return authority
+
+    cdef object queued(self, object sample, object raw):
+        """What serve's per-sender queue keeps of a sample: its payload's bytes when it starts as a
+        TFMessage of this wire does (its authority then in ``self.queued_authority``, to go beside
+        it: handle_payload), else the sample itself (also if reading it fails: handle() then names
+        that). A queued Zenoh sample pins the whole receive buffer it was cut from (Zenoh's, 64 kB)
+        and ~300 bytes of Python object: in a 1-transform flood, queueing samples made the listener's
+        thread fault in and unmap memory for ~10 % of its time (perf; docs/architecture.md)."""
+        cdef Py_ssize_t n
+        cdef const char* p
+        if raw is None or self.cingest is None:
+            return sample
+        try:
+            payload = sample.payload.to_bytes()
+            n = PyBytes_GET_SIZE(payload)
+            p = PyBytes_AS_STRING(payload)
+            if self.cingest.cdr:
+                if n < 8 or p[0] != 0 or p[1] != 1:
+                    return sample
+            elif n < 12 or memcmp(p, b"\x81\xaatransforms", 12) != 0:
+                return sample
+            self.queued_authority = self._authority_of(sample, raw)
+        except Exception:
+            return sample
+        return payload
+
     cdef bint handle(self, object sample, object raw, bint have_raw) except -1:
+        """One message from its sample (``raw``: its attachment's bytes, when have_raw)."""
+        try:
+            if not have_raw and self.fixed_authority is None:
+                att = sample.attachment
+                raw = att.to_bytes() if att is not None else None
+            authority = self._authority_of(sample, raw)
+            payload = sample.payload.to_bytes()
+        except Exception as e:
+            self.listener._bad_message(sample, e)
+            return False
+        return self._ingest(sample, payload, authority)
+
+    cdef bint handle_payload(self, object payload, object authority) except -1:
+        """One queued message kept as its payload's bytes (``queued``): as handle, except on the
+        Python path, where the sample is gone: its encoding is not looked at (the payload starts as a
+        TFMessage does) and the lines name the topic's key."""
+        global _payload_messages
+        _payload_messages += 1
+        return self._ingest(None, payload, authority)
+
+    cdef bint _ingest(self, object sample, object payload, object authority) except -1:
         cdef Py_ssize_t accepted, rejected, malformed
         try:
-            authority = self.fixed_authority
-            if authority is None:
-                if not have_raw:
-                    att = sample.attachment
-                    raw = att.to_bytes() if att is not None else None
-                if raw is None:
-                    authority = None
-                elif self.last_raw is not None and raw == self.last_raw:
-                    authority = self.last_authority
-                else:
-                    authority = self.authorities.get(raw)
-                if authority is None:
-                    authority = self.authority_of(sample.attachment, str(sample.key_expr))
-                    if raw is not None and len(raw) <= self.max_sender_key and len(self.authorities) < 1024:
-                        self.authorities[raw] = authority
-                if raw is not None:
-                    self.last_raw, self.last_authority = raw, authority
-            payload = sample.payload.to_bytes()
             res = self.cingest.fast_c(payload, authority) if self.cingest is not None else None
             if res is None:
                 # not a well-formed TFMessage (or a stamp too far ahead, or not a compiled buffer): the
                 # encoding is looked at now, so a mislabelled payload gets the type check's one line
-                if self.check_encoding is not None:
+                if self.check_encoding is not None and sample is not None:
                     enc = sample.encoding
                     if enc != self.tf_encoding:  # cheap Rust-side compare for the common case
                         self.check_encoding(enc)
@@ -995,7 +1053,10 @@ cdef class TfHandler:
                     res = self.ingest(payload, authority)
             accepted, rejected, malformed, problem = <tuple>res
         except Exception as e:
-            self.listener._bad_message(sample, e)
+            if sample is not None:
+                self.listener._bad_message(sample, e)
+            else:
+                self.listener._bad_payload(self.topic, authority, e)
             return False
         # plain counters (statistics only; no lock on the hot path)
         self.messages += 1
@@ -1003,7 +1064,8 @@ cdef class TfHandler:
         self.rejected += rejected
         if malformed:
             self.malformed += malformed
-            self.listener._log_malformed(sample, authority, malformed, problem)
+            self.listener._log_malformed(str(sample.key_expr) if sample is not None else self.topic,
+                                         authority, malformed, problem)
         return accepted > 0
 
 
@@ -1034,9 +1096,9 @@ cdef inline bint _strike(dict strikes, object key, bint ok, Py_ssize_t suspect_a
 
 @cython.final
 cdef class _Fifo:
-    """One sender's waiting messages in serve: (sample, attachment bytes) pairs in a list read from a
-    head index, so a message costs two list appends and two reads, no tuple and no deque method call
-    (~0.5k instructions a message in a flood). ``len()`` and ``popleft()`` for the listener's _shed."""
+    """One sender's waiting messages in serve: (sample, attachment bytes) or (payload bytes, authority)
+    pairs (TfHandler.queued) in a list read from a head index, so a message costs two list appends and
+    two reads, no tuple and no deque method call (~0.5k instructions a message in a flood). ``len()`` and ``popleft()`` for the listener's _shed."""
     cdef list items
     cdef Py_ssize_t head
     cdef object raw     # the attachment bytes of the message take() gave last
@@ -1115,7 +1177,7 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
     cdef object emptied, raw, last_key = None
     cdef timespec ts
     cdef int64_t last_release = 0, window = <int64_t>(tail_window * 1e9), mono
-    cdef bint tail
+    cdef bint tail, ok
     while True:
         try:  # blocks in Zenoh (GIL released) when idle; fails once undeclared
             if pending:
@@ -1176,7 +1238,11 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
                     shed = {}
                 shed[key] = shed.get(key, 0) + 1
                 pending -= 1
-            q.push(sample, raw)
+            item = handle.queued(sample, raw)
+            if item is sample:
+                q.push(sample, raw)
+            else:  # the payload's bytes: the sample (and Zenoh's buffer) go now; its authority beside them
+                q.push(item, handle.queued_authority)
             pending += 1
             if pending > max_pending:
                 big = listener._shed(queues, q, key)
@@ -1212,7 +1278,11 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
                 sample = q.take()
                 raw = q.raw
                 pending -= 1
-                if _strike(strikes, key, handle.handle(sample, raw, True), suspect_after, max_senders) \
+                if type(sample) is bytes:
+                    ok = handle.handle_payload(sample, raw)
+                else:
+                    ok = handle.handle(sample, raw, True)
+                if _strike(strikes, key, ok, suspect_after, max_senders) \
                         and q.size() > suspect_queue:  # queued before it turned suspect
                     extra = q.size() - suspect_queue
                     for j in range(extra):
