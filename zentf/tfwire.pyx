@@ -21,7 +21,7 @@ from libc.string cimport memcmp, memcpy
 from posix.time cimport CLOCK_MONOTONIC, clock_gettime, timespec
 
 from .core.buffer_core cimport BufferCore
-from .msgpack_reader cimport Cur, _be, _container, _float, _int, _is, _skip, _str, _take
+from .msgpack_reader cimport Cur, _be, _be64, _container, _float, _int, _is, _skip, _str, _take
 
 __all__ = ["msgpack_tf", "cdr_tf", "TfIngest", "TfHandler", "serve", "ts_item", "ts_payload", "js_payload",
            "OneTransformSender",
@@ -595,7 +595,7 @@ cdef inline bint _f(Cur* c, double* v) noexcept nogil:
     """A float64 (what zentf writes) inline; any other number through _float."""
     cdef uint64_t u
     if c.end - c.p >= 9 and c.p[0] == 0xcb:
-        u = _be(c.p + 1, 8)
+        u = _be64(c.p + 1)
         memcpy(v, &u, 8)
         c.p += 9
         return True
