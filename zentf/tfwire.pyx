@@ -1177,7 +1177,7 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
     cdef object emptied, raw, last_key = None
     cdef timespec ts
     cdef int64_t last_release = 0, window = <int64_t>(tail_window * 1e9), mono
-    cdef bint tail, ok
+    cdef bint tail, ok, suspect
     while True:
         try:  # blocks in Zenoh (GIL released) when idle; fails once undeclared
             if pending:
@@ -1232,13 +1232,16 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
                         q = _Fifo()
                         queues[key] = q
                 last_key, last_q = key, q
-            if q.size() >= suspect_queue and strikes and strikes.get(key, 0) >= suspect_after:
+            suspect = strikes and strikes.get(key, 0) >= suspect_after  # (no lookup while nobody strikes)
+            if suspect and q.size() >= suspect_queue:
                 q.take()  # a suspect sender: its newest suspect_queue wait, the oldest goes
                 if shed is None:
                     shed = {}
                 shed[key] = shed.get(key, 0) + 1
                 pending -= 1
-            item = handle.queued(sample, raw)
+            # a suspect's messages mostly go unread (shed above): not read now, which would slow the
+            # draining of a flood (issue 10's staleness); it keeps at most suspect_queue samples
+            item = sample if suspect else handle.queued(sample, raw)
             if item is sample:
                 q.push(sample, raw)
             else:  # the payload's bytes: the sample (and Zenoh's buffer) go now; its authority beside them
