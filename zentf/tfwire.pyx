@@ -34,6 +34,53 @@ cdef extern from *:
     int CLOCK_MONO_COARSE "ZENTF_MONO_COARSE"
 
 from .core.buffer_core cimport BufferCore
+
+cdef extern from *:
+    """
+    /* zenoh-python's getters and ZBytes.to_bytes called through their descriptors, found once: no
+       attribute or method lookup by name per message (PyObject_GenericGetAttr, _PyObject_GetMethod) */
+    static inline PyObject* zentf_descr_get(PyObject* d, PyObject* obj) {
+        return Py_TYPE(d)->tp_descr_get(d, obj, (PyObject*)Py_TYPE(obj));
+    }
+    static inline PyObject* zentf_call1(PyObject* f, PyObject* a) {
+        PyObject* args[1] = {a};
+        return PyObject_Vectorcall(f, args, 1, NULL);
+    }
+    """
+    object _descr_get "zentf_descr_get"(object d, object obj)
+    object _call1 "zentf_call1"(object f, object a)
+
+cdef object _SampleType = None, _get_payload = None, _get_attachment = None, _to_bytes = None
+
+
+cdef int _zenoh_descriptors() except -1:
+    """Find zenoh.Sample's payload and attachment getters and ZBytes.to_bytes (once; the tf thread and
+    the handlers use them for zenoh.Sample objects, anything else is read by name)."""
+    global _SampleType, _get_payload, _get_attachment, _to_bytes
+    if _SampleType is not None:
+        return 0
+    import zenoh
+    d = zenoh.Sample.__dict__
+    _get_payload, _get_attachment = d["payload"], d["attachment"]
+    _to_bytes = zenoh.ZBytes.__dict__["to_bytes"]
+    _SampleType = zenoh.Sample
+    return 0
+
+
+cdef inline object _payload_of(object sample):
+    """sample.payload.to_bytes()"""
+    if type(sample) is _SampleType:
+        return _call1(_to_bytes, _descr_get(_get_payload, sample))
+    return sample.payload.to_bytes()
+
+
+cdef inline object _attachment_of(object sample):
+    """The attachment's bytes, None without one."""
+    if type(sample) is _SampleType:
+        att = _descr_get(_get_attachment, sample)
+        return None if att is None else _call1(_to_bytes, att)
+    att = sample.attachment
+    return None if att is None else att.to_bytes()
 from .msgpack_reader cimport Cur, _be, _be64, _container, _float, _int, _is, _skip, _str, _take
 
 __all__ = ["msgpack_tf", "cdr_tf", "TfIngest", "TfHandler", "serve", "ts_item", "ts_payload", "js_payload",
@@ -980,6 +1027,7 @@ cdef class TfHandler:
         self.max_sender_key = max_sender_key
         self.messages = self.transforms = self.rejected = self.malformed = 0
         self.topic = "?"
+        _zenoh_descriptors()
 
     def __call__(self, sample):
         """Zenoh's callback: True if something got into the buffer."""
@@ -1016,7 +1064,7 @@ cdef class TfHandler:
         if raw is None or self.cingest is None:
             return sample
         try:
-            payload = sample.payload.to_bytes()
+            payload = _payload_of(sample)
             n = PyBytes_GET_SIZE(payload)
             p = PyBytes_AS_STRING(payload)
             if self.cingest.cdr:
@@ -1033,10 +1081,9 @@ cdef class TfHandler:
         """One message from its sample (``raw``: its attachment's bytes, when have_raw)."""
         try:
             if not have_raw and self.fixed_authority is None:
-                att = sample.attachment
-                raw = att.to_bytes() if att is not None else None
+                raw = _attachment_of(sample)
             authority = self._authority_of(sample, raw)
-            payload = sample.payload.to_bytes()
+            payload = _payload_of(sample)
         except Exception as e:
             self.listener._bad_message(sample, e)
             return False
@@ -1182,6 +1229,7 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
     keeps up with, so it idles between messages), ``release_later()`` (the listener's timer releases
     once the ring has stayed quiet)."""
     recv, try_recv = ring.recv, ring.try_recv
+    _zenoh_descriptors()
     cdef dict queues = {}
     cdef dict strikes = {}          # messages in a row that put nothing into the buffer, per sender
     cdef dict shed
@@ -1219,8 +1267,7 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
         n = 0
         shed = None
         while sample is not None:
-            att = sample.attachment
-            raw = None if att is None else att.to_bytes()  # read once: handle() gets it too (the authority)
+            raw = _attachment_of(sample)  # read once: handle() gets it too (the authority)
             key = _sender_key(raw, sender_of, max_sender_key)
             if not pending:
                 try:
