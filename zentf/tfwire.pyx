@@ -34,6 +34,7 @@ cdef extern from *:
     int CLOCK_MONO_COARSE "ZENTF_MONO_COARSE"
 
 from .core.buffer_core cimport BufferCore
+from .msgpack_reader cimport Cur, _be, _be64, _container, _float, _int, _is, _skip, _str, _take
 
 cdef extern from *:
     """
@@ -81,7 +82,7 @@ cdef inline object _attachment_of(object sample):
         return None if att is None else _call1(_to_bytes, att)
     att = sample.attachment
     return None if att is None else att.to_bytes()
-from .msgpack_reader cimport Cur, _be, _be64, _container, _float, _int, _is, _skip, _str, _take
+
 
 __all__ = ["msgpack_tf", "cdr_tf", "TfIngest", "TfHandler", "serve", "ts_item", "ts_payload", "js_payload",
            "OneTransformSender",
