@@ -7,7 +7,7 @@ import math
 import os
 import signal
 import sys
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, NoReturn, Sequence
 
 from zentf.options import NodeOptions, OptionsError, add_node_arguments
 
@@ -110,6 +110,24 @@ def run(body: Callable[[], None], prog: str, debug: bool = False) -> int:
             for sig in (signal.SIGINT, signal.SIGTERM):
                 signal.signal(sig, signal.SIG_IGN)
     return 0
+
+
+def finish(code: int) -> NoReturn:
+    """End a node program with ``code`` once main() has returned (its node shut down, its session
+    closed), without the interpreter's teardown.
+
+    zenoh-python's threads may still be about to call into Python (a callback, a liveliness event):
+    during finalization CPython ends such a thread with pthread_exit, whose unwinding through their
+    Rust frames aborts the process ("FATAL: exception not rethrown", exit -6: CI saw it once when
+    turtlesim got SIGTERM). The listener's thread is stopped before that for the same reason
+    (zentf.listener); here no thread is left to meet it. Logs and output are flushed first."""
+    logging.shutdown()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except Exception:  # noqa: BLE001 - a closed pipe must not change the exit code
+            pass
+    os._exit(code)
 
 
 def make_node(opts: NodeOptions, default_name: str) -> Any:

@@ -5,7 +5,6 @@ serves it on `tf2_buffer_server` (parameter `service_name`). Prints `serving <na
 """
 from __future__ import annotations
 
-import sys
 from typing import Sequence
 
 from nodes import _common
@@ -31,4 +30,4 @@ def _run(opts: NodeOptions) -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    _common.finish(main())

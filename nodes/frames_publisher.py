@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import logging
 import math
-import sys
 from typing import Sequence
 
 from nodes import _common
@@ -76,4 +75,4 @@ def _run(opts: NodeOptions) -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    _common.finish(main())

@@ -158,4 +158,4 @@ def _model_from_topic(node, p: Prepared):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    _common.finish(main())

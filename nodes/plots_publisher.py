@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import collections
 import logging
-import sys
 from typing import Sequence
 
 from nodes import _common
@@ -82,4 +81,4 @@ def _run(opts: NodeOptions) -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    _common.finish(main())

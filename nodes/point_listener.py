@@ -8,7 +8,6 @@ Subscribes `laser_point` (PointStamped), waits through a MessageFilter (target `
 from __future__ import annotations
 
 import logging
-import sys
 from typing import Sequence
 
 from nodes import _common
@@ -51,4 +50,4 @@ def _run(opts: NodeOptions) -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    _common.finish(main())

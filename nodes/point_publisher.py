@@ -7,7 +7,6 @@ Every `period` seconds (default 0.1) x grows by `step` (default 0.004) from `sta
 from __future__ import annotations
 
 import logging
-import sys
 from typing import Sequence
 
 from nodes import _common
@@ -53,4 +52,4 @@ def _run(opts: NodeOptions) -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    _common.finish(main())

@@ -67,4 +67,4 @@ def _run(opts, robot: Robot, args: argparse.Namespace) -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    _common.finish(main())

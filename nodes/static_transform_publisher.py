@@ -233,4 +233,4 @@ def _publish(opts: NodeOptions, a: StaticTransformArgs) -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    _common.finish(main())

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import logging
 import math
-import sys
 import time
 from typing import Sequence
 
@@ -110,4 +109,4 @@ def _spawn(node: object, request: Spawn.Request) -> bool:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    _common.finish(main())

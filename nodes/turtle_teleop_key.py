@@ -184,4 +184,4 @@ def _loop(node: object, fd: int, pub: object, linear: float, angular: float) -> 
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    _common.finish(main())

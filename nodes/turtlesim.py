@@ -14,7 +14,6 @@ from __future__ import annotations
 import logging
 import math
 import re
-import sys
 import threading
 from dataclasses import dataclass
 from typing import Callable, Sequence
@@ -226,4 +225,4 @@ def _run(opts: NodeOptions) -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    _common.finish(main())
