@@ -253,3 +253,47 @@ def test_a_ros2_sender_is_its_publisher_gid_for_the_listener_queues() -> None:
     assert Ros2Profile.sender_of(ros2_attachment(1, 10, gid_b)) == gid_b
     assert Ros2Profile.sender_of(b"other layout") == b"other layout"
     assert WireProfile.sender_of is None  # zentf's attachment is the node name itself
+
+
+def test_a_ros2_backlog_is_queued_as_cdr_bytes_and_inserted_in_order(ros2_options) -> None:
+    """Under --wire ros2 a listener's per-sender queue also keeps a backlog as the CDR payloads' bytes
+    (tfwire.TfHandler.queued: the Zenoh samples go at once), and every transform still gets in, in the
+    order sent (the sender is its publisher GID, one queue)."""
+    from zentf import tfwire
+    from zentf.broadcaster import TransformBroadcaster
+    from zentf.buffer import Buffer
+    from zentf.core.messages import Header, Transform, TransformStamped, Vector3
+    from zentf.core.time import Time
+    from zentf.listener import TransformListener
+    from zentf.node import Node
+
+    count = 1000
+    pub_node = Node("tf_flood", options=ros2_options)
+    sub_node = Node("tf_sub", options=ros2_options)
+    try:
+        buf = Buffer()
+        xs: list[float] = []
+
+        def on_insert() -> None:  # slows the listener's thread (~10 lookups a message): a backlog forms
+            for _ in range(10):
+                x = buf.lookup_transform("world", "seq", Time()).transform.translation.x
+            if not xs or xs[-1] != x:
+                xs.append(x)
+
+        buf.add_insert_callback(on_insert)
+        listener = TransformListener(buf, sub_node)
+        tf = TransformBroadcaster(pub_node)
+        assert tf.wait_for_subscribers(10)
+        before = tfwire.payload_messages()
+        t0 = time.time_ns()
+        msgs = [TransformStamped(Header(Time(nanoseconds=t0 + i), "world"), "seq", Transform(Vector3(float(i), 0, 0)))
+                for i in range(count)]
+        for m in msgs:
+            tf.send_transform(m)
+        assert _wait(lambda: bool(xs) and xs[-1] == count - 1, 30), (xs[-3:], listener.stats())
+        assert xs == [float(i) for i in range(count)], [b for a, b in zip(xs, xs[1:]) if b != a + 1][:5]
+        assert tfwire.payload_messages() - before > count // 2
+        assert listener.stats()["dropped"] == 0
+    finally:
+        pub_node.shutdown()
+        sub_node.shutdown()
