@@ -330,14 +330,12 @@ class TransformListener:
 
     def _bad_message(self, sample: Any, e: Exception) -> None:
         """A payload that is not a TFMessage at all: counted and logged (rate-limited), naming the sender."""
-        self.bad_messages += 1
         try:
             key = str(sample.key_expr)
             sender = self._authority(sample.attachment, "unknown sender")
         except Exception:
             key, sender = "?", "unknown sender"
-        self._limiter.log(logging.WARNING, ("bad", key, sender), "dropped bad message on '%s' from %s: %s",
-                          key, sender, str(e))
+        self._bad_payload(key, sender, e)
 
     def _bad_payload(self, key: str, sender: str | None, e: Exception) -> None:
         """_bad_message for a message the tf thread kept as its payload's bytes (the sample is gone)."""
