@@ -257,7 +257,7 @@ def test_a_ros2_sender_is_its_publisher_gid_for_the_listener_queues() -> None:
 
 def test_a_ros2_backlog_is_queued_as_cdr_bytes_and_inserted_in_order(ros2_options) -> None:
     """Under --wire ros2 a listener's per-sender queue also keeps a backlog as the CDR payloads' bytes
-    (tfwire.TfHandler.queued: the Zenoh samples go at once), and every transform still gets in, in the
+    (tfwire.TfHandler.enqueue: the Zenoh samples go at once), and every transform still gets in, in the
     order sent (the sender is its publisher GID, one queue)."""
     from zentf import tfwire
     from zentf.broadcaster import TransformBroadcaster

@@ -33,6 +33,13 @@ cdef extern from *:
     """
     int CLOCK_MONO_COARSE "ZENTF_MONO_COARSE"
 
+
+cdef inline int64_t _coarse_ns() noexcept nogil:
+    """The coarse monotonic clock, in ns."""
+    cdef timespec ts
+    clock_gettime(CLOCK_MONO_COARSE, &ts)
+    return ts.tv_sec * 1_000_000_000 + ts.tv_nsec
+
 from .core.buffer_core cimport BufferCore
 from .msgpack_reader cimport Cur, _be, _be64, _container, _float, _int, _is, _skip, _str, _take
 
@@ -701,7 +708,7 @@ cdef int64_t _payload_messages = 0  # queued messages kept as payload bytes and 
 
 
 def payload_messages():
-    """How many queued messages serve kept as their payload's bytes (TfHandler.queued) and handled (tests)."""
+    """How many queued messages serve kept as their payload's bytes (TfHandler.enqueue) and handled (tests)."""
     return _payload_messages
 
 
@@ -793,6 +800,11 @@ def cdr_tf(payload):
     return _cdr(payload, &newest, None)
 
 
+cdef inline bint _cdr_le(const uint8_t* p, Py_ssize_t n) noexcept nogil:
+    """A little-endian XCDR1 encapsulation header (what ROS 2 sends) at the start of n bytes."""
+    return n >= 8 and p[0] == 0 and p[1] == 1
+
+
 cdef object _cdr(object payload, int64_t* newest, _Batch batch):
     """cdr_tf, also giving the newest stamp (-1 if none); with a batch, as _msgpack."""
     newest[0] = -1
@@ -802,7 +814,7 @@ cdef object _cdr(object payload, int64_t* newest, _Batch batch):
     if end > _MAX_PAYLOAD or end < 8:
         return None
     cdef const uint8_t* p = <const uint8_t*>PyBytes_AS_STRING(payload)
-    if p[0] != 0 or p[1] != 1:
+    if not _cdr_le(p, end):
         return None
     cdef uint32_t n = _u32le(p + 4)
     if <uint64_t>n * 72 > <uint64_t>(end - 8):
@@ -921,12 +933,10 @@ cdef class TfIngest:
         stamp is refused only against a fresh read, and one is let through against a read at most
         0.1 s old (by the kernel's coarse monotonic clock: a tick more at most; the listener forgets the
         read when its clock jumps back: reset_clock)."""
-        cdef timespec ts
         cdef int64_t mono
         if self.now_ns is None:
             return False
-        clock_gettime(CLOCK_MONO_COARSE, &ts)
-        mono = ts.tv_sec * _NS + ts.tv_nsec
+        mono = _coarse_ns()
         if newest <= self.limit and mono < self.limit_until:
             return False
         now = self.now_ns()
@@ -988,6 +998,60 @@ cdef class TfIngest:
 
 # ---------------------------------------------------------------- the listener's thread, compiled
 
+@cython.final
+cdef class _Fifo:
+    """One sender's waiting messages in serve: (sample, attachment bytes) or (payload bytes, authority)
+    pairs (TfHandler.enqueue) in a list read from a head index, so a message costs two list appends
+    and two reads, no tuple and no deque method call (~0.5k instructions a message in a flood).
+    ``len()`` and ``popleft()`` for the listener's _shed."""
+    cdef list items
+    cdef Py_ssize_t head
+    cdef object raw     # the attachment bytes of the message take() gave last
+
+    def __cinit__(self):
+        self.items = []
+        self.head = 0
+
+    cdef inline Py_ssize_t size(self):
+        return (PyList_GET_SIZE(self.items) - self.head) >> 1
+
+    cdef inline int push(self, object sample, object raw) except -1:
+        self.items.append(sample)
+        self.items.append(raw)
+        return 0
+
+    cdef inline object take(self):
+        """The oldest message (the queue must not be empty); its attachment bytes go to self.raw."""
+        cdef list items = self.items
+        cdef Py_ssize_t h = self.head
+        sample = items[h]
+        self.raw = items[h + 1]
+        items[h] = None
+        items[h + 1] = None
+        h += 2
+        if h == PyList_GET_SIZE(items):       # empty now: start again at 0
+            del items[:]
+            h = 0
+        elif h >= 2048 and 2 * h >= PyList_GET_SIZE(items):
+            del items[:h]                     # half read: drop the read part (amortized O(1))
+            h = 0
+        self.head = h
+        return sample
+
+    def popleft(self):
+        sample = self.take()
+        return sample, self.raw
+
+    def __len__(self):
+        return self.size()
+
+
+# messages of one backlogged sender handled in a row while the ring is empty (serve): the ring is looked
+# at again within ~8 handles (~25 us), so a sender that shows up meanwhile waits no longer than that
+cdef enum:
+    _SOLO_RUN = 8
+
+
 cdef class TfHandler:
     """One topic's ``handle(sample)`` for a TransformListener: encoding check, authority, decode and
     insert, counters; never raises (a payload that is not a TFMessage goes to the listener's
@@ -1013,7 +1077,6 @@ cdef class TfHandler:
     cdef Py_ssize_t max_sender_key
     cdef public Py_ssize_t messages, transforms, rejected, malformed
     cdef public object topic        # the key expression the handler's subscriber was declared on (lines)
-    cdef object queued_authority    # the authority of the payload queued() gave last
 
     def __init__(self, listener, ingest, tf_encoding, check_encoding, fixed_authority, authority_of,
                  dict authorities, Py_ssize_t max_sender_key):
@@ -1053,30 +1116,28 @@ cdef class TfHandler:
                 self.last_raw, self.last_authority = raw, authority
         return authority
 
-    cdef object queued(self, object sample, object raw):
-        """What serve's per-sender queue keeps of a sample: its payload's bytes when it starts as a
-        TFMessage of this wire does (its authority then in ``self.queued_authority``, to go beside
-        it: handle_payload), else the sample itself (also if reading it fails: handle() then names
-        that). A queued Zenoh sample pins the whole receive buffer it was cut from (Zenoh's, 64 kB)
-        and ~300 bytes of Python object: in a 1-transform flood, queueing samples made the listener's
-        thread fault in and unmap memory for ~10 % of its time (perf; docs/architecture.md)."""
+    cdef int enqueue(self, _Fifo q, object sample, object raw) except -1:
+        """Put a sample into serve's per-sender queue q: its payload's bytes with its authority when it
+        starts as a TFMessage of this wire does (handle_payload), else the sample with its attachment's
+        bytes (also if reading it fails: handle() then names that). A queued Zenoh sample pins the whole
+        receive buffer it was cut from (Zenoh's, 64 kB) and ~300 bytes of Python object: in a
+        1-transform flood, queueing samples made the listener's thread fault in and unmap memory for
+        ~10 % of its time (perf; docs/architecture.md)."""
         cdef Py_ssize_t n
         cdef const char* p
-        if raw is None or self.cingest is None:
-            return sample
-        try:
-            payload = _payload_of(sample)
-            n = PyBytes_GET_SIZE(payload)
-            p = PyBytes_AS_STRING(payload)
-            if self.cingest.cdr:
-                if n < 8 or p[0] != 0 or p[1] != 1:
-                    return sample
-            elif n < 12 or memcmp(p, b"\x81\xaatransforms", 12) != 0:
-                return sample
-            self.queued_authority = self._authority_of(sample, raw)
-        except Exception:
-            return sample
-        return payload
+        if raw is not None and self.cingest is not None:
+            try:
+                payload = _payload_of(sample)
+                n = PyBytes_GET_SIZE(payload)
+                p = PyBytes_AS_STRING(payload)
+                if (_cdr_le(<const uint8_t*>p, n) if self.cingest.cdr
+                        else n >= 12 and memcmp(p, b"\x81\xaatransforms", 12) == 0):
+                    q.push(payload, self._authority_of(sample, raw))
+                    return 0
+            except Exception:
+                pass
+        q.push(sample, raw)
+        return 0
 
     cdef bint handle(self, object sample, object raw, bint have_raw) except -1:
         """One message from its sample (``raw``: its attachment's bytes, when have_raw)."""
@@ -1091,7 +1152,7 @@ cdef class TfHandler:
         return self._ingest(sample, payload, authority)
 
     cdef bint handle_payload(self, object payload, object authority) except -1:
-        """One queued message kept as its payload's bytes (``queued``): as handle, except on the
+        """One queued message kept as its payload's bytes (``enqueue``): as handle, except on the
         Python path, where the sample is gone: its encoding is not looked at (the payload starts as a
         TFMessage does) and the lines name the topic's key."""
         global _payload_messages
@@ -1156,59 +1217,6 @@ cdef inline bint _strike(dict strikes, object key, bint ok, Py_ssize_t suspect_a
     return k >= suspect_after
 
 
-@cython.final
-cdef class _Fifo:
-    """One sender's waiting messages in serve: (sample, attachment bytes) or (payload bytes, authority)
-    pairs (TfHandler.queued) in a list read from a head index, so a message costs two list appends and
-    two reads, no tuple and no deque method call (~0.5k instructions a message in a flood). ``len()`` and ``popleft()`` for the listener's _shed."""
-    cdef list items
-    cdef Py_ssize_t head
-    cdef object raw     # the attachment bytes of the message take() gave last
-
-    def __cinit__(self):
-        self.items = []
-        self.head = 0
-
-    cdef inline Py_ssize_t size(self):
-        return (PyList_GET_SIZE(self.items) - self.head) >> 1
-
-    cdef inline int push(self, object sample, object raw) except -1:
-        self.items.append(sample)
-        self.items.append(raw)
-        return 0
-
-    cdef inline object take(self):
-        """The oldest message (the queue must not be empty); its attachment bytes go to self.raw."""
-        cdef list items = self.items
-        cdef Py_ssize_t h = self.head
-        sample = items[h]
-        self.raw = items[h + 1]
-        items[h] = None
-        items[h + 1] = None
-        h += 2
-        if h == PyList_GET_SIZE(items):       # empty now: start again at 0
-            del items[:]
-            h = 0
-        elif h >= 2048 and 2 * h >= PyList_GET_SIZE(items):
-            del items[:h]                     # half read: drop the read part (amortized O(1))
-            h = 0
-        self.head = h
-        return sample
-
-    def popleft(self):
-        sample = self.take()
-        return sample, self.raw
-
-    def __len__(self):
-        return self.size()
-
-
-# messages of one backlogged sender handled in a row while the ring is empty (serve): the ring is looked
-# at again within ~8 handles (~25 us), so a sender that shows up meanwhile waits no longer than that
-cdef enum:
-    _SOLO_RUN = 8
-
-
 def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, Py_ssize_t max_pending,
           Py_ssize_t suspect_after, Py_ssize_t suspect_queue, Py_ssize_t max_senders, bytes others,
           Py_ssize_t max_sender_key, Py_ssize_t release_after, release, log, double tail_window,
@@ -1230,7 +1238,6 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
     keeps up with, so it idles between messages), ``release_later()`` (the listener's timer releases
     once the ring has stayed quiet)."""
     recv, try_recv = ring.recv, ring.try_recv
-    _zenoh_descriptors()
     cdef dict queues = {}
     cdef dict strikes = {}          # messages in a row that put nothing into the buffer, per sender
     cdef dict shed
@@ -1238,8 +1245,7 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
     cdef _Fifo q
     cdef _Fifo last_q = None   # the queue the previous sample went to (a flood's sender)
     cdef object emptied, raw, last_key = None
-    cdef timespec ts
-    cdef int64_t last_release = 0, window = <int64_t>(tail_window * 1e9), mono
+    cdef int64_t last_release = 0, window = <int64_t>(tail_window * 1e9)
     cdef bint tail, ok, suspect
     while True:
         try:  # blocks in Zenoh (GIL released) when idle; fails once undeclared
@@ -1248,9 +1254,7 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
             else:
                 tail = False
                 if 0 < burst < release_after and last_release:
-                    clock_gettime(CLOCK_MONO_COARSE, &ts)
-                    mono = ts.tv_sec * _NS + ts.tv_nsec
-                    tail = mono - last_release < window
+                    tail = _coarse_ns() - last_release < window
                 sample = try_recv() if burst >= release_after or tail else None
                 if sample is None:
                     if burst >= release_after:
@@ -1258,8 +1262,7 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
                         release()
                         log.debug("a burst of %d tf messages is over: freed memory released", burst)
                         burst = 0
-                        clock_gettime(CLOCK_MONO_COARSE, &ts)
-                        last_release = ts.tv_sec * _NS + ts.tv_nsec
+                        last_release = _coarse_ns()
                     elif tail:
                         release_later()
                     sample = recv()
@@ -1303,11 +1306,10 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
                 pending -= 1
             # a suspect's messages mostly go unread (shed above): not read now, which would slow the
             # draining of a flood (issue 10's staleness); it keeps at most suspect_queue samples
-            item = sample if suspect else handle.queued(sample, raw)
-            if item is sample:
+            if suspect:
                 q.push(sample, raw)
-            else:  # the payload's bytes: the sample (and Zenoh's buffer) go now; its authority beside them
-                q.push(item, handle.queued_authority)
+            else:  # the payload's bytes if it looks like a TFMessage: the sample (and Zenoh's buffer) go now
+                handle.enqueue(q, sample, raw)
             pending += 1
             if pending > max_pending:
                 big = listener._shed(queues, q, key)
