@@ -122,6 +122,14 @@ def test_compiled_transform_encoder_writes_what_the_dict_path_writes() -> None:
         want = _no_nan(msgpack.unpackb(plain_payload([t])))
         assert _no_nan(msgpack.unpackb(tfwire.ts_payload(t))) == want
         assert _no_nan(msgpack.unpackb(b"\x81\xaatransforms\x91" + tfwire.ts_item(t))) == want
+    # the same name objects again (the writer's last-names memo) and in turns with others: each call
+    # writes its own message's names
+    a, b, c = "base", "arm" + str(rng.random()), "arm" + str(rng.random())
+    msgs = [tsm(i * S, parent=a, child=b), tsm(i * S, parent=a, child=c), tsm(i * S, parent=b, child=a)]
+    for i in range(30):
+        t = msgs[(i // 2) % 3]
+        t.header.stamp = Time(nanoseconds=i * S + 1)
+        assert _no_nan(msgpack.unpackb(tfwire.ts_payload(t))) == _no_nan(msgpack.unpackb(plain_payload([t])))
     # unusual: left to the dict path (which packs it or says why not)
     for t in (tsm(2**32 * S), tsm(5, x="bad"), tsm(5, parent="\udc80"), wire.tf_to_plain(tsm(5)),
               TransformStamped(Header(Time(nanoseconds=5), 5), "a")):  # type: ignore[arg-type]
