@@ -130,6 +130,20 @@ def test_compiled_transform_encoder_writes_what_the_dict_path_writes() -> None:
         t = msgs[(i // 2) % 3]
         t.header.stamp = Time(nanoseconds=i * S + 1)
         assert _no_nan(msgpack.unpackb(tfwire.ts_payload(t))) == _no_nan(msgpack.unpackb(plain_payload([t])))
+    # fields of other types than the messages' own (a Vector3 subclass, an object with x, y, z): read by
+    # name, as the dict path reads them
+    class MyVector(Vector3):
+        pass
+
+    class Point3:
+        x, y, z = 0.5, -1.5, 2.5
+
+    for tr in (MyVector(1.0, 2.0, 3.0), Point3()):
+        t = tsm(9 * S)
+        t.transform.translation = tr  # type: ignore[assignment]
+        want = _no_nan(msgpack.unpackb(plain_payload([t])))
+        assert _no_nan(msgpack.unpackb(tfwire.ts_payload(t))) == want
+        assert want["transforms"][0]["transform"]["translation"] == {"x": tr.x, "y": tr.y, "z": tr.z}
     # unusual: left to the dict path (which packs it or says why not)
     for t in (tsm(2**32 * S), tsm(5, x="bad"), tsm(5, parent="\udc80"), wire.tf_to_plain(tsm(5)),
               TransformStamped(Header(Time(nanoseconds=5), 5), "a")):  # type: ignore[arg-type]

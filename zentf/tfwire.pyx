@@ -41,7 +41,7 @@ cdef inline int64_t _coarse_ns() noexcept nogil:
     clock_gettime(CLOCK_MONO_COARSE, &ts)
     return ts.tv_sec * 1_000_000_000 + ts.tv_nsec
 
-from .core.buffer_core cimport BufferCore
+from .core.buffer_core cimport BufferCore, _slot_offset
 from .msgpack_reader cimport Cur, _be, _be64, _container, _float, _int, _is, _skip, _str, _take
 
 cdef extern from *:
@@ -168,8 +168,40 @@ cdef inline uint32_t _u32le(const uint8_t* p) noexcept nogil:
 from msgpack import packb as _packb
 
 from .core.messages import JointState as _JointState
-from .core.messages import TransformStamped as _TransformStamped
+from .core.messages import Header as _Header, Quaternion as _Quaternion, Transform as _Transform
+from .core.messages import TransformStamped as _TransformStamped, Vector3 as _Vector3
 from .core.time import Time as _Time
+
+# the messages' slot offsets (core.buffer_core._slot_offset): send_transform's writer reads the fields of
+# exactly these types straight from their slots, without an attribute lookup each (one is ~20 ns warm,
+# more after a sleep: ~1 us of a cold send_transform); any other object is read by attribute
+cdef Py_ssize_t _W_HEADER = _slot_offset(_TransformStamped, "header")
+cdef Py_ssize_t _W_CHILD = _slot_offset(_TransformStamped, "child_frame_id")
+cdef Py_ssize_t _W_TF = _slot_offset(_TransformStamped, "transform")
+cdef Py_ssize_t _W_STAMP = _slot_offset(_Header, "stamp")
+cdef Py_ssize_t _W_FRAME = _slot_offset(_Header, "frame_id")
+cdef Py_ssize_t _W_NS = _slot_offset(_Time, "_ns")
+cdef Py_ssize_t _W_TRANS = _slot_offset(_Transform, "translation")
+cdef Py_ssize_t _W_ROT = _slot_offset(_Transform, "rotation")
+cdef Py_ssize_t _W_X = _slot_offset(_Vector3, "x")
+cdef Py_ssize_t _W_Y = _slot_offset(_Vector3, "y")
+cdef Py_ssize_t _W_Z = _slot_offset(_Vector3, "z")
+cdef Py_ssize_t _W_QX = _slot_offset(_Quaternion, "x")
+cdef Py_ssize_t _W_QY = _slot_offset(_Quaternion, "y")
+cdef Py_ssize_t _W_QZ = _slot_offset(_Quaternion, "z")
+cdef Py_ssize_t _W_QW = _slot_offset(_Quaternion, "w")
+cdef bint _W_SLOTS = min(_W_HEADER, _W_CHILD, _W_TF, _W_STAMP, _W_FRAME, _W_NS, _W_TRANS, _W_ROT, _W_X, _W_Y,
+                         _W_Z, _W_QX, _W_QY, _W_QZ, _W_QW) >= 0
+
+
+cdef inline object _field(object o, Py_ssize_t offset, bint direct, str name):
+    """o's field: from its slot when ``direct`` (o is of the exact message type), else by name. An
+    unset slot reads as None (the caller then refuses the message: the Python path says why)."""
+    cdef PyObject* v
+    if direct:
+        v = (<PyObject**>((<char*><PyObject*>o) + offset))[0]
+        return <object>v if v != NULL else None
+    return getattr(o, name)
 
 # One TransformStamped is written straight as msgpack bytes: the map (field names and order)
 # msgpack.packb(wire.tf_to_plain(ts)) writes, with sec/nanosec as uint32 and every number as float64
@@ -244,15 +276,18 @@ cdef object _ts_write(object ts, bint whole):
     cdef int64_t ns, sec, nsec
     cdef Py_ssize_t size
     cdef char* o
+    cdef bint direct = _W_SLOTS
     if type(ts) is not _TransformStamped:
         return None
-    h = ts.header
-    stamp = h.stamp
+    h = _field(ts, _W_HEADER, direct, "header")
+    tr = _field(ts, _W_TF, direct, "transform")
+    direct = direct and type(h) is _Header and type(tr) is _Transform
+    stamp = _field(h, _W_STAMP, direct, "stamp")
     if type(stamp) is not _Time:
         return None
     global _ts_last
-    parent = h.frame_id
-    child = ts.child_frame_id
+    parent = _field(h, _W_FRAME, direct, "frame_id")
+    child = _field(ts, _W_CHILD, direct, "child_frame_id")
     cdef tuple last = _ts_last
     if <PyObject*>parent is PyTuple_GET_ITEM(last, 0) and <PyObject*>child is PyTuple_GET_ITEM(last, 1):
         frames = <object>PyTuple_GET_ITEM(last, 2)
@@ -262,8 +297,7 @@ cdef object _ts_write(object ts, bint whole):
             return None
         _ts_last = (parent, child, frames)
     try:
-        ns = stamp._ns  # (C arithmetic below: no divmod tuple; beyond int64 -> the dict path)
-
+        ns = _field(stamp, _W_NS, direct, "_ns")  # (C arithmetic below; beyond int64: the dict path)
     except (OverflowError, TypeError):
         return None
     if ns < 0:
@@ -272,17 +306,17 @@ cdef object _ts_write(object ts, bint whole):
     nsec = ns - sec * _NS
     if sec > 0xFFFFFFFF:
         return None
-    tr = ts.transform
-    p = tr.translation
-    q = tr.rotation
     try:
-        v[0] = PyFloat_AsDouble(p.x)
-        v[1] = PyFloat_AsDouble(p.y)
-        v[2] = PyFloat_AsDouble(p.z)
-        v[3] = PyFloat_AsDouble(q.x)
-        v[4] = PyFloat_AsDouble(q.y)
-        v[5] = PyFloat_AsDouble(q.z)
-        v[6] = PyFloat_AsDouble(q.w)
+        p = _field(tr, _W_TRANS, direct, "translation")
+        q = _field(tr, _W_ROT, direct, "rotation")
+        direct = direct and type(p) is _Vector3 and type(q) is _Quaternion
+        v[0] = PyFloat_AsDouble(_field(p, _W_X, direct, "x"))
+        v[1] = PyFloat_AsDouble(_field(p, _W_Y, direct, "y"))
+        v[2] = PyFloat_AsDouble(_field(p, _W_Z, direct, "z"))
+        v[3] = PyFloat_AsDouble(_field(q, _W_QX, direct, "x"))
+        v[4] = PyFloat_AsDouble(_field(q, _W_QY, direct, "y"))
+        v[5] = PyFloat_AsDouble(_field(q, _W_QZ, direct, "z"))
+        v[6] = PyFloat_AsDouble(_field(q, _W_QW, direct, "w"))
     except Exception:
         return None
     size = ((PyBytes_GET_SIZE(_TF_HEAD) if whole else 0) + PyBytes_GET_SIZE(_TS_HEAD) + 4 + PyBytes_GET_SIZE(_TS_NSEC)

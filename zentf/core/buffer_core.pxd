@@ -59,3 +59,6 @@ cdef class BufferCore:
                          object target, object source) except -1
     cdef int _mark_room(self) except -1
     cdef int64_t _lct(self, int32_t target_id, int32_t source_id) except -1
+
+
+cdef Py_ssize_t _slot_offset(object cls, str name) except? -2
