@@ -1290,9 +1290,9 @@ def serve(listener, ring, TfHandler handle, sender_of, Py_ssize_t drain_batch, P
 
     A message that arrives alone (nothing waiting, the ring empty behind it) is handled at once, without
     a queue (no order changes); the first one after a wait on an empty ring is, without even looking
-    at the ring behind it (a look costs ~0.5 us of the e2e latency; what came meanwhile is next). When one sender has a backlog, the ring was just found empty and no sender
-    is striking (see _strike), up to _SOLO_RUN of its messages are handled in a row (the ring is looked
-    at again ~25 us later). Not done:
+    at the ring behind it (a look costs ~0.5 us of the e2e latency; what came meanwhile is next). When
+    one sender has a backlog, the ring was just found empty and no sender is striking (see _strike), up
+    to _SOLO_RUN of its messages are handled in a row (the ring is looked at again ~25 us later). Not done:
     several messages of a lone backlogged sender per round while the ring still holds samples (measured:
     the legitimate edge's staleness p99 under bench/abuse.py's valid flood went from 35-42 to 92-93 ms with
     16 a round: the ring must be emptied into the per-sender queues as fast as it fills).
