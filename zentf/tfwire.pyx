@@ -1069,7 +1069,7 @@ cdef class _Fifo:
     ``len()`` and ``popleft()`` for the listener's _shed."""
     cdef list items
     cdef Py_ssize_t head
-    cdef object raw     # the attachment bytes of the message take() gave last
+    cdef object raw     # the second item of the message take() gave last (attachment bytes or authority)
 
     def __cinit__(self):
         self.items = []
@@ -1084,7 +1084,7 @@ cdef class _Fifo:
         return 0
 
     cdef inline object take(self):
-        """The oldest message (the queue must not be empty); its attachment bytes go to self.raw."""
+        """The oldest message (the queue must not be empty); its second item goes to self.raw."""
         cdef list items = self.items
         cdef Py_ssize_t h = self.head
         sample = items[h]
