@@ -19,14 +19,14 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from zentf.core import buffer_core, cache
+from zentf.core import buffer_core, cache, time
 from zentf.core.cache import StaticCache, TimeCache
 from zentf.core.constants import INSERT_OK, INSERT_OLD, INSERT_REPEATED
 
 
 def test_the_core_is_the_compiled_extension() -> None:
     """A stale .py beside the extension, or a missing build, must not go unnoticed."""
-    for mod in (cache, buffer_core):
+    for mod in (cache, buffer_core, time):
         assert mod.__file__.endswith(tuple(importlib.machinery.EXTENSION_SUFFIXES)), mod.__file__
 
 

@@ -95,3 +95,34 @@ def test_every_float_entry_point_uses_the_same_conversion() -> None:
     # a lookup at float seconds hits the stored stamp exactly (no extrapolation by a few hundred ns)
     assert core.lookup_transform("map", "base", s).header.stamp == Time.from_sec(s)
     assert core.can_transform("map", "base", s)
+
+
+def test_the_compiled_stamp_types_behave_as_plain_value_objects() -> None:
+    """Time and Duration are extension types (zentf/core/time.pyx): what a Python class gave, they keep."""
+    import copy
+    import importlib.machinery
+    import pickle
+
+    from zentf.core import time as time_module
+
+    assert time_module.__file__.endswith(tuple(importlib.machinery.EXTENSION_SUFFIXES)), time_module.__file__
+    t, d = Time(3, 5), Duration(nanoseconds=-7)
+    for v in (t, d, Time(), Duration(sec=2**70)):  # beyond int64 too: the types hold any int
+        for back in (pickle.loads(pickle.dumps(v)), copy.copy(v), copy.deepcopy(v)):
+            assert type(back) is type(v) and back == v and back.nanoseconds == v.nanoseconds
+    assert 2 * d == d * 2 == Duration(nanoseconds=-14) and -d == abs(d) == Duration(nanoseconds=7)
+    assert t + d == d + t == Time(nanoseconds=3_000_000_005 - 7) and t - Time(3) == Duration(nanoseconds=5)
+    assert Time(1) != Duration(1) and hash(Time(1)) != hash(Duration(1)) and {Time(1): 0}[Time(1)] == 0
+    assert Time(sec=1.0) == Time(1) and Time(nanoseconds=2.0) == Time(nanoseconds=2)  # ints as before
+    with pytest.raises(TypeError):
+        t + Time(1)
+    with pytest.raises(TypeError):
+        t < d
+    with pytest.raises(AttributeError):
+        t.sec_ = 1  # no instance dict: a typo is an error, as with the slotted class
+
+    class Stamp(Time):
+        """Users may subclass, as they could the Python class."""
+
+    s = Stamp(4)
+    assert isinstance(s, Time) and s.nanoseconds == 4 * 10**9 and repr(s) == "Stamp(sec=4, nanosec=0)"

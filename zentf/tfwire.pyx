@@ -170,7 +170,7 @@ from msgpack import packb as _packb
 from .core.messages import JointState as _JointState
 from .core.messages import Header as _Header, Quaternion as _Quaternion, Transform as _Transform
 from .core.messages import TransformStamped as _TransformStamped, Vector3 as _Vector3
-from .core.time import Time as _Time
+from .core.time cimport Time as _Time
 
 # the messages' slot offsets (core.buffer_core._slot_offset): send_transform's writer reads the fields of
 # exactly these types straight from their slots, without an attribute lookup each (one is ~20 ns warm,
@@ -180,7 +180,6 @@ cdef Py_ssize_t _W_CHILD = _slot_offset(_TransformStamped, "child_frame_id")
 cdef Py_ssize_t _W_TF = _slot_offset(_TransformStamped, "transform")
 cdef Py_ssize_t _W_STAMP = _slot_offset(_Header, "stamp")
 cdef Py_ssize_t _W_FRAME = _slot_offset(_Header, "frame_id")
-cdef Py_ssize_t _W_NS = _slot_offset(_Time, "_ns")
 cdef Py_ssize_t _W_TRANS = _slot_offset(_Transform, "translation")
 cdef Py_ssize_t _W_ROT = _slot_offset(_Transform, "rotation")
 cdef Py_ssize_t _W_X = _slot_offset(_Vector3, "x")
@@ -190,7 +189,7 @@ cdef Py_ssize_t _W_QX = _slot_offset(_Quaternion, "x")
 cdef Py_ssize_t _W_QY = _slot_offset(_Quaternion, "y")
 cdef Py_ssize_t _W_QZ = _slot_offset(_Quaternion, "z")
 cdef Py_ssize_t _W_QW = _slot_offset(_Quaternion, "w")
-cdef bint _W_SLOTS = min(_W_HEADER, _W_CHILD, _W_TF, _W_STAMP, _W_FRAME, _W_NS, _W_TRANS, _W_ROT, _W_X, _W_Y,
+cdef bint _W_SLOTS = min(_W_HEADER, _W_CHILD, _W_TF, _W_STAMP, _W_FRAME, _W_TRANS, _W_ROT, _W_X, _W_Y,
                          _W_Z, _W_QX, _W_QY, _W_QZ, _W_QW) >= 0
 
 
@@ -297,7 +296,7 @@ cdef object _ts_write(object ts, bint whole):
             return None
         _ts_last = (parent, child, frames)
     try:
-        ns = _field(stamp, _W_NS, direct, "_ns")  # (C arithmetic below; beyond int64: the dict path)
+        ns = (<_Time>stamp)._ns  # (C arithmetic below; beyond int64: the dict path)
     except (OverflowError, TypeError):
         return None
     if ns < 0:
@@ -461,7 +460,7 @@ def js_payload(msg):
     if (type(stamp) is not _Time or type(frame) is not str or type(names) is not list or type(pos) is not list
             or type(vel) is not list or type(eff) is not list):  # (their numbers: checked as written)
         return None
-    sec, nsec = divmod(stamp._ns, _NS)
+    sec, nsec = divmod((<_Time>stamp)._ns, _NS)
     if not 0 <= sec < 2 ** 64:
         return None
     last, names_packed = _js_names

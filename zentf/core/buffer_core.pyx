@@ -42,6 +42,7 @@ cdef extern from "Python.h":
     enum: PY_LOCK_ACQUIRED
 
 from .cache cimport CacheBase, StaticCache, TimeCache
+from .time cimport Duration, Time
 
 import logging
 import math
@@ -56,7 +57,7 @@ from .exceptions import (ConnectivityException, ExtrapolationException, InvalidA
                          LookupException, TransformException)
 from .messages import Header, Quaternion, Transform, TransformStamped, Vector3
 from .ratelimit import RateLimitedLogger
-from .time import NSEC_PER_SEC, Duration, Time, ns_from_sec
+from .time import NSEC_PER_SEC, ns_from_sec
 
 __all__ = ["BufferCore", "TransformableResult", "NEVER_TRANSFORMABLE", "DEFAULT_CACHE_TIME",
            "MAX_GRAPH_DEPTH"]
@@ -101,7 +102,7 @@ def _ns(t: Any) -> int:
     that conversion on their inputs instead of copying it here.)
     """
     if type(t) is Time:
-        return t._ns
+        return (<Time>t)._ns
     if isinstance(t, Time):
         return t.nanoseconds
     if hasattr(t, "item") and not isinstance(t, (int, float)):
@@ -133,7 +134,6 @@ cdef Py_ssize_t _slot_offset(object cls, str name) except? -2:
     return -1
 
 
-cdef Py_ssize_t _O_NS = _slot_offset(Time, "_ns")
 cdef Py_ssize_t _O_STAMP = _slot_offset(Header, "stamp")
 cdef Py_ssize_t _O_FRAME = _slot_offset(Header, "frame_id")
 cdef Py_ssize_t _O_X = _slot_offset(Vector3, "x")
@@ -149,9 +149,9 @@ cdef Py_ssize_t _O_HEADER = _slot_offset(TransformStamped, "header")
 cdef Py_ssize_t _O_CHILD = _slot_offset(TransformStamped, "child_frame_id")
 cdef Py_ssize_t _O_TF = _slot_offset(TransformStamped, "transform")
 #: every field a slot: answers are built by filling slots of freshly allocated objects directly
-cdef bint _SLOTS = min(_O_NS, _O_STAMP, _O_FRAME, _O_X, _O_Y, _O_Z, _O_QX, _O_QY, _O_QZ, _O_QW, _O_TRANS,
+cdef bint _SLOTS = min(_O_STAMP, _O_FRAME, _O_X, _O_Y, _O_Z, _O_QX, _O_QY, _O_QZ, _O_QW, _O_TRANS,
                        _O_ROT, _O_HEADER, _O_CHILD, _O_TF) >= 0
-cdef object _TimeT = Time, _HeaderT = Header, _Vector3T = Vector3, _QuaternionT = Quaternion
+cdef object _HeaderT = Header, _Vector3T = Vector3, _QuaternionT = Quaternion
 cdef object _TransformT = Transform, _TransformStampedT = TransformStamped
 
 
@@ -167,15 +167,13 @@ cdef object _make_ts_c(object target, object source, int64_t stamp, const double
     Same objects as TransformStamped(header=Header(stamp=Time(...), ...), ...) would give:
     allocated as object.__new__ does, each slot filled once (tf2_ros users get plain messages).
     """
+    cdef Time tm = Time.__new__(Time)  # (an extension type: its tp_new, no __init__)
+    tm._ns = stamp
     if not _SLOTS:  # (messages without __slots__: the generic way)
-        tm = _TimeT.__new__(_TimeT)
-        tm._ns = stamp
         ts = TransformStamped(header=Header(stamp=tm, frame_id=target), child_frame_id=source,
                               transform=Transform(translation=Vector3(x=v[0], y=v[1], z=v[2]),
                                                   rotation=Quaternion(x=v[3], y=v[4], z=v[5], w=v[6])))
         return ts
-    tm = PyType_GenericAlloc(_TimeT, 0)
-    _put(tm, _O_NS, stamp)
     h = PyType_GenericAlloc(_HeaderT, 0)
     _put(h, _O_STAMP, tm)
     _put(h, _O_FRAME, target)
@@ -426,7 +424,7 @@ cdef class BufferCore:
         v = tr.translation
         q = tr.rotation
         stamp = h.stamp
-        stamp = stamp._ns if type(stamp) is Time else stamp.nanoseconds
+        stamp = (<Time>stamp)._ns if type(stamp) is Time else stamp.nanoseconds
         ok = self._store(h.frame_id, transform.child_frame_id, stamp, v.x, v.y, v.z, q.x, q.y, q.z, q.w,
                          authority, is_static)
         if ok:
@@ -755,7 +753,7 @@ cdef class BufferCore:
 
     def lookup_transform(self, target_frame: str, source_frame: str, time: TimeArg) -> TransformStamped:
         """Transform mapping data in source_frame into target_frame at time (0 = latest common)."""
-        cdef int64_t t = time._ns if type(time) is Time else _ns(time)
+        cdef int64_t t = (<Time>time)._ns if type(time) is Time else _ns(time)
         cdef int64_t stamp
         cdef double out[7]
         cdef int32_t tid, sid

@@ -1,0 +1,12 @@
+# The stamp types as extension types: buffer_core and tfwire read and build them without attribute lookups.
+
+cdef class _Nanoseconds:
+    cdef public object _ns
+
+
+cdef class Duration(_Nanoseconds):
+    pass
+
+
+cdef class Time(_Nanoseconds):
+    pass
