@@ -112,7 +112,8 @@ def test_the_compiled_stamp_types_behave_as_plain_value_objects() -> None:
             assert type(back) is type(v) and back == v and back.nanoseconds == v.nanoseconds
     assert 2 * d == d * 2 == Duration(nanoseconds=-14) and -d == abs(d) == Duration(nanoseconds=7)
     assert t + d == d + t == Time(nanoseconds=3_000_000_005 - 7) and t - Time(3) == Duration(nanoseconds=5)
-    assert Time(1) != Duration(1) and hash(Time(1)) != hash(Duration(1)) and {Time(1): 0}[Time(1)] == 0
+    assert Time(1) != Duration(1) and not Time(1) != Time(1) and Time(1) <= Time(1) < Time(2)
+    assert hash(Time(1)) != hash(Duration(1)) and {Time(1): 0}[Time(1)] == 0
     assert Time(sec=1.0) == Time(1) and Time(nanoseconds=2.0) == Time(nanoseconds=2)  # ints as before
     with pytest.raises(TypeError):
         t + Time(1)
