@@ -207,7 +207,8 @@ cdef inline object _field(object o, Py_ssize_t offset, bint direct, str name):
 # (valid msgpack that any decoder reads back to the same dict, ints as floats). Anything unusual (a
 # stamp that is not a zentf Time, sec beyond uint32, a non-number, a frame id that is not a str) gives
 # None and the caller takes wire.py's dict path, which packs it or says why not.
-cdef bytes _TF_HEAD = b"\x81\xaatransforms\x91"
+cdef bytes _TF_KEY = b"\x81\xaatransforms"  # a TFMessage's map and its one key (also what enqueue checks)
+cdef bytes _TF_HEAD = _TF_KEY + b"\x91"
 cdef bytes _TS_HEAD = b"\x83\xa6header\x82\xa5stamp\x82\xa3sec\xce"
 cdef bytes _TS_NSEC = b"\xa7nanosec\xce"
 cdef bytes _TS_ROT = b"\xa8rotation\x84\xa1x\xcb"
@@ -1193,7 +1194,8 @@ cdef class TfHandler:
                 n = PyBytes_GET_SIZE(payload)
                 p = PyBytes_AS_STRING(payload)
                 if (_cdr_le(<const uint8_t*>p, n) if self.cingest.cdr
-                        else n >= 12 and memcmp(p, b"\x81\xaatransforms", 12) == 0):
+                        else n >= PyBytes_GET_SIZE(_TF_KEY)
+                        and memcmp(p, PyBytes_AS_STRING(_TF_KEY), PyBytes_GET_SIZE(_TF_KEY)) == 0):
                     q.push(payload, self._authority_of(sample, raw))
                     return 0
             except Exception:
