@@ -22,6 +22,7 @@ from hypothesis import strategies as st
 from zentf.transport.ingest import tfwire
 from zentf.transport.wire import codec as wire
 from zentf.transport.wire import profiles as profile
+from zentf.transport.wire import ros2 as ros2_wire
 from zentf.transport.clock import Clock
 from zentf.core.buffer_core import BufferCore
 from zentf.core.ratelimit import RateLimitedLogger
@@ -29,7 +30,6 @@ from zentf.core.messages import Header, Quaternion, Transform, TransformStamped,
 from zentf.core.time import Time
 from zentf.transport.listener import _FutureGuard
 from zentf.ros import CdrError, encode_tf as cdr_encode_tf, tf_samples
-from zentf.transport.ingest.tfwire import TfIngest
 
 NS = 1_000_000_000
 MAX_SEC = (2**63 - 1) // NS
@@ -68,13 +68,13 @@ def ingest_all(ingest, payloads: list[bytes]) -> tuple[list, list]:
 def python_only(monkeypatch: pytest.MonkeyPatch) -> None:
     """Switch the compiled decoders off (the paths a build without the extension runs)."""
     monkeypatch.setattr(wire, "_compiled_tf", None)
-    monkeypatch.setattr(profile, "_compiled_cdr_tf", None)
+    monkeypatch.setattr(ros2_wire, "_compiled_cdr_tf", None)
 
 
 def test_the_compiled_decoders_are_built_and_used() -> None:
     """pip install builds zentf/transport/ingest/tfwire.pyx; the listener's paths pick it up (else these tests prove nothing)."""
     assert wire._compiled_tf is tfwire.msgpack_tf
-    assert profile._compiled_cdr_tf is tfwire.cdr_tf
+    assert ros2_wire._compiled_cdr_tf is tfwire.cdr_tf
 
 
 # ------------------------------------------------------------------ well-formed messages (hypothesis)
@@ -263,9 +263,9 @@ def listener_ingest(wire_name: str, compiled: bool, clock: Clock, is_static: boo
     guard = _FutureGuard(buffer, clock, 5 * NS, RateLimitedLogger(logging.getLogger("zentf.transport.listener")))
     prof = profile.make_profile(wire_name)
     target = buffer if is_static else guard
-    if compiled:
-        return TfIngest(wire_name == "ros2", prof.ingest_tf, wire._insert, target, buffer,
-                        None if is_static else guard.now_ns, guard.tolerance_ns, is_static), buffer, guard
+    if compiled:  # what the listener asks the profile for
+        return prof.tf_ingest(target, buffer, None if is_static else guard.now_ns, guard.tolerance_ns,
+                              is_static), buffer, guard
     return (lambda p, a: prof.ingest_tf(p, target, a, is_static)), buffer, guard
 
 

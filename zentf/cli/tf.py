@@ -428,28 +428,19 @@ def _monitor_table(stats: MonitorStats, title: str, chain: Optional[list[str]],
 
 
 def _subscribe_tf(node: Any, stats: MonitorStats) -> list:
-    """Subscribe tf (plain) and tf_static (latched history) and feed wire.ingest_tf into `stats`."""
-    import zenoh.ext as zx
-
+    """Subscribe tf and tf_static (latched history) through the node's wire; each message into `stats`."""
     from zentf.core.messages import TFMessage
 
     profile = node.wire  # zentf's format or ROS 2's (--wire ros2)
     subs = []
     for topic, is_static in (("tf_static", True), ("tf", False)):
-        key = profile.data_key(node.resolve_topic_name(topic), TFMessage.TYPE_NAME)
-
-        def on_sample(sample: Any, is_static: bool = is_static, key: str = key) -> None:
+        def on_sample(sample: Any, is_static: bool = is_static) -> None:
             try:
-                profile.ingest_tf(sample.payload.to_bytes(), stats,
-                                  profile.authority(sample.attachment, key), is_static)
-            except Exception:  # noqa: BLE001 - bad payloads are the publisher's problem, never ours
+                profile.ingest_tf(sample.payload, stats, profile.authority(sample.attachment, sample.key), is_static)
+            except ValueError:  # not a TFMessage: the publisher's problem, never ours
                 pass
 
-        if is_static:
-            subs.append(zx.declare_advanced_subscriber(node.session, key, on_sample,
-                                                       history=zx.HistoryConfig(detect_late_publishers=True)))
-        else:
-            subs.append(node.session.declare_subscriber(key, on_sample))
+        subs.append(node.create_raw_subscription(topic, on_sample, type_name=TFMessage, latched=is_static))
     return subs
 
 
@@ -488,10 +479,7 @@ def monitor(frame_a: Optional[str], frame_b: Optional[str], duration: Optional[f
         _run_monitor(stats, buffer, pair, duration, period, node.ok)
     finally:
         for s in subs:
-            try:
-                s.undeclare()
-            except Exception:  # noqa: BLE001
-                pass
+            s.destroy()
         _close(node)
 
 

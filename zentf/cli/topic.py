@@ -10,7 +10,7 @@ from typing import Any, Optional
 import click
 
 from .common import (CONTEXT_SETTINGS, liveliness_wait_option, CliError, CliOptions, finite_float, node_options,
-                     open_session, status, wire_profile, with_options)
+                     status, with_options)
 
 __all__ = ["topic", "resolve_type_name", "render_sample"]
 
@@ -20,16 +20,15 @@ def topic() -> None:
     """Topics: list, info, echo, hz, pub."""
 
 
-def _resolve(opts: CliOptions, name: str) -> tuple[str, str]:
-    """(fully qualified topic, key expression of any type on it) of a topic name in the command's namespace."""
+def _resolve(opts: CliOptions, name: str) -> str:
+    """The fully qualified topic of a topic name in the command's namespace (CliError if not a name)."""
     from zentf.transport.names import resolve_topic
 
     ns = node_options(opts, "_zentf_cli").namespace or ""
     try:
-        fq = resolve_topic(name, ns)
+        return resolve_topic(name, ns)
     except ValueError as exc:
         raise CliError(str(exc), code=2) from exc
-    return fq, wire_profile(opts).data_key(fq, None)
 
 
 @topic.command("list", context_settings=CONTEXT_SETTINGS)
@@ -64,7 +63,7 @@ def topic_info(name: str, wait: float, *, opts: CliOptions) -> None:
     """Type, publishers and subscribers of one topic."""
     from .introspect import graph_snapshot
 
-    fq, _ = _resolve(opts, name)
+    fq = _resolve(opts, name)
     _, topics = graph_snapshot(opts, wait, None)
     t = topics.get(fq)
     if t is None:
@@ -84,11 +83,11 @@ def topic_info(name: str, wait: float, *, opts: CliOptions) -> None:
 def render_sample(payload: bytes, encoding: str, as_json: bool, key: str = "", profile: Any = None) -> str:
     """One received sample as YAML (ros2 topic echo style) or one JSON line; raw bytes if unknown.
     The wire ``profile`` (zentf's by default) decodes it: by the carried encoding, or (ros2) the key's type."""
-    from zentf.transport.wire.profiles import WireProfile
+    from zentf.transport.wire.profiles import ZentfProfile
 
     data: Any
     try:
-        type_name, value, known = (profile or WireProfile()).decode_any(payload, encoding, key)
+        type_name, value, known = (profile or ZentfProfile()).decode_any(payload, encoding, key)
         data = value.to_dict() if hasattr(value, "to_dict") else value
     except ValueError:
         known = False
@@ -111,25 +110,18 @@ def _json_default(obj: Any) -> Any:
     return str(obj)
 
 
-def _subscribe(session: Any, key: str, history: bool) -> tuple[Any, "queue.Queue[tuple[bytes, str, float, str]]"]:
-    """Subscriber whose Zenoh-thread callback only copies the sample into a queue."""
-    inbox: "queue.Queue[tuple[bytes, str, float, str]]" = queue.Queue(maxsize=100_000)
+def _subscribe(node: Any, fq: str, history: bool) -> tuple[Any, "queue.Queue[tuple[Any, float]]"]:
+    """A raw subscription of any type on the node's wire, whose callback (Zenoh's thread) only queues each
+    sample with its arrival time; it shows in the graph, so `topic pub` and `graph` see the command."""
+    inbox: "queue.Queue[tuple[Any, float]]" = queue.Queue(maxsize=100_000)
 
     def on_sample(sample: Any) -> None:
         try:
-            inbox.put_nowait((sample.payload.to_bytes(), str(sample.encoding), time.monotonic(),
-                              str(sample.key_expr)))
-        except Exception:  # noqa: BLE001 - full queue or odd sample: drop, never raise in Zenoh's thread
+            inbox.put_nowait((sample, time.monotonic()))
+        except queue.Full:  # the printer is behind: drop
             pass
 
-    if history:
-        import zenoh.ext as zx
-
-        sub = zx.declare_advanced_subscriber(session, key, on_sample,
-                                             history=zx.HistoryConfig(detect_late_publishers=True))
-    else:
-        sub = session.declare_subscriber(key, on_sample)
-    return sub, inbox
+    return node.create_raw_subscription(fq, on_sample, latched=history), inbox
 
 
 @topic.command("echo", context_settings=CONTEXT_SETTINGS)
@@ -147,15 +139,11 @@ def topic_echo(name: str, once: bool, count: Optional[int], as_json: bool, timeo
     """Print messages on a topic, decoded by their carried type (raw bytes when unknown)."""
     from .common import open_node
 
-    fq, key = _resolve(opts, name)
+    fq = _resolve(opts, name)
     limit = 1 if once else count
     node = open_node(opts, "topic_echo")
-    token = None
     try:
-        sub, inbox = _subscribe(node.session, key, history=not no_history)
-        declare = getattr(node, "_declare_entity", None)
-        if declare is not None:  # show up as a subscriber, so `topic pub` and `graph` see us
-            token = declare("sub", "", key)
+        _, inbox = _subscribe(node, fq, history=not no_history)
         started = time.monotonic()
         shown = 0
         while (not limit or shown < limit) and node.ok():
@@ -167,23 +155,16 @@ def topic_echo(name: str, once: bool, count: Optional[int], as_json: bool, timeo
             try:
                 if shown == 0:
                     with status(f"Waiting for messages on {fq}"):
-                        payload, enc, _, got = inbox.get(timeout=min(wait, 0.5))
+                        sample, _ = inbox.get(timeout=min(wait, 0.5))
                 else:
-                    payload, enc, _, got = inbox.get(timeout=wait)
+                    sample, _ = inbox.get(timeout=wait)
             except queue.Empty:
                 continue
-            sys.stdout.write(render_sample(payload, enc, as_json, got, node.wire) + "\n")
+            sys.stdout.write(render_sample(sample.payload, sample.encoding, as_json, sample.key, node.wire) + "\n")
             sys.stdout.flush()
             shown += 1
-        sub.undeclare()
     finally:
-        for obj in (token,):
-            if obj is not None:
-                try:
-                    obj.undeclare()
-                except Exception:  # noqa: BLE001
-                    pass
-        node.shutdown()
+        node.shutdown()  # the subscription with it
 
 
 @topic.command("hz", context_settings=CONTEXT_SETTINGS)
@@ -201,20 +182,22 @@ def topic_hz(name: str, window: int, duration: Optional[float], period: float, *
 
     from .format import format_hz
 
-    fq, key = _resolve(opts, name)
-    session = open_session(opts)
+    from .common import open_node
+
+    fq = _resolve(opts, name)
+    node = open_node(opts, "topic_hz")
     try:
-        sub, inbox = _subscribe(session, key, history=False)
+        _, inbox = _subscribe(node, fq, history=False)
         arrivals: deque[float] = deque(maxlen=window)
         started = time.monotonic()
         end = None if duration is None else started + duration
         next_report = started + period
         with status(f"Measuring the rate of {fq}") as st:
-            while True:
+            while node.ok():  # Ctrl-C ends it
                 now = time.monotonic()
                 stop_at = next_report if end is None else min(next_report, end)
                 try:
-                    _, _, t, _ = inbox.get(timeout=max(0.0, stop_at - now))
+                    _, t = inbox.get(timeout=max(0.0, stop_at - now))
                     arrivals.append(t)
                     continue
                 except queue.Empty:
@@ -230,12 +213,11 @@ def topic_hz(name: str, window: int, duration: Optional[float], period: float, *
                     next_report += period
                 if end is not None and now >= end:
                     break
-        sub.undeclare()
-        if len(arrivals) < 2:
+        if duration is not None and len(arrivals) < 2:
             raise CliError(f"nothing published on {fq} in {duration:g} s" if not arrivals else
                            f"only one message on {fq} in {duration:g} s: no rate")
     finally:
-        session.close()
+        node.shutdown()
 
 
 def resolve_type_name(text: str) -> str:

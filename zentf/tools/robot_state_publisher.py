@@ -7,12 +7,14 @@ JointState's own stamp, unless every joint in it was published less than ``1/pub
 Mimic joints follow their master. ``frame_prefix`` is prepended to every frame id as is (ROS 2;
 ROS 1 used tf_prefix with a '/'). The URDF text is published latched on ``robot_description``
 (std_msgs/String). Joint states are decoded and turned into one TFMessage in Zenoh's callback
-thread (no executor hop): throttle, finite check, kinematics and the message bytes in one compiled
-call (zentf/tools/jointtf.pyx: at 100 Hz the process wakes with cold caches, where each numpy call
-costs 5-15 us), or vectorized with numpy when the extension is not built. A JointState whose name list
-is byte for byte the one last seen (publishers resend the same list) is read in C without decoding a
-name (``JointTfFiller.read``); anything else, or anything odd, takes the general decoder, which names
-what is wrong.
+thread (no executor hop; a raw subscription through the node's wire profile): on zentf's msgpack wire,
+throttle, finite check, kinematics and the message bytes in one compiled call (zentf/tools/jointtf.pyx:
+at 100 Hz the process wakes with cold caches, where each numpy call costs 5-15 us), and a JointState
+whose name list is byte for byte the one last seen (publishers resend the same list) is read in C
+without decoding a name (``JointTfFiller.read``); anything else, or anything odd, takes the general
+decoder, which names what is wrong. On a wire with other payloads (``--wire ros2``: CDR) the
+JointState is decoded by the profile, the joints computed with numpy and the TFMessage written by the
+profile's encoder.
 
 The program (``zentf run robot_state_publisher``):
 
@@ -27,34 +29,26 @@ override them. A malformed URDF is refused before anything starts (one line, exi
 """
 from __future__ import annotations
 
+import argparse
 import logging
 import struct
+import sys
 import threading
-from typing import Any
+from typing import Any, Sequence
 
 import msgpack
 import numpy as np
 
-from ..transport.wire import codec as wire
-from ..transport.broadcaster import StaticTransformBroadcaster
 from ..core.messages import (Header, JointState, Quaternion, String, TFMessage, Transform, TransformStamped,
                              Vector3)
-from ..transport.names import topic_to_key
-from ..transport.node import Node, RateLimitedLog
+from ..transport import program
+from ..transport.broadcaster import StaticTransformBroadcaster
+from ..transport.node import Node, RateLimitedLog, RawSample
+from ..transport.wire import codec as wire
 from ..urdf import Kinematics, Robot
 from ..urdf.kinematics import JointTransforms
-from ..transport.entities import undeclare_all
-import argparse
-import sys
-from typing import Sequence
+from .jointtf import JointTfFiller  # the compiled hot path on zentf's wire (zentf/tools/jointtf.pyx)
 from .robot_model import START_ERRORS, Prepared, own_arguments, prepare
-from ..urdf import Robot
-from ..transport import program
-
-try:  # the compiled hot path (zentf/tools/jointtf.pyx); without build_ext, the numpy path below
-    from .jointtf import JointTfFiller
-except ImportError:  # pragma: no cover - a source checkout without build_ext
-    JointTfFiller = None
 
 __all__ = ["RobotStatePublisher"]
 
@@ -83,7 +77,7 @@ def _joint_state_decoder() -> Any:
 class _Plan:
     """What one joint-name list means, worked out once per distinct list (publishers resend the same):
     the joints it sets, where their values are in the message, its mimic joints, its unknown names,
-    the joints' constants, and the TFMessage bytes with holes where stamps and values go."""
+    the joints' constants, and (on zentf's wire) the compiled filler of the TFMessage bytes."""
 
     _ITEM_VALUES = struct.Struct(">d3sd3sd13sd3sd3sd3sd")
     _VALUE_OFFSETS = (0, 11, 22, 43, 54, 65, 76)  # of the 7 doubles inside _ITEM_VALUES
@@ -127,16 +121,9 @@ class _Plan:
             base = len(out)
             val_pos.append([range(base + o, base + o + 8) for o in self._VALUE_OFFSETS])
             out += zero
-        self.template = np.frombuffer(bytes(out), dtype=np.uint8)
-        # per item, the 64 bytes to fill: sec (4), nanosec (4), then the 7 doubles (8 each)
-        self.holes = np.concatenate((np.asarray(sec_pos, dtype=np.intp).reshape(k, 4),
-                                     np.asarray(nsec_pos, dtype=np.intp).reshape(k, 4),
-                                     np.asarray(val_pos, dtype=np.intp).reshape(k, 56)), axis=1)
-        self._fill = np.empty((k, 64), dtype=np.uint8)
-        self._vals = np.empty((k, 7), dtype=">f8")
-        #: the same template filled in one compiled call (None: the numpy path)
+        #: the template filled in one compiled call (None: the numpy path, on a wire of other payloads)
         self.filler = None
-        if JointTfFiller is not None and k:
+        if k and rsp._msgpack:
             j = self.joints
             ip = np.intp
             self.filler = JointTfFiller(
@@ -146,18 +133,6 @@ class _Plan:
                 *(np.ascontiguousarray(a, dtype=float) for a in (j.t0, j.q0, j.q0a, j.half, j.slide)),
                 np.asarray([r.start for r in sec_pos], dtype=ip), np.asarray([r.start for r in nsec_pos], dtype=ip),
                 np.asarray([v[0].start for v in val_pos], dtype=ip))
-
-    def payload(self, sec: int, nsec: int, t: np.ndarray, q: np.ndarray) -> bytes:
-        """The TFMessage bytes: the template with this message's stamp and values written in."""
-        fill = self._fill
-        fill[:, :8] = np.frombuffer(sec.to_bytes(4, "big") + nsec.to_bytes(4, "big"), dtype=np.uint8)
-        vals = self._vals
-        vals[:, :3] = t
-        vals[:, 3:] = q
-        fill[:, 8:] = vals.view(np.uint8)
-        buf = self.template.copy()
-        buf[self.holes] = fill
-        return buf.tobytes()
 
 
 class RobotStatePublisher:
@@ -173,6 +148,8 @@ class RobotStatePublisher:
         self.publish_interval_ns = int(round(1e9 / publish_frequency))
         self.ignore_timestamp = ignore_timestamp
         self.kin = Kinematics(robot)
+        #: zentf's msgpack payloads: the compiled reader and writer apply (else the profile decodes and encodes)
+        self._msgpack = node.wire.payload_format == "msgpack"
         self._log = RateLimitedLog(log)
         self._lock = threading.Lock()
         self.received = 0     # joint state messages
@@ -206,9 +183,7 @@ class RobotStatePublisher:
         self._static = StaticTransformBroadcaster(node)
         self.publish_fixed_transforms()
         self._tf = node.create_publisher("tf", TFMessage)
-        key = topic_to_key(node.resolve_topic_name(joint_states_topic))
-        self._sub = node.session.declare_subscriber(key, self._on_sample)
-        self._token = node._declare_entity("sub", JointState.TYPE_NAME, key)
+        self._sub = node.create_raw_subscription(joint_states_topic, self._on_sample, type_name=JointState)
         node.add_on_shutdown(self.close)
 
     # ------------------------------------------------------------------ fixed joints
@@ -230,18 +205,23 @@ class RobotStatePublisher:
             self._static.send_transform(fixed)
 
     # ------------------------------------------------------------------ joint states
-    def _on_sample(self, sample: Any) -> None:
+    def _on_sample(self, sample: RawSample) -> None:
         """Zenoh thread: decode, compute, publish; never raises."""
         try:
-            self.on_payload(sample.payload.to_bytes())
+            if self._msgpack:
+                self.on_payload(sample.payload)
+            else:
+                js = self.node.wire.decode(sample.payload, sample.encoding, sample.key, JointState)
+                self.process(js.name, js.position, js.header.stamp.sec, js.header.stamp.nanosec)
         except Exception as e:  # noqa: BLE001 - one bad message must not stop the publisher
             with self._lock:
                 self.ignored += 1
-            sender = wire.authority_of(getattr(sample, "attachment", None), "unknown sender")
+            sender = self.node.wire.authority(sample.attachment, "unknown sender")
             self._log("bad", f"ignored a bad JointState from {sender}: {e}")
 
     def on_payload(self, payload: bytes) -> None:
-        """One JointState as received (its msgpack bytes): publish its transforms; raises on a bad one."""
+        """One JointState as zentf's wire carries it (msgpack bytes): publish its transforms; raises on a
+        bad one."""
         plan = self._last_plan
         if plan is not None and plan.filler is not None:
             # the same names as last time, sent the same way: positions and stamp read in C, no name decoded
@@ -282,7 +262,7 @@ class RobotStatePublisher:
             plan = self._plan(names)
             self._arrived(plan)
             filler = plan.filler
-            if filler is not None:  # compiled: throttle, finite check, kinematics and bytes, no numpy call
+            if filler is not None:  # compiled (zentf's wire): throttle, finite check, kinematics and bytes
                 if not self.ignore_timestamp and not filler.fresh(stamp, self.publish_interval_ns):
                     self.ignored += 1
                     return False
@@ -290,7 +270,7 @@ class RobotStatePublisher:
                 if payload is None:
                     return self._non_finite(names, position)
                 filler.mark(stamp)
-            else:  # the same in numpy (no build_ext)
+            else:  # the same in numpy, written by the wire's encoder
                 last = self._last_publish
                 if not self.ignore_timestamp and len(plan.known):
                     if stamp < int(last[plan.known].min()) + self.publish_interval_ns:
@@ -306,10 +286,22 @@ class RobotStatePublisher:
                     return self._non_finite(names, position)
                 last[plan.known] = stamp
                 t, q = plan.joints.compute(values)
-                payload = plan.payload(sec, nsec, t, q)
+                payload = self._encode(plan, sec, nsec, t, q)
             self.published += 1
         self._tf.publish_bytes(payload)
         return True
+
+    def _encode(self, plan: _Plan, sec: int, nsec: int, t: np.ndarray, q: np.ndarray) -> bytes:
+        """The TFMessage of a plan's joints (translations ``t``, quaternions ``q``) in the wire's format."""
+        prefix = self.frame_prefix
+        parents, children = self._movable.parents, self._movable.children
+        stamp = {"sec": sec, "nanosec": nsec}
+        items = [{"header": {"stamp": stamp, "frame_id": prefix + parents[j]}, "child_frame_id": prefix + children[j],
+                  "transform": {"translation": {"x": float(tk[0]), "y": float(tk[1]), "z": float(tk[2])},
+                                "rotation": {"x": float(qk[0]), "y": float(qk[1]), "z": float(qk[2]),
+                                             "w": float(qk[3])}}}
+                 for j, tk, qk in zip(plan.idx.tolist(), t, q)]
+        return self.node.wire.encode_tf(items)
 
     def _publish_read(self, plan: _Plan, sec: int, nsec: int) -> None:
         """``process`` for a message ``plan.filler.read`` took in (names known, sizes, stamp and values
@@ -362,7 +354,7 @@ class RobotStatePublisher:
         return plan
 
     def close(self) -> None:
-        undeclare_all((self._sub, self._token))
+        self._sub.destroy()
 
 
 # ---- the program (zentf run robot_state_publisher)
