@@ -136,7 +136,8 @@ class GraphWatcher:
     """Live view of the graph: ``on_change(entry, alive)`` per token event; ``snapshot()`` any time.
 
     ``wait`` > 0: the constructor also asks the network for the live tokens and returns once they are
-    known (at most ``wait`` seconds), so ``count`` and ``snapshot`` are right from the first call.
+    known (at most ``wait`` seconds), so ``count`` and ``snapshot`` are right from the first call (those
+    tokens are not reported to ``on_change``; the changes after them are).
     """
 
     def __init__(self, session: Any, on_change: Callable[[GraphEntry, bool], None] | None = None,
@@ -150,11 +151,13 @@ class GraphWatcher:
         self._put = zenoh.SampleKind.PUT
         self._gone: set[str] | None = set() if wait > 0 else None  # tokens withdrawn while the query runs
         selector, self._parse = _parser(profile, namespace)
-        self._sub = session.liveliness().declare_subscriber(selector, self._on_sample, history=True)
+        # With wait: the changes from now on, then the live tokens asked of the network (a subscriber with
+        # history would have the session answer such a query itself, before it has heard everything)
+        self._sub = session.liveliness().declare_subscriber(selector, self._on_sample, history=wait <= 0)
         if wait > 0:
             try:
                 replies = [r.ok for r in session.liveliness().get(selector, timeout=wait) if r.ok is not None]
-            except Exception:  # noqa: BLE001 - the subscriber's history still fills the view
+            except Exception:  # noqa: BLE001 - the view then fills from the changes alone
                 replies = []
             with self._cond:
                 gone, self._gone = self._gone or set(), None

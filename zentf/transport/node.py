@@ -502,8 +502,12 @@ class Node:
         for part in parts:
             if "*" in part and part not in marks:
                 raise ValueError(f"invalid topic {topic!r}: a wildcard must be a whole part ('*' or '**')")
+        import zenoh
+
         key = self.wire.data_key(self.resolve_topic_name("/".join(marks.get(p, p) for p in parts)), type_name)
-        return "/".join({v: k for k, v in marks.items()}.get(c, c) for c in key.split("/"))
+        # Zenoh takes a pattern in its canonical form only ('**/*' is written '*/**')
+        return str(zenoh.KeyExpr.autocanonize("/".join({v: k for k, v in marks.items()}.get(c, c)
+                                                         for c in key.split("/"))))
 
     def _check_unique(self) -> None:
         key = self.wire.unique_name_selector(self._namespace, self._name)
