@@ -2,38 +2,17 @@
 from __future__ import annotations
 
 import math
-import re
 import statistics
 from dataclasses import dataclass, field
 from typing import Iterable, Mapping, Sequence
+
+from zentf.core.text import printable  # names from the network, printed: the one escaping rule
 
 __all__ = [
     "printable", "FrameStat", "NodeDesc", "rpy_from_quaternion", "matrix_from_quaternion", "format_echo",
     "parse_frames_yaml", "frame_trees", "format_frame_tree", "frames_dot", "node_graph_dot",
     "format_node_graph", "format_hz", "format_stamp", "stats_from_frame_info",
 ]
-
-
-# --------------------------------------------------------------------------------------------
-# Names from the network on a terminal.
-# --------------------------------------------------------------------------------------------
-
-# C0 and C1 controls (ESC, CR, LF, BEL, ...), DEL, line/paragraph separators and bidi overrides.
-_UNSAFE = re.compile("[\x00-\x1f\x7f-\x9f\u2028\u2029\u202a-\u202e\u2066-\u2069]")
-_NAMED = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
-
-
-def _escape_char(m: "re.Match[str]") -> str:
-    c = m.group()
-    return _NAMED.get(c) or (f"\\x{ord(c):02x}" if ord(c) < 0x100 else f"\\u{ord(c):04x}")
-
-
-def printable(text: object) -> str:
-    """A frame id, topic or node name as it may be printed: control characters written as Python
-    escapes (ESC -> \\x1b, LF -> \\n), so a name sent by anyone cannot move the cursor, recolour the
-    terminal or forge output lines (what `topic echo`'s YAML does for message strings)."""
-    text = str(text)
-    return _UNSAFE.sub(_escape_char, text) if _UNSAFE.search(text) else text
 
 
 # --------------------------------------------------------------------------------------------
