@@ -25,11 +25,12 @@ from .names import (fully_qualified_node_name, key_to_topic, normalize_namespace
                     validate_node_name)
 from .options import NodeOptions
 from .wire.profiles import make_profile, zentf_entity_token, zentf_node_token
+from ..core.ratelimit import RateLimitedLogger
 from ..core.time import Duration, to_duration
 from .entities import undeclare_all
 
 __all__ = ["Node", "Publisher", "Subscription", "Timer", "Parameter", "NodeNameError",
-           "ParameterNotDeclaredException", "RateLimitedLog", "spin", "init_logging",
+           "ParameterNotDeclaredException", "spin", "init_logging",
            "node_token_key", "entity_token_key", "LIVELINESS_PREFIX"]
 
 LIVELINESS_PREFIX = "@zentf"
@@ -59,30 +60,6 @@ def init_logging(level: int = logging.INFO) -> None:
     root = logging.getLogger()
     if not root.handlers:
         logging.basicConfig(level=level, format="[%(levelname)s] [%(name)s]: %(message)s")
-
-
-class RateLimitedLog:
-    """Log a recurring problem once per ``period`` seconds per key, with the count of the others."""
-
-    def __init__(self, logger: logging.Logger, period: float = 5.0) -> None:
-        self._logger = logger
-        self._period = period
-        self._last: dict[str, float] = {}
-        self._suppressed: dict[str, int] = {}
-        self._lock = threading.Lock()
-
-    def __call__(self, key: str, msg: str, level: int = logging.WARNING) -> None:
-        now = _time.monotonic()
-        with self._lock:
-            last = self._last.get(key)
-            if last is not None and now - last < self._period:
-                self._suppressed[key] = self._suppressed.get(key, 0) + 1
-                return
-            self._last[key] = now
-            n = self._suppressed.pop(key, 0)
-            if len(self._last) > 4096:  # keys include sender names; bound the memory
-                self._last.clear()
-        self._logger.log(level, msg + (f" ({n} similar suppressed)" if n else ""))
 
 
 @dataclass
@@ -223,7 +200,8 @@ class Subscription:
             except ValueError as e:
                 self.errors += 1
                 sender = self.node.wire.authority(att, "unknown sender")
-                self.node._bad_input(key, f"dropped bad message on '{key}' from {sender}: {e}")
+                self.node._bad_input.log(logging.WARNING, ("bad", key, sender),
+                                         "dropped bad message on '%s' from %s: %s", key, sender, e)
                 continue
             self.callback(msg)
 
@@ -351,7 +329,8 @@ class Node:
         self._param_types: dict[str, int] = {}  # rcl_interfaces ParameterType, fixed at declaration
         self._param_callbacks: list[Callable[[list[Parameter]], Any]] = []
         self._logger = logging.getLogger(f"zentf.transport.node.{self._fq_name.strip('/').replace('/', '.')}")
-        self._bad_input = RateLimitedLog(self._logger)
+        #: one line per (problem, key, sender) and period for bad input from the network, names escaped
+        self._bad_input = RateLimitedLogger(self._logger)
         self._publishers: set[Publisher] = set()
         self._subscriptions: set[Subscription] = set()
         self._timers: set[Timer] = set()
@@ -532,8 +511,9 @@ class Node:
                 if type(sec) is not int or type(nsec) is not int or sec < 0 or not 0 <= nsec < 1_000_000_000:
                     raise ValueError(f"bad clock value {st!r}"[:100])
             except Exception as e:
-                self._bad_input(str(sample.key_expr), f"dropped bad /clock message on '{sample.key_expr}' "
-                                f"from {profile.authority(sample.attachment, 'unknown sender')}: {e}")
+                sender = profile.authority(sample.attachment, "unknown sender")
+                self._bad_input.log(logging.WARNING, ("bad", str(sample.key_expr), sender),
+                                    "dropped bad /clock message on '%s' from %s: %s", sample.key_expr, sender, e)
                 return
             clock.set_sim_time(sec * 1_000_000_000 + nsec)
             self._post(None)
