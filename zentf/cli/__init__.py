@@ -112,8 +112,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 
     args = list(sys.argv[1:] if argv is None else argv)
     debug = _debug_requested(args)
+    from zentf.core.text import stderr_log_handler  # names from the network in a log line are escaped
+
     logging.basicConfig(level=logging.DEBUG if debug else logging.WARNING,
-                        format="[%(levelname)s] %(name)s: %(message)s")
+                        handlers=[stderr_log_handler("[%(levelname)s] %(name)s: %(message)s")])
     try:
         rv = cli.main(args=args, prog_name="zentf", standalone_mode=False)
         return rv if isinstance(rv, int) else 0

@@ -146,10 +146,10 @@ def _echo_bag(path: str, source: str, target: str, at_time: Optional[float], pre
     from zentf.core.time import Time
     from zentf.tools.bag import BagError, load_buffer
 
-    from .format import format_echo
+    from .format import format_echo, printable
 
     try:
-        buffer = load_buffer(path, on_problem=lambda line: sys.stderr.write(f"zentf: warning: {line}\n"))
+        buffer = load_buffer(path, on_problem=lambda line: sys.stderr.write(f"zentf: warning: {printable(line)}\n"))
     except BagError as exc:
         raise CliError(str(exc)) from exc
     try:
@@ -234,7 +234,7 @@ def frames(output: Optional[str], wait: float, print_tree: bool, *, opts: CliOpt
     Every edge is labelled with its broadcaster, average rate, most recent and oldest transform
     and buffer length; disconnected trees are drawn as separate clusters.
     """
-    from .format import format_frame_tree, frames_dot
+    from .format import format_frame_tree, frames_dot, printable
 
     node, buffer, listener = _listen(opts, "view_frames")
     try:
@@ -259,7 +259,7 @@ def frames(output: Optional[str], wait: float, print_tree: bool, *, opts: CliOpt
         print(format_frame_tree(stats))
     print(f"Wrote {dot_path}" + (f" and {img_path}" if img_path else ""))
     if problem:
-        sys.stderr.write(f"zentf: warning: {problem}\n")
+        sys.stderr.write(f"zentf: warning: {printable(problem)}\n")
 
 
 def _now_sec(node: Any) -> float:

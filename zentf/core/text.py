@@ -10,7 +10,7 @@ from __future__ import annotations
 import logging
 from typing import Any
 
-__all__ = ["printable", "parse_bool", "PrintableFormatter", "TRUE_WORDS", "FALSE_WORDS"]
+__all__ = ["printable", "parse_bool", "PrintableFormatter", "stderr_log_handler", "TRUE_WORDS", "FALSE_WORDS"]
 
 _NAMED = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
 
@@ -42,12 +42,23 @@ def printable(text: object, limit: int | None = None) -> str:
 
 
 class PrintableFormatter(logging.Formatter):
-    """A log formatter whose message part goes through ``printable`` (a traceback, formatted apart, keeps
-    its lines): the last guard for a string from outside that a call site logged as it came."""
+    """A log formatter whose message goes through ``printable`` and a traceback line by line (it keeps its
+    lines): the last guard for a string from outside that a call site logged as it came."""
 
     def formatMessage(self, record: logging.LogRecord) -> str:  # noqa: N802 - logging's name
         record.message = printable(record.message)
         return super().formatMessage(record)
+
+    def formatException(self, ei: Any) -> str:  # noqa: N802 - logging's name
+        return "\n".join(printable(line) for line in super().formatException(ei).split("\n"))
+
+
+def stderr_log_handler(fmt: str) -> logging.Handler:
+    """The handler every zentf program logs to: stderr, one ``PrintableFormatter`` line per record
+    (``logging.basicConfig(handlers=[...])``)."""
+    handler = logging.StreamHandler()
+    handler.setFormatter(PrintableFormatter(fmt))
+    return handler
 
 
 #: The words ``parse_bool`` reads, case and surrounding blanks ignored (launch files, env vars and

@@ -340,7 +340,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         p = prepare(PROG, _parser(), argv)
     except START_ERRORS as e:
-        print(f"{PROG}: error: {e}", file=sys.stderr, flush=True)
+        program.error_line(PROG, str(e))
         return 2
     return 0 if p is None else run(p)
 

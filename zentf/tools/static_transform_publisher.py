@@ -207,14 +207,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         opts, debug, rest = program.split_node_options(PROG, argv)
         parsed = parse_args(rest)
     except (UsageError, program.OptionsError) as e:
-        print(f"{PROG}: error parsing command line arguments: {e}", file=sys.stderr, flush=True)
+        program.error_line(PROG, str(e), "error parsing command line arguments: ")
         return 2  # a usage error, like every zentf command (docs/cli.md)
     if parsed is None:
         print(USAGE, flush=True)
         return 0
     if parsed.frame_id == parsed.child_frame_id:
-        print(f"{PROG}: cannot publish static transform from '{parsed.frame_id}' to "
-              f"'{parsed.child_frame_id}', exiting", file=sys.stderr, flush=True)
+        program.error_line(PROG, f"from '{parsed.frame_id}' to '{parsed.child_frame_id}', exiting",
+                           "cannot publish static transform ")
         return 2
     return program.run(lambda: _publish(opts, parsed), PROG, debug)
 

@@ -26,6 +26,7 @@ from .names import (fully_qualified_node_name, key_to_topic, normalize_namespace
 from .options import NodeOptions
 from .wire.profiles import make_profile, zentf_entity_token, zentf_node_token
 from ..core.ratelimit import RateLimitedLogger
+from ..core.text import stderr_log_handler
 from ..core.time import Duration, to_duration
 from .entities import undeclare_all
 
@@ -55,11 +56,14 @@ def entity_token_key(kind: str, namespace: str, name: str, type_name: str, key: 
     return zentf_entity_token(kind, namespace, name, type_name, key)
 
 
+#: ROS-like log lines: ``[WARNING] [zentf.transport.listener]: ...``
+LOG_FORMAT = "[%(levelname)s] [%(name)s]: %(message)s"
+
+
 def init_logging(level: int = logging.INFO) -> None:
-    """ROS-like one-line log records on stderr, unless the program configured logging already."""
-    root = logging.getLogger()
-    if not root.handlers:
-        logging.basicConfig(level=level, format="[%(levelname)s] [%(name)s]: %(message)s")
+    """ROS-like one-line log records on stderr, names from outside escaped, unless the program configured
+    logging already."""
+    logging.basicConfig(level=level, handlers=[stderr_log_handler(LOG_FORMAT)])
 
 
 @dataclass

@@ -9,9 +9,10 @@ import signal
 import sys
 from typing import Any, Callable, NoReturn, Sequence
 
+from ..core.text import printable
 from .options import NodeOptions, OptionsError, add_node_arguments
 
-__all__ = ["OptionsError", "main", "run", "split_node_options", "make_node", "say", "param",
+__all__ = ["OptionsError", "main", "run", "split_node_options", "make_node", "say", "error_line", "param",
            "param_float", "param_positive", "param_bool"]
 
 log = logging.getLogger("zentf.program")
@@ -21,12 +22,13 @@ _node: Any = None  # the program's node, stopped when stdout's reader goes away
 
 
 def say(line: str) -> None:
-    """One human-facing result line on stdout, flushed at once (tests and pipes read it live)."""
+    """One human-facing result line on stdout, flushed at once (tests and pipes read it live). Names in it
+    may come from the network or a file: the line is escaped (``printable``), so it stays one line."""
     global _stdout_gone
     if _stdout_gone:
         return
     try:
-        print(line, flush=True)
+        print(printable(line), flush=True)
     except (BrokenPipeError, ValueError):  # the reader went away (| head): stop quietly, like SIGPIPE
         _stdout_gone = True
         try:
@@ -66,14 +68,20 @@ def main(prog: str, argv: Sequence[str] | None, body: Callable[[NodeOptions], No
         args = _parser(prog, description).parse_args(argv)
         opts = NodeOptions.from_args(args)
     except OptionsError as e:
-        print(f"{prog}: error: {e}", file=sys.stderr, flush=True)
+        error_line(prog, str(e))
         return 2
     return run(lambda: body(opts), prog, bool(args.debug))
 
 
+def error_line(prog: str, text: str, kind: str = "error: ") -> None:
+    """``PROG: error: TEXT`` on stderr, the text escaped: it may quote a file or a peer."""
+    print(f"{prog}: {kind}{printable(text)}", file=sys.stderr, flush=True)
+
+
 def _setup_logging(debug: bool) -> None:
-    logging.basicConfig(level=logging.DEBUG if debug else logging.INFO, stream=sys.stderr,
-                        format="[%(levelname)s] [%(name)s]: %(message)s")
+    from .node import init_logging
+
+    init_logging(logging.DEBUG if debug else logging.INFO)
 
 
 def run(body: Callable[[], None], prog: str, debug: bool = False) -> int:
@@ -96,14 +104,13 @@ def run(body: Callable[[], None], prog: str, debug: bool = False) -> int:
     except (OptionsError, ValueError) as e:  # bad options/parameters, duplicate node name, ...
         if debug:
             raise
-        text = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-        print(f"{prog}: error: {text}", file=sys.stderr, flush=True)
+        error_line(prog, str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__)
         return 1
     except Exception as e:  # a user sees one line, a developer asks for --debug
         if debug:
             raise
         text = str(e).strip().splitlines()[0] if str(e).strip() else ""
-        print(f"{prog}: {type(e).__name__}: {text}", file=sys.stderr, flush=True)
+        error_line(prog, text, f"{type(e).__name__}: ")
         return 1
     finally:
         if _started:  # from here on a late signal would only kill the interpreter's own teardown

@@ -84,5 +84,7 @@ def _listen_endpoints(cfg: Any) -> list[str]:
 
 
 if __name__ == "__main__":
-    logging.basicConfig(level=logging.WARNING)
+    from ..core.text import stderr_log_handler
+
+    logging.basicConfig(level=logging.WARNING, handlers=[stderr_log_handler(logging.BASIC_FORMAT)])
     sys.exit(main())
