@@ -95,10 +95,6 @@ def cli(debug: bool) -> None:
     """
 
 
-def _debug_requested(argv: Sequence[str]) -> bool:
-    return "--debug" in argv or os.environ.get("ZENTF_DEBUG", "") not in ("", "0")
-
-
 def _error(msg: str) -> None:
     from .format import printable  # a frame or node name in the message must not drive the terminal
 
@@ -110,9 +106,16 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     """Console entry point: run the command, turning every failure into one line and an exit code."""
     import logging
 
-    args = list(sys.argv[1:] if argv is None else argv)
-    debug = _debug_requested(args)
     from zentf.core.text import stderr_log_handler  # names from the network in a log line are escaped
+
+    from .common import debug_requested
+
+    args = list(sys.argv[1:] if argv is None else argv)
+    try:
+        debug = debug_requested(args)
+    except CliError as exc:
+        _error(str(exc))
+        return exc.code
 
     logging.basicConfig(level=logging.DEBUG if debug else logging.WARNING,
                         handlers=[stderr_log_handler("[%(levelname)s] %(name)s: %(message)s")])

@@ -9,14 +9,14 @@ import sys
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterator, Optional
+from typing import Any, Callable, Iterator, Optional, Sequence
 
 import click
 
 __all__ = ["CliError", "CliOptions", "CONTEXT_SETTINGS", "FiniteFloat", "FiniteFloatRange", "StampSeconds",
            "NumberArgsCommand", "finite_float", "liveliness_wait_option", "with_options", "open_node", "open_session",
            "open_graph_session",
-           "node_options", "status", "cli_node_name", "clean_error", "wire_profile"]
+           "node_options", "status", "cli_node_name", "clean_error", "wire_profile", "debug_requested"]
 
 
 class CliError(Exception):
@@ -193,6 +193,18 @@ def with_options(func: Callable[..., Any]) -> Callable[..., Any]:
     for deco in reversed(_SHARED):
         wrapper = deco(wrapper)
     return wrapper
+
+
+def debug_requested(argv: Sequence[str]) -> bool:
+    """--debug among the arguments, or ZENTF_DEBUG a yes word (parse_bool); another word is a CliError."""
+    from zentf.core.text import parse_bool
+
+    if "--debug" in argv:
+        return True
+    try:
+        return parse_bool(os.environ.get("ZENTF_DEBUG", ""), "ZENTF_DEBUG")
+    except ValueError as exc:
+        raise CliError(str(exc), code=2) from None
 
 
 def _enable_debug() -> None:

@@ -10,7 +10,8 @@ from typing import Any, Optional, Sequence
 
 import click
 
-from zentf.cli.common import CONTEXT_SETTINGS, CliError, CliOptions, NumberArgsCommand, clean_error, finite_float, node_options, with_options
+from zentf.cli.common import (CONTEXT_SETTINGS, CliError, CliOptions, NumberArgsCommand, clean_error, debug_requested,
+                              finite_float, node_options, with_options)
 
 from zentf.core.text import printable
 
@@ -248,7 +249,11 @@ def _say_error(line: str) -> None:
 def _main(cmd: click.Command, argv: Optional[Sequence[str]], prog: str) -> int:
     """Run a command turning every failure into one line on stderr and an exit code."""
     args = list(sys.argv[1:] if argv is None else argv)
-    debug = "--debug" in args or os.environ.get("ZENTF_DEBUG", "") not in ("", "0")
+    try:
+        debug = debug_requested(args)
+    except CliError as exc:
+        _say_error(f"{prog}: error: {exc}")
+        return exc.code
     try:
         rv = cmd.main(args=args, prog_name=prog, standalone_mode=False)
         return rv if isinstance(rv, int) else 0

@@ -15,6 +15,7 @@ from typing import Any, Mapping, Sequence
 
 import yaml
 
+from ..core.text import parse_bool
 from ..tools.programs import PROGRAMS, module_of
 from .errors import LaunchError
 from .substitution import SubstitutionContext, SubstitutionError, has_substitution, substitute
@@ -35,8 +36,6 @@ ARG_KEYS = ("default", "description")
 _SEGMENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 _MODULE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*\Z")
 _ENV_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
-_TRUE = {"true", "yes", "on", "1"}
-_FALSE = {"false", "no", "off", "0", ""}
 
 
 @dataclass
@@ -518,14 +517,10 @@ class _Loader:
             raise y.error(str(e)) from None
 
     def _bool(self, y: Y, scope: _Scope, what: str) -> bool:
-        val = self._scalar(y, scope)
-        if isinstance(val, bool):
-            return val
-        if isinstance(val, str) and val.strip().lower() in _TRUE | _FALSE:
-            return val.strip().lower() in _TRUE
-        if isinstance(val, int) and val in (0, 1):
-            return bool(val)
-        raise y.error(f"{what}: expected true or false, got {val!r}")
+        try:
+            return parse_bool(self._scalar(y, scope), what)
+        except ValueError as e:
+            raise y.error(str(e)) from None
 
     def _number(self, y: Y, scope: _Scope, what: str, minimum: float, strict: bool = False) -> float:
         val = self._scalar(y, scope)

@@ -26,7 +26,7 @@ from .names import (fully_qualified_node_name, key_to_topic, normalize_namespace
 from .options import NodeOptions
 from .wire.profiles import make_profile, zentf_entity_token, zentf_node_token
 from ..core.ratelimit import RateLimitedLogger
-from ..core.text import stderr_log_handler
+from ..core.text import parse_bool, stderr_log_handler
 from ..core.time import Duration, to_duration
 from .entities import undeclare_all
 
@@ -356,10 +356,7 @@ class Node:
             # in the graph stops it cleanly instead of interrupting the rest of this constructor
             _register_node(self)
             self._tokens.append(self.session.liveliness().declare_token(self.wire.node_token(self)))
-            use_sim = self.declare_parameter("use_sim_time", False).value
-            if isinstance(use_sim, str):
-                use_sim = use_sim.strip().lower() in ("1", "true", "yes", "on")
-            use_sim = bool(use_sim)
+            use_sim = parse_bool(self.declare_parameter("use_sim_time", False).value, "parameter use_sim_time")
             self._params["use_sim_time"].value = use_sim
             self._clock = Clock(ClockType.ROS_TIME if use_sim else ClockType.SYSTEM_TIME, sim=use_sim)
             self._clock_sub = None

@@ -17,6 +17,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from ..core.text import parse_bool
 from .names import normalize_namespace, validate_node_name
 
 __all__ = [
@@ -70,8 +71,12 @@ def _check_endpoints(eps: Sequence[str], what: str) -> list[str]:
     return out
 
 
-def _truthy(value: str | None) -> bool:
-    return (value or "").strip().lower() in ("1", "true", "yes", "on")
+def _env_flag(env: Mapping[str, str], var: str) -> bool:
+    """A yes/no environment variable (unset or empty: no); a word parse_bool does not know is an error."""
+    try:
+        return parse_bool(env.get(var, ""), var)
+    except ValueError as e:
+        raise OptionsError(str(e)) from None
 
 
 def _port(value: str | None, what: str) -> int:
@@ -122,8 +127,8 @@ class ZenohOptions:
                    connect=_check_endpoints(_split_list(env.get("ZENTF_CONNECT")), "ZENTF_CONNECT"),
                    listen=_check_endpoints(_split_list(env.get("ZENTF_LISTEN")), "ZENTF_LISTEN"),
                    mode=(env.get("ZENTF_MODE") or None),
-                   no_multicast=_truthy(env.get("ZENTF_NO_MULTICAST")),
-                   lan=_truthy(env.get("ZENTF_LAN")),
+                   no_multicast=_env_flag(env, "ZENTF_NO_MULTICAST"),
+                   lan=_env_flag(env, "ZENTF_LAN"),
                    local_port=_port(env.get("ZENTF_LOCAL_PORT"), "ZENTF_LOCAL_PORT"))
         opts._check()
         return opts

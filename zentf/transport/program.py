@@ -9,7 +9,7 @@ import signal
 import sys
 from typing import Any, Callable, NoReturn, Sequence
 
-from ..core.text import printable
+from ..core.text import parse_bool, printable
 from .options import NodeOptions, OptionsError, add_node_arguments
 
 __all__ = ["OptionsError", "main", "run", "split_node_options", "make_node", "say", "error_line", "param",
@@ -174,9 +174,8 @@ def param_positive(node: Any, name: str, default: float) -> float:
 
 
 def param_bool(node: Any, name: str, default: bool) -> bool:
-    value = param(node, name, default)
-    if isinstance(value, str) and value.strip().lower() in ("true", "false", "1", "0", "yes", "no"):
-        return value.strip().lower() in ("true", "1", "yes")
-    if not isinstance(value, bool):
-        raise OptionsError(f"parameter {name} must be true or false, got {value!r}")
-    return value
+    """A yes/no parameter (``parse_bool``'s words, e.g. from a launch substitution); OptionsError otherwise."""
+    try:
+        return parse_bool(param(node, name, default), f"parameter {name}")
+    except ValueError as e:
+        raise OptionsError(str(e)) from None
