@@ -328,7 +328,7 @@ class Node:
         self._fq_name = fully_qualified_node_name(self._namespace, self._name)
         self._remappings = dict(opts.remappings)
         self._overrides: dict[str, Any] = dict(params or {})
-        self._overrides.update(opts.resolved_params(self._name))
+        self._overrides.update(opts.resolved_params(self._name, self._namespace))
         self._params: dict[str, Parameter] = {}
         self._param_types: dict[str, int] = {}  # rcl_interfaces ParameterType, fixed at declaration
         self._param_callbacks: list[Callable[[list[Parameter]], Any]] = []

@@ -18,11 +18,12 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from ..core.text import parse_bool
-from .names import normalize_namespace, validate_node_name
+from .names import fully_qualified_node_name, normalize_namespace, validate_node_name
 
 __all__ = [
     "OptionsError", "ZenohOptions", "NodeOptions", "add_zenoh_arguments", "add_node_arguments",
-    "parse_param_assignment", "parse_remap", "load_params_file", "ENV_VARS", "LOCAL_PORT", "exposure",
+    "parse_param_assignment", "parse_remap", "load_params_file", "params_for_node", "ParamsFileError",
+    "ROS_PARAMETERS", "ENV_VARS", "LOCAL_PORT", "exposure",
 ]
 
 ENV_VARS = ("ZENTF_NODE_NAME", "ZENTF_NAMESPACE", "ZENTF_PARAMS", "ZENTF_PARAMS_FILE", "ZENTF_REMAP",
@@ -421,35 +422,118 @@ def parse_remap(text: str) -> tuple[str, str]:
     return src.strip(), dst.strip()
 
 
-def load_params_file(path: str, node_name: str | None = None) -> dict[str, Any]:
-    """A YAML params file: flat ``{name: value}`` or ROS 2 style ``{node|/**: {ros__parameters: {...}}}``."""
+class ParamsFileError(OptionsError):
+    """A params file zentf cannot use: one line naming the file, the line when known, and what is wrong."""
+
+    def __init__(self, file: str, what: str, line: int | None = None) -> None:
+        self.file, self.what, self.line = file, what, line
+        super().__init__(f"params file {file}{f':{line}' if line else ''}: {what}")
+
+
+#: The key that opens a node's parameters in a ROS 2 params file.
+ROS_PARAMETERS = "ros__parameters"
+_NODE_KEY_PART = re.compile(r"\*\*?\Z|[A-Za-z_][A-Za-z0-9_]*\Z")
+
+
+def load_params_file(path: str, node_fqn: str) -> dict[str, Any]:
+    """The parameters a params file gives the node ``node_fqn`` ('/ns/name'), read as ROS 2 reads it.
+
+    A file whose sections hold ``ros__parameters`` is a ROS 2 file: each section's key (nested keys
+    joined with '/') names nodes, a key without a leading '/' gets one (``talker`` is the root namespace's
+    talker only), ``*`` stands for one name and ``**`` for any number of them (``/**`` is every node,
+    ``/**/talker`` every talker), and every section whose key matches the whole ``node_fqn`` applies, in
+    file order (a later one wins), as rclcpp's parameter_map_from does. Any other mapping is a flat
+    ``{name: value}`` file for every node. A nested mapping of values is a parameter namespace
+    (``gains: {p: 1}`` is ``gains.p``, as in ROS 2). YAML aliases are refused (they expand without bound).
+    """
     import yaml
 
     try:
         with open(path, encoding="utf-8") as f:
-            data = yaml.safe_load(f)
+            text = f.read()
+    except FileNotFoundError:
+        raise ParamsFileError(path, "not found") from None
     except OSError as e:
-        raise OptionsError(f"cannot read params file {path}: {e.strerror}") from None
+        raise ParamsFileError(path, f"cannot read: {e.strerror}") from None
+    except UnicodeDecodeError:
+        raise ParamsFileError(path, "not UTF-8 text") from None
+    loader_class = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+    try:
+        loader = loader_class(text)
+        try:
+            while loader.check_event():
+                event = loader.get_event()
+                if isinstance(event, yaml.AliasEvent):
+                    raise ParamsFileError(path, f"YAML alias *{event.anchor} is not allowed (aliases can expand "
+                                                "without bound; write the value out)", event.start_mark.line + 1)
+        finally:
+            loader.dispose()
+        data = yaml.load(text, Loader=loader_class)  # noqa: S506 - a safe loader
+    except yaml.MarkedYAMLError as e:
+        mark = e.problem_mark or e.context_mark
+        what = " ".join(p for p in (e.context, e.problem) if p) or "invalid YAML"
+        raise ParamsFileError(path, f"bad YAML: {what}", mark.line + 1 if mark else None) from None
     except yaml.YAMLError as e:
-        raise OptionsError(f"bad YAML in params file {path}: {str(e).splitlines()[0]}") from None
+        raise ParamsFileError(path, f"bad YAML: {str(e).strip().splitlines()[0]}") from None
+    return params_for_node(data, node_fqn, path)
+
+
+def params_for_node(data: Any, node_fqn: str, path: str = "params file") -> dict[str, Any]:
+    """``load_params_file``'s rules applied to a parsed params file (``data``); ``path`` names it in errors."""
     if data is None:
         return {}
     if not isinstance(data, dict):
-        raise OptionsError(f"params file {path}: expected a mapping at top level")
-    ros_style = any(isinstance(v, dict) and "ros__parameters" in v for v in data.values())
-    if not ros_style:
-        return dict(data)
+        raise ParamsFileError(path, "expected a mapping at top level")
+    if not _holds_ros_parameters(data):
+        return _flatten(data, "", path)
     out: dict[str, Any] = {}
-    for key, v in data.items():
-        if not isinstance(v, dict) or "ros__parameters" not in v:
-            continue
-        k = str(key).strip("/")
-        if k in ("**", "*") or node_name is None or k == node_name or k.split("/")[-1] == node_name:
-            params = v["ros__parameters"] or {}
-            if not isinstance(params, dict):
-                raise OptionsError(f"params file {path}: ros__parameters of {key!r} must be a mapping")
+    for key, params in _sections(data, "", path):
+        if _node_key_pattern(key, path).fullmatch(node_fqn):
             out.update(params)
     return out
+
+
+def _holds_ros_parameters(data: dict) -> bool:
+    return any(k == ROS_PARAMETERS or (isinstance(v, dict) and _holds_ros_parameters(v)) for k, v in data.items())
+
+
+def _sections(data: dict, prefix: str, path: str) -> list[tuple[str, dict[str, Any]]]:
+    """(node key, its flattened parameters) of each ``ros__parameters`` section, in file order."""
+    out: list[tuple[str, dict[str, Any]]] = []
+    for key, value in data.items():
+        if key == ROS_PARAMETERS:
+            if not prefix:
+                raise ParamsFileError(path, f"{ROS_PARAMETERS} must be under a node name")
+            if value is not None and not isinstance(value, dict):
+                raise ParamsFileError(path, f"{ROS_PARAMETERS} of '{prefix}' must be a mapping")
+            out.append((prefix, _flatten(value or {}, "", path)))
+        elif isinstance(value, dict):
+            out.extend(_sections(value, f"{prefix}/{key}" if prefix else str(key), path))
+        else:
+            where = f"{prefix}/{key}" if prefix else str(key)
+            raise ParamsFileError(path, f"'{where}' is outside any {ROS_PARAMETERS} section")
+    return out
+
+
+def _flatten(params: dict, prefix: str, path: str) -> dict[str, Any]:
+    """A nested mapping of parameters as ROS 2 names them: ``{gains: {p: 1}}`` -> ``{"gains.p": 1}``."""
+    out: dict[str, Any] = {}
+    for key, value in params.items():
+        name = f"{prefix}.{key}" if prefix else str(key)
+        if isinstance(value, dict):
+            out.update(_flatten(value, name, path))
+        else:
+            out[name] = value
+    return out
+
+
+def _node_key_pattern(key: str, path: str) -> re.Pattern[str]:
+    """A params file's node key as a pattern over fully qualified node names (rclcpp's reading)."""
+    parts = key.strip().strip("/").split("/")
+    if not all(_NODE_KEY_PART.match(p) for p in parts):
+        raise ParamsFileError(path, f"bad node name '{key}' (names, * and ** between slashes)")
+    rx = "".join("(?:/[A-Za-z0-9_]+)*" if p == "**" else "/[A-Za-z0-9_]+" if p == "*" else "/" + p for p in parts)
+    return re.compile(rx)
 
 
 def _json_object(env: Mapping[str, str], var: str) -> dict[str, Any]:
@@ -542,11 +626,13 @@ class NodeOptions:
         if self.wire not in WIRES:
             raise OptionsError(f"bad wire profile {self.wire!r} (choose zentf or ros2) [ZENTF_WIRE]")
 
-    def resolved_params(self, node_name: str | None = None) -> dict[str, Any]:
-        """Params file values overridden by explicit params."""
+    def resolved_params(self, node_name: str | None = None, namespace: str | None = None) -> dict[str, Any]:
+        """Params file values (the sections that match this node: ``load_params_file``) overridden by
+        explicit params; the node is ``node_name``/``namespace``, by default the options' own."""
         out: dict[str, Any] = {}
         if self.params_file:
-            out.update(load_params_file(self.params_file, node_name or self.name))
+            ns = normalize_namespace(namespace if namespace is not None else self.namespace)
+            out.update(load_params_file(self.params_file, fully_qualified_node_name(ns, node_name or self.name or "")))
         out.update(self.params)
         return out
 
