@@ -14,7 +14,7 @@ from typing import Any, Optional, Sequence
 
 import click
 
-from .common import CONTEXT_SETTINGS, CliError, clean_error
+from .common import CONTEXT_SETTINGS, CliError, clean_error, global_options
 
 __all__ = ["cli", "main", "LazyGroup"]
 
@@ -84,14 +84,14 @@ _COMMANDS: dict[str, tuple[str, str]] = {
 
 
 @click.group("zentf", cls=LazyGroup, lazy=_COMMANDS, context_settings=CONTEXT_SETTINGS)
-@click.option("--debug", is_flag=True, help="Show tracebacks and debug logs.")
+@global_options
 @click.version_option("0.1.0", "--version", prog_name="zentf", message="%(prog)s %(version)s")
-def cli(debug: bool) -> None:
+def cli(**_shared: object) -> None:
     """tf2's tools for robots whose processes talk over Zenoh.
 
-    Every command takes --namespace, the Zenoh options (--connect, --listen, --mode,
-    --no-multicast, --lan, --zenoh-config) and --wire (zentf, or ros2 for a ROS 2 graph);
-    the ZENTF_* environment variables give their defaults.
+    Every command takes the options below, before or after its name (`zentf -n robot1 tf frames`,
+    `zentf tf frames -n robot1`; after it wins); the ZENTF_* environment variables give their
+    defaults. Programs (`zentf run NAME`) take them too, plus --name, -p, --params-file and -r.
     """
 
 

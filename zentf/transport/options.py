@@ -21,7 +21,8 @@ from ..core.text import parse_bool
 from .names import fully_qualified_node_name, normalize_namespace, validate_node_name
 
 __all__ = [
-    "OptionsError", "ZenohOptions", "NodeOptions", "add_zenoh_arguments", "add_node_arguments",
+    "OptionsError", "ZenohOptions", "NodeOptions", "SharedOption", "SHARED_OPTIONS", "add_zenoh_arguments",
+    "add_node_arguments", "node_options_help",
     "parse_param_assignment", "parse_remap", "load_params_file", "params_for_node", "ParamsFileError",
     "ROS_PARAMETERS", "ENV_VARS", "LOCAL_PORT", "exposure",
 ]
@@ -72,7 +73,7 @@ def _check_endpoints(eps: Sequence[str], what: str) -> list[str]:
     return out
 
 
-def _env_flag(env: Mapping[str, str], var: str) -> bool:
+def env_flag(env: Mapping[str, str], var: str) -> bool:
     """A yes/no environment variable (unset or empty: no); a word parse_bool does not know is an error."""
     try:
         return parse_bool(env.get(var, ""), var)
@@ -128,8 +129,8 @@ class ZenohOptions:
                    connect=_check_endpoints(_split_list(env.get("ZENTF_CONNECT")), "ZENTF_CONNECT"),
                    listen=_check_endpoints(_split_list(env.get("ZENTF_LISTEN")), "ZENTF_LISTEN"),
                    mode=(env.get("ZENTF_MODE") or None),
-                   no_multicast=_env_flag(env, "ZENTF_NO_MULTICAST"),
-                   lan=_env_flag(env, "ZENTF_LAN"),
+                   no_multicast=env_flag(env, "ZENTF_NO_MULTICAST"),
+                   lan=env_flag(env, "ZENTF_LAN"),
                    local_port=_port(env.get("ZENTF_LOCAL_PORT"), "ZENTF_LOCAL_PORT"))
         opts._check()
         return opts
@@ -671,32 +672,90 @@ def _domain_id(text: str | None) -> int:
     return value
 
 
-def add_zenoh_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
-    g = parser.add_argument_group("zenoh")
-    g.add_argument("--zenoh-config", metavar="FILE", help="Zenoh JSON5 config file [ZENTF_ZENOH_CONFIG]")
-    g.add_argument("--connect", metavar="EP", action="append",
-                   help="endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeat) [ZENTF_CONNECT]")
-    g.add_argument("--listen", metavar="EP", action="append", help="endpoint to listen on (repeat) [ZENTF_LISTEN]")
-    g.add_argument("--mode", choices=MODES, help="Zenoh mode [ZENTF_MODE]")
-    g.add_argument("--no-multicast", action="store_true", default=None,
-                   help="turn multicast scouting off [ZENTF_NO_MULTICAST=1]")
-    g.add_argument("--lan", action="store_true", default=None,
-                   help="reach other machines: every interface + multicast scouting, unauthenticated "
-                        "(default: this machine only) [ZENTF_LAN=1]")
+@dataclass(frozen=True)
+class SharedOption:
+    """One option every node program and every ``zentf`` command takes the same way: the argparse
+    parsers of the programs and the click options of the CLI are both built from ``SHARED_OPTIONS``."""
+
+    dest: str                       # the parsed value's name
+    flags: tuple[str, ...]
+    help: str
+    group: str                      # "node" or "zenoh" (argparse's groups in a program's --help)
+    env: str | None = None          # the environment variable that gives its default
+    env_form: str = ""              # how that variable is written, when not as the flag's value
+    metavar: str | None = None
+    kind: str = "value"             # "value", "repeat" (may be given several times) or "flag"
+    choices: tuple[str, ...] = ()
+    programs_only: bool = False     # a node's identity: CLI tools are hidden nodes with names of their own
+
+    @property
+    def help_text(self) -> str:
+        """The help line, with the environment variable: the same in every --help."""
+        return f"{self.help} [env {self.env}{self.env_form}]" if self.env else self.help
+
+
+SHARED_OPTIONS: tuple[SharedOption, ...] = (
+    SharedOption("node_name", ("--name",), "Node name.", "node", "ZENTF_NODE_NAME", metavar="NAME",
+                 programs_only=True),
+    SharedOption("namespace", ("--namespace", "-n"), "Namespace of the graph (topic 'tf' is key 'NS/tf').", "node",
+                 "ZENTF_NAMESPACE", metavar="NS"),
+    SharedOption("params", ("-p", "--param"), "Parameter NAME:=VALUE, VALUE read as YAML (repeat).", "node",
+                 "ZENTF_PARAMS", " as a JSON object", metavar="NAME:=VALUE", kind="repeat", programs_only=True),
+    SharedOption("params_file", ("--params-file",), "YAML parameters file (ROS 2 style or flat; docs/launch.md).",
+                 "node", "ZENTF_PARAMS_FILE", metavar="FILE", programs_only=True),
+    SharedOption("remap", ("-r", "--remap"), "Topic remapping FROM:=TO (repeat).", "node", "ZENTF_REMAP",
+                 " as a JSON object", metavar="FROM:=TO", kind="repeat", programs_only=True),
+    SharedOption("wire", ("--wire",), "Wire format: zentf, or ros2 to work on a ROS 2 (rmw_zenoh) graph; "
+                 "ROS_DOMAIN_ID picks the domain.", "node", "ZENTF_WIRE", choices=WIRES),
+    SharedOption("zenoh_config", ("--zenoh-config",), "Zenoh JSON5 config file.", "zenoh", "ZENTF_ZENOH_CONFIG",
+                 metavar="FILE"),
+    SharedOption("connect", ("--connect",), "Endpoint to connect to, e.g. tcp/10.0.0.2:7447 (repeat).", "zenoh",
+                 "ZENTF_CONNECT", "=EP,EP", metavar="EP", kind="repeat"),
+    SharedOption("listen", ("--listen",), "Endpoint to listen on (repeat).", "zenoh", "ZENTF_LISTEN", "=EP,EP",
+                 metavar="EP", kind="repeat"),
+    SharedOption("mode", ("--mode",), "Zenoh mode.", "zenoh", "ZENTF_MODE", choices=MODES),
+    SharedOption("no_multicast", ("--no-multicast",), "Turn multicast scouting off.", "zenoh", "ZENTF_NO_MULTICAST",
+                 "=1", kind="flag"),
+    SharedOption("lan", ("--lan",), "Reach other machines (every interface, multicast scouting; unauthenticated). "
+                 "Default: this machine only.", "zenoh", "ZENTF_LAN", "=1", kind="flag"),
+    SharedOption("debug", ("--debug",), "Show tracebacks and debug logs.", "node", "ZENTF_DEBUG", "=1", kind="flag"),
+)
+_GROUP_TITLES = {"node": "node options", "zenoh": "Zenoh options"}
+
+
+def _add_arguments(parser: argparse.ArgumentParser, groups: Sequence[str]) -> argparse.ArgumentParser:
+    have = {o for a in parser._actions for o in a.option_strings}  # e.g. a program's own --debug
+    for group in groups:
+        g = parser.add_argument_group(_GROUP_TITLES[group])
+        for opt in SHARED_OPTIONS:
+            if opt.group != group or have.intersection(opt.flags):
+                continue
+            kw: dict[str, Any] = {"dest": opt.dest, "help": opt.help_text, "default": None}
+            if opt.kind == "flag":
+                kw["action"] = "store_true"
+            else:
+                kw["metavar"] = opt.metavar
+                if opt.kind == "repeat":
+                    kw["action"] = "append"
+                if opt.choices:
+                    kw["choices"] = opt.choices
+            g.add_argument(*opt.flags, **kw)
     return parser
+
+
+def add_zenoh_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """The Zenoh options of SHARED_OPTIONS (--zenoh-config, --connect, --listen, --mode, ...) on ``parser``."""
+    return _add_arguments(parser, ("zenoh",))
+
+
+def node_options_help() -> str:
+    """The shared options' sections of a program's --help, for programs that print a usage text of their
+    own (static_transform_publisher's is tf2_ros's) or parse them apart (robot_state_publisher)."""
+    parser = argparse.ArgumentParser(add_help=False, usage=argparse.SUPPRESS)
+    return add_node_arguments(parser).format_help().strip()
 
 
 def add_node_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
-    """Add --name/--namespace/-p/--params-file/-r plus the Zenoh flags to a node program's parser."""
-    g = parser.add_argument_group("node")
-    g.add_argument("--name", dest="node_name", metavar="NAME", help="node name [ZENTF_NODE_NAME]")
-    g.add_argument("--namespace", "-n", dest="namespace", metavar="NS", help="namespace [ZENTF_NAMESPACE]")
-    g.add_argument("-p", "--param", dest="params", metavar="NAME:=VALUE", action="append",
-                   help="parameter (repeat) [ZENTF_PARAMS as JSON]")
-    g.add_argument("--params-file", metavar="FILE", help="YAML parameters file [ZENTF_PARAMS_FILE]")
-    g.add_argument("-r", "--remap", dest="remap", metavar="FROM:=TO", action="append",
-                   help="topic remapping (repeat) [ZENTF_REMAP as JSON]")
-    g.add_argument("--wire", choices=WIRES, default=None,
-                   help="wire format: zentf (default) or ros2 (rmw_zenoh, ROS_DOMAIN_ID) [ZENTF_WIRE]")
-    add_zenoh_arguments(parser)
-    return parser
+    """Every option of SHARED_OPTIONS (identity, parameters, remappings, wire, --debug, Zenoh) on a node
+    program's parser."""
+    return _add_arguments(parser, ("node", "zenoh"))

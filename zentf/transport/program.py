@@ -10,7 +10,7 @@ import sys
 from typing import Any, Callable, NoReturn, Sequence
 
 from ..core.text import parse_bool, printable
-from .options import NodeOptions, OptionsError, add_node_arguments
+from .options import NodeOptions, OptionsError, add_node_arguments, env_flag
 
 __all__ = ["OptionsError", "main", "run", "split_node_options", "make_node", "say", "error_line", "param",
            "param_float", "param_positive", "param_bool"]
@@ -49,15 +49,19 @@ class _Parser(argparse.ArgumentParser):
 def _parser(prog: str, description: str | None, *, add_help: bool = True) -> argparse.ArgumentParser:
     parser = _Parser(prog=prog, description=description, allow_abbrev=False, add_help=add_help,
                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--debug", action="store_true", help="debug logging and full tracebacks")
     add_node_arguments(parser)
     return parser
+
+
+def _debug(args: argparse.Namespace) -> bool:
+    """--debug, or ZENTF_DEBUG a yes word (the CLI passes its --debug on so)."""
+    return bool(args.debug) or env_flag(os.environ, "ZENTF_DEBUG")
 
 
 def split_node_options(prog: str, argv: Sequence[str]) -> tuple[NodeOptions, bool, list[str]]:
     """Shared node/Zenoh options out of argv: (options, --debug given, the program's own arguments)."""
     args, rest = _parser(prog, None, add_help=False).parse_known_args(list(argv))
-    return NodeOptions.from_args(args), bool(args.debug), rest
+    return NodeOptions.from_args(args), _debug(args), rest
 
 
 def main(prog: str, argv: Sequence[str] | None, body: Callable[[NodeOptions], None],
@@ -67,10 +71,11 @@ def main(prog: str, argv: Sequence[str] | None, body: Callable[[NodeOptions], No
     try:
         args = _parser(prog, description).parse_args(argv)
         opts = NodeOptions.from_args(args)
+        debug = _debug(args)
     except OptionsError as e:
         error_line(prog, str(e))
         return 2
-    return run(lambda: body(opts), prog, bool(args.debug))
+    return run(lambda: body(opts), prog, debug)
 
 
 def error_line(prog: str, text: str, kind: str = "error: ") -> None:
