@@ -179,7 +179,8 @@ def _mcap(load: _Load, path: Path, zentf: bool) -> str | None:
     if not scan.problems and not scan.has_summary:
         scan._note("no summary (the recorder did not close the file)")
     scan.messages_read = loader.messages
-    return scan.problem.replace("messages", "tf messages") if scan.problem else None
+    scan.unit = "tf messages"
+    return scan.problem
 
 
 def _mcap_chunk_at(f: Any, scan: McapScan, offset: int, chunk: Callable[[bytes, int, bool], None]) -> None:
@@ -323,7 +324,8 @@ def _ros1(load: _Load) -> str | None:
     if not scan.has_index and not scan.problems:
         scan._note("no index (the recorder did not close the file); read linearly")
     scan.messages_read = loader.messages
-    return scan.problem.replace("messages", "tf messages") if scan.problem else None
+    scan.unit = "tf messages"
+    return scan.problem
 
 
 # ---------------------------------------------------------------- SQLite

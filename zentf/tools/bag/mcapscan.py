@@ -185,6 +185,7 @@ class McapScan:
         self.summary_start = 0
         self.size = os.path.getsize(self.path)
         self.on_definition: Callable[[McapChannel], None] | None = None
+        self.unit = "messages"  # what messages_read counts, for ``problem``
 
     @property
     def problem(self) -> str | None:
@@ -193,7 +194,7 @@ class McapScan:
             return None
         more = f" (and {len(self.problems) - 1} more problem{'s' if len(self.problems) > 2 else ''})" \
             if len(self.problems) > 1 else ""
-        return f"{self.problems[0]}{more}; read {self.messages_read} messages"
+        return f"{self.problems[0]}{more}; read {self.messages_read} {self.unit}"
 
     def _note(self, what: str) -> None:
         if len(self.problems) < 1000:

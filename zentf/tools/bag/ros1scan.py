@@ -140,13 +140,14 @@ class Ros1Scan:
         self.index_pos = 0
         self.has_index = False
         self.on_connection: Callable[[Ros1Connection], None] | None = None
+        self.unit = "messages"  # what messages_read counts, for ``problem``
 
     @property
     def problem(self) -> str | None:
         if not self.problems:
             return None
         more = f" (and {len(self.problems) - 1} more)" if len(self.problems) > 1 else ""
-        return f"{self.problems[0]}{more}; read {self.messages_read} messages"
+        return f"{self.problems[0]}{more}; read {self.messages_read} {self.unit}"
 
     def _note(self, what: str) -> None:
         if len(self.problems) < 1000:
@@ -165,29 +166,29 @@ class Ros1Scan:
         while pos < end:
             raw = f.read(4)
             if len(raw) < 4:
-                self._note(f"stopped at byte {pos}: the file ends inside a record (truncated at byte {self.size})")
+                self._note(f"stopped at byte {pos} where the file ends inside a record (truncated at byte {self.size})")
                 return
             (hl,) = _U32.unpack(raw)
             if hl > _MAX_HEADER or hl > self.size - pos - 8:
-                self._note(f"stopped at byte {pos}: a record header of {hl:,} bytes runs past the end of the file "
+                self._note(f"stopped at byte {pos} where a record header of {hl:,} bytes runs past the end of the file "
                            f"(truncated at byte {self.size})" if hl <= _MAX_HEADER else
-                           f"stopped at byte {pos}: a record header of {mib(hl)} (damaged)")
+                           f"stopped at byte {pos} where a record header claims {mib(hl)} (damaged)")
                 return
             try:
                 head = _fields(f.read(hl))
                 (dl,) = _U32.unpack(f.read(4))
             except (ValueError, struct.error) as e:
-                self._note(f"stopped at byte {pos}: a damaged record header ({_one(e)})")
+                self._note(f"stopped at byte {pos} where a record header is damaged ({_one(e)})")
                 return
             op = head.get("op", b"\x00")[:1]
             op = op[0] if op else 0
             if dl > self.size - pos - 8 - hl:
                 if op == _OP_CHUNK:
-                    self._note(f"stopped at byte {pos}: the chunk there is cut by the end of the file "
+                    self._note(f"stopped at byte {pos} where a chunk is cut by the end of the file "
                                f"(truncated at byte {self.size})")
                     yield -1, pos, head, f.read(min(dl, MAX_CHUNK + 1024))
                 else:
-                    self._note(f"stopped at byte {pos}: a record runs past the end of the file "
+                    self._note(f"stopped at byte {pos} where a record runs past the end of the file "
                                f"(truncated at byte {self.size})")
                 return
             if op in want:
