@@ -48,7 +48,7 @@ class Ros1Chunk:
     offset: int
     start: int       # receive times (ns) of its first and last message
     end: int
-    connections: frozenset
+    channels: frozenset  # connection ids with messages in it
 
 
 def fields(buf: bytes | memoryview) -> dict[str, bytes]:
