@@ -289,7 +289,7 @@ class McapScan:
                                    f"(truncated at byte {self.size})")
                     return
                 self._note(f"the record at byte {pos} has a damaged length ({n:,} bytes, past the end of the "
-                           f"file); resumed at the next chunk, byte {nxt}")
+                           f"file); resumed at the next record, byte {nxt}")
                 self.skipped_chunks += 1
                 pos = nxt
                 f.seek(pos)
