@@ -157,10 +157,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 def _report_crash(exc: Exception) -> int:
     from zentf.core.exceptions import TransformException
 
-    try:
-        from zentf.transport.options import OptionsError
-    except ImportError:  # pragma: no cover - transport not installed
-        OptionsError = ValueError  # type: ignore[misc,assignment]  # noqa: N806
+    from zentf.transport.options import OptionsError
     if isinstance(exc, TransformException):
         _error(f"{type(exc).__name__}: {clean_error(exc)}")
         return 1

@@ -4,13 +4,13 @@ from __future__ import annotations
 import math
 import statistics
 from dataclasses import dataclass, field
-from typing import Iterable, Mapping, Sequence
+from typing import Any, Iterable, Mapping, Sequence
 
 from zentf.core.text import printable  # names from the network, printed: the one escaping rule
 
 __all__ = [
     "printable", "FrameStat", "NodeDesc", "rpy_from_quaternion", "matrix_from_quaternion", "format_echo",
-    "parse_frames_yaml", "frame_trees", "format_frame_tree", "frames_dot", "node_graph_dot",
+    "frame_trees", "format_frame_tree", "frames_dot", "node_graph_dot",
     "format_node_graph", "format_hz", "format_stamp", "stats_from_frame_info",
 ]
 
@@ -105,26 +105,6 @@ class FrameStat:
         if self.static is not None:
             return self.static
         return self.most_recent == 0.0 and self.oldest == 0.0
-
-
-def parse_frames_yaml(text: str) -> list[FrameStat]:
-    """FrameStats from tf2's allFramesAsYAML text ('{}' / '[]' / '' when empty)."""
-    import yaml
-
-    data = yaml.safe_load(text) if text and text.strip() else None
-    if not data or not isinstance(data, dict):
-        return []
-    out = []
-    for child, d in data.items():
-        d = d or {}
-        out.append(FrameStat(
-            child=str(child), parent=str(d.get("parent", "")),
-            broadcaster=str(d.get("broadcaster", "no recorded authority")),
-            rate=float(d.get("rate", 0.0)), most_recent=float(d.get("most_recent_transform", 0.0)),
-            oldest=float(d.get("oldest_transform", 0.0)), buffer_length=float(d.get("buffer_length", 0.0)),
-            delay=float(d["transform_delay"]) if "transform_delay" in d else None,
-        ))
-    return out
 
 
 def frame_trees(stats: Sequence[FrameStat]) -> list[tuple[str, list[FrameStat]]]:
@@ -308,10 +288,8 @@ def format_hz(arrivals: Sequence[float]) -> str | None:
             f"\tmin: {min(deltas):.3f}s max: {max(deltas):.3f}s std dev: {std:.5f}s window: {len(arrivals)}")
 
 
-def _sec(t: object) -> float:
-    if hasattr(t, "nanoseconds"):
-        return t.nanoseconds / 1e9  # type: ignore[attr-defined]
-    return float(t)  # type: ignore[arg-type]
+def _sec(t: Any) -> float:
+    return t.nanoseconds / 1e9
 
 
 def stats_from_frame_info(infos: Iterable[Mapping]) -> list[FrameStat]:
