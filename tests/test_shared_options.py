@@ -113,3 +113,9 @@ def test_options_before_the_subcommand_reach_commands_and_programs(spawn, zenoh_
 def test_a_bad_value_before_the_subcommand_is_one_line() -> None:
     assert_one_line_error(zentf(["--mode", "boss", "tf", "frames"], None), "--mode", code=2)
     assert_one_line_error(zentf(["--wire", "dds", "node", "list"], None), "--wire", code=2)
+
+
+def test_the_architecture_table_lists_every_shared_option() -> None:
+    table = (REPO / "docs" / "architecture.md").read_text().split("## How a node learns its identity")[1]
+    for opt in SHARED_OPTIONS:
+        assert f"`{opt.flags[0]}" in table and f"`{opt.env}" in table, opt.dest

@@ -1,9 +1,8 @@
 """The `zentf` command: tf echo/monitor/frames, topic/node introspection, graph, launch, clock.
 
-Built on a lazy click group rather than typer: typer 0.29 imports pydantic to coerce any
-non-bool parameter (+0.16 s per run, measured with `python -X importtime`), which alone would
-break the start-up targets. Each subcommand's module is imported only when it runs, and Zenoh
-only inside the command that needs it.
+Built on a lazy click group rather than typer: typer imports pydantic to coerce any non-bool
+parameter, which alone costs more start-up time than the CLI's budget (docs/performance.md). Each
+subcommand's module is imported only when it runs, and Zenoh only inside the command that needs it.
 """
 from __future__ import annotations
 

@@ -8,8 +8,8 @@ Mimic joints follow their master. ``frame_prefix`` is prepended to every frame i
 ROS 1 used tf_prefix with a '/'). The URDF text is published latched on ``robot_description``
 (std_msgs/String). Joint states are decoded and turned into one TFMessage in Zenoh's callback
 thread (no executor hop): throttle, finite check, kinematics and the message bytes in one compiled
-call (zentf/tools/jointtf.pyx: at 100 Hz the process wakes with cold caches, where each numpy call
-would cost 5-15 us). A JointState whose name list
+call (zentf/tools/jointtf.pyx: at 100 Hz the process wakes with cold caches, where numpy's per-call
+cost would dominate). A JointState whose name list
 is byte for byte the one last seen (publishers resend the same list) is read in C without decoding a
 name (``JointTfFiller.read``); anything else, or anything odd, takes the general decoder, which names
 what is wrong.

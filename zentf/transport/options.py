@@ -1,7 +1,9 @@
 """The one place where node identity and Zenoh options come from: flags > ZENTF_* env vars > defaults.
 
+The options themselves are declared once, in ``SHARED_OPTIONS``.
 Node programs: ``add_node_arguments(parser)`` then ``NodeOptions.from_args(parser.parse_args())``.
-CLI (typer) commands: ``ZenohOptions.from_values(...)`` then ``.config()`` / ``.open_session()``.
+CLI (click) commands: ``zentf.cli.common.with_options`` builds the same options, then
+``ZenohOptions.from_values(...)`` and ``.config()`` / ``.open_session()``.
 Launcher: ``NodeOptions(...).to_env()`` gives the env vars that pass identity to a child.
 """
 from __future__ import annotations
@@ -43,8 +45,8 @@ _RETRY = "{period_init_ms: 250, period_max_ms: 1000, period_increase_factor: 2}"
 # Zenoh reads each link into a pool of rx_buffer_size / batch size buffers, one by default; a buffer
 # comes back to the pool only once every sample cut from it is dropped, so while a subscriber's
 # RingChannel still holds the previous batch's samples, every read callocs a fresh 64 kB buffer and
-# zeroes it (callgrind, a 1-transform tf flood: 2.7k of the rx thread's 6.3k instructions a message).
-# Four batches (at most 256 kB a link) let the reads recycle (docs/protocol.md, "Sessions").
+# zeroes it, which under a flood of small messages is most of the receiving thread's work. Four
+# batches (at most 256 kB a link) let the reads recycle (docs/protocol.md, "Sessions").
 _RX_BUFFER = 4 * 65535
 log = logging.getLogger("zentf.network")
 _warned_exposed = False
@@ -190,8 +192,8 @@ class ZenohOptions:
             if self.profile != "file":
                 # Zenoh's default puts every message of 3 kB or more into a 16 MiB shared-memory pool and
                 # has each receiver on the machine map the sender's pool: a listener flooded with big
-                # messages counted ~35 MB of such mappings in its RSS, kept after the flood (bench/abuse.py).
-                # Off, as in rmw_zenoh's default session; a config file may turn it back on.
+                # messages keeps those mappings in its RSS after the flood. Off, as in rmw_zenoh's
+                # default session; a config file may turn it back on.
                 cfg.insert_json5("transport/shared_memory/enabled", "false")
                 cfg.insert_json5("transport/link/rx/buffer_size", str(_RX_BUFFER))
             if self.mode:
@@ -360,7 +362,8 @@ def exposure(cfg: Any) -> list[str]:
 
 
 def _warn_if_exposed(cfg: Any) -> None:
-    """One line per process when a session reaches beyond loopback unauthenticated (issue: silent LAN)."""
+    """One line per process when a session reaches beyond loopback unauthenticated: an exposure nobody
+    asked for must not be silent."""
     global _warned_exposed
     if _warned_exposed:
         return
