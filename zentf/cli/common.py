@@ -149,7 +149,7 @@ class CliOptions:
 
 def cli_options() -> tuple[Any, ...]:
     """The shared options the CLI takes (zentf.transport.options.SHARED_OPTIONS minus a node's identity)."""
-    from zentf.transport.options import SHARED_OPTIONS
+    from zentf.transport.shared_options import SHARED_OPTIONS
 
     return tuple(o for o in SHARED_OPTIONS if not o.programs_only)
 

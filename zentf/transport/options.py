@@ -21,6 +21,7 @@ from typing import Any
 
 from ..core.text import parse_bool
 from .names import fully_qualified_node_name, normalize_namespace, validate_node_name
+from .shared_options import MODES, SHARED_OPTIONS, WIRES, SharedOption
 
 __all__ = [
     "OptionsError", "ZenohOptions", "NodeOptions", "SharedOption", "SHARED_OPTIONS", "add_zenoh_arguments",
@@ -32,9 +33,6 @@ __all__ = [
 ENV_VARS = ("ZENTF_NODE_NAME", "ZENTF_NAMESPACE", "ZENTF_PARAMS", "ZENTF_PARAMS_FILE", "ZENTF_REMAP",
             "ZENTF_ZENOH_CONFIG", "ZENTF_CONNECT", "ZENTF_LISTEN", "ZENTF_MODE", "ZENTF_NO_MULTICAST",
             "ZENTF_LAN", "ZENTF_LOCAL_PORT", "ZENTF_WIRE", "ROS_DOMAIN_ID")
-#: Wire profiles (zentf.transport.wire.profiles): zentf's own format, or rmw_zenoh's to talk to ROS 2 (docs/ros2.md).
-WIRES = ("zentf", "ros2")
-MODES = ("peer", "client", "router")
 _ENDPOINT = re.compile(r"[a-z0-9]+/\S+\Z")
 #: Loopback port of the local profile's rendezvous: the first zentf process of this machine listens
 #: there, every later one connects to it and gossip links them all (zentf's rmw_zenohd, in-process).
@@ -675,54 +673,6 @@ def _domain_id(text: str | None) -> int:
     return value
 
 
-@dataclass(frozen=True)
-class SharedOption:
-    """One option every node program and every ``zentf`` command takes the same way: the argparse
-    parsers of the programs and the click options of the CLI are both built from ``SHARED_OPTIONS``."""
-
-    dest: str                       # the parsed value's name
-    flags: tuple[str, ...]
-    help: str
-    group: str                      # "node" or "zenoh" (argparse's groups in a program's --help)
-    env: str | None = None          # the environment variable that gives its default
-    env_form: str = ""              # how that variable is written, when not as the flag's value
-    metavar: str | None = None
-    kind: str = "value"             # "value", "repeat" (may be given several times) or "flag"
-    choices: tuple[str, ...] = ()
-    programs_only: bool = False     # a node's identity: CLI tools are hidden nodes with names of their own
-
-    @property
-    def help_text(self) -> str:
-        """The help line, with the environment variable: the same in every --help."""
-        return f"{self.help} [env {self.env}{self.env_form}]" if self.env else self.help
-
-
-SHARED_OPTIONS: tuple[SharedOption, ...] = (
-    SharedOption("node_name", ("--name",), "Node name.", "node", "ZENTF_NODE_NAME", metavar="NAME",
-                 programs_only=True),
-    SharedOption("namespace", ("--namespace", "-n"), "Namespace of the graph (topic 'tf' is key 'NS/tf').", "node",
-                 "ZENTF_NAMESPACE", metavar="NS"),
-    SharedOption("params", ("-p", "--param"), "Parameter NAME:=VALUE, VALUE read as YAML (repeat).", "node",
-                 "ZENTF_PARAMS", " as a JSON object", metavar="NAME:=VALUE", kind="repeat", programs_only=True),
-    SharedOption("params_file", ("--params-file",), "YAML parameters file (ROS 2 style or flat; docs/launch.md).",
-                 "node", "ZENTF_PARAMS_FILE", metavar="FILE", programs_only=True),
-    SharedOption("remap", ("-r", "--remap"), "Topic remapping FROM:=TO (repeat).", "node", "ZENTF_REMAP",
-                 " as a JSON object", metavar="FROM:=TO", kind="repeat", programs_only=True),
-    SharedOption("wire", ("--wire",), "Wire format: zentf, or ros2 to work on a ROS 2 (rmw_zenoh) graph; "
-                 "ROS_DOMAIN_ID picks the domain.", "node", "ZENTF_WIRE", choices=WIRES),
-    SharedOption("zenoh_config", ("--zenoh-config",), "Zenoh JSON5 config file.", "zenoh", "ZENTF_ZENOH_CONFIG",
-                 metavar="FILE"),
-    SharedOption("connect", ("--connect",), "Endpoint to connect to, e.g. tcp/10.0.0.2:7447 (repeat).", "zenoh",
-                 "ZENTF_CONNECT", "=EP,EP", metavar="EP", kind="repeat"),
-    SharedOption("listen", ("--listen",), "Endpoint to listen on (repeat).", "zenoh", "ZENTF_LISTEN", "=EP,EP",
-                 metavar="EP", kind="repeat"),
-    SharedOption("mode", ("--mode",), "Zenoh mode.", "zenoh", "ZENTF_MODE", choices=MODES),
-    SharedOption("no_multicast", ("--no-multicast",), "Turn multicast scouting off.", "zenoh", "ZENTF_NO_MULTICAST",
-                 "=1", kind="flag"),
-    SharedOption("lan", ("--lan",), "Reach other machines (every interface, multicast scouting; unauthenticated). "
-                 "Default: this machine only.", "zenoh", "ZENTF_LAN", "=1", kind="flag"),
-    SharedOption("debug", ("--debug",), "Show tracebacks and debug logs.", "node", "ZENTF_DEBUG", "=1", kind="flag"),
-)
 _GROUP_TITLES = {"node": "node options", "zenoh": "Zenoh options"}
 
 
