@@ -8,6 +8,7 @@ Python from the model: never on an untrusted file).
 """
 from __future__ import annotations
 
+import os
 import sys
 
 import xacro
@@ -17,7 +18,7 @@ import xacro.substitution_args as subst
 def main(argv: list[str]) -> int:
     model, rest = argv[0], argv[1:]
     split = rest.index("--") if "--" in rest else len(rest)
-    packages = dict(p.split("=", 1) for p in rest[:split])
+    packages = {k: os.path.abspath(v) for k, v in (p.split("=", 1) for p in rest[:split])}
     mappings = dict(a.split(":=", 1) for a in rest[split + 1:])
 
     def find(pkg: str) -> str:

@@ -4,19 +4,25 @@ Checks (urdfdom's, plus the tree ones robot_state_publisher relies on): required
 (finite, right count), known joint types, limits on revolute/prismatic joints, unique names, joints
 whose parent/child links exist, a child that is not its own parent, one parent per link, exactly one
 root, no loops, mimic targets that exist (and no mimic cycles), named materials that are defined.
-``.xacro`` files go through the PyPI ``xacro`` package (optional extra ``zentf[urdf]``).
+``.xacro`` files are expanded by zentf's own xacro (``zentf.urdf.xacro``): in a confined child process,
+with a restricted expression evaluator and a CPU/memory budget; a model file is data, never code.
 """
 from __future__ import annotations
 
 import logging
 import math
 import os
+from collections.abc import Mapping
 from pathlib import Path
 
+from ..core.ratelimit import escape
 from .errors import URDFError
 from .model import (JOINT_TYPES, Box, Cylinder, Joint, JointLimit, JointMimic, Link, Material, Mesh,
                     Pose, Robot, Sphere, Visual)
 from .resolve import resolve_uri, search_path
+from .xacro.budget import DEFAULT_BUDGET, Budget, parse_budget
+from .xacro.errors import XacroError
+from .xacro.process import expand_file
 from .xmltree import XElement, parse_xml
 
 __all__ = ["parse_urdf", "load_urdf", "read_urdf_text"]
@@ -245,21 +251,36 @@ def parse_urdf(text: str | bytes, *, source: str | None = None, package_path: li
     return robot
 
 
-def read_urdf_text(path: str, xacro_args: dict[str, str] | None = None) -> str:
-    """A URDF file's text; a .xacro file is expanded by the ``xacro`` package first."""
+def _budget(budget: "Budget | str | None") -> Budget:
+    if budget is None:
+        return DEFAULT_BUDGET
+    if isinstance(budget, Budget):
+        return budget
+    try:
+        return parse_budget(str(budget))
+    except ValueError as e:
+        raise URDFError(str(e)) from None
+
+
+def read_urdf_text(path: str, xacro_args: dict[str, str] | None = None, *, package_path: list[str] | None = None,
+                   xacro_budget: "Budget | str | None" = None, xacro_env: Mapping[str, str] | None = None) -> str:
+    """A URDF file's text; a .xacro file is expanded first, by zentf's confined xacro (see docs/urdf.md):
+    files are data, never code; ``package_path`` is where ``$(find PKG)`` looks, ``xacro_env`` the only
+    environment the model sees, ``xacro_budget`` its CPU and memory (``"30s,2GB"``)."""
     p = Path(path)
     if p.suffix == ".xacro":
+        budget = _budget(xacro_budget)
         try:
-            import xacro
-        except ImportError:
-            raise URDFError("reading .xacro files needs the xacro package: pip install 'zentf[urdf]'",
-                            file=path) from None
-        try:
-            doc = xacro.process_file(str(p), mappings=dict(xacro_args or {}))
-        except Exception as e:  # xacro raises XacroException, OSError, xml errors...
-            first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-            raise URDFError(f"xacro failed: {first}", file=path) from None
-        return doc.toprettyxml(indent="  ")
+            result = expand_file(str(p), args=dict(xacro_args or {}), package_path=list(package_path or []),
+                                 env=dict(xacro_env or {}), budget=budget)
+        except XacroError as e:
+            msg = e.message if e.message.startswith("xacro") else f"xacro: {e.message}"
+            raise URDFError(msg, file=e.file or path, line=e.line) from None
+        for w in result.warnings[:20]:
+            log.warning("%s: xacro: %s", escape(path), escape(w, 400))
+        if not result.confined.get("landlock"):
+            log.debug("%s: expanded without Landlock (kernel without it): rlimits and zentf's evaluator only", path)
+        return result.urdf
     try:
         return p.read_text(encoding="utf-8")
     except FileNotFoundError:
@@ -269,8 +290,9 @@ def read_urdf_text(path: str, xacro_args: dict[str, str] | None = None) -> str:
 
 
 def load_urdf(path: str | os.PathLike, *, package_path: list[str] | None = None,
-              xacro_args: dict[str, str] | None = None) -> Robot:
+              xacro_args: dict[str, str] | None = None, xacro_budget: "Budget | str | None" = None,
+              xacro_env: Mapping[str, str] | None = None) -> Robot:
     """Read and parse a .urdf (or .xacro) file."""
     path = os.fspath(path)
-    text = read_urdf_text(path, xacro_args)
+    text = read_urdf_text(path, xacro_args, package_path=package_path, xacro_budget=xacro_budget, xacro_env=xacro_env)
     return parse_urdf(text, source=path, package_path=package_path)
