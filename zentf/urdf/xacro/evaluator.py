@@ -144,7 +144,7 @@ def _check_format_string(fmt: str) -> None:
         parsed = list(string.Formatter().parse(fmt))
     except ValueError as e:
         raise ExprError(f"bad format string: {e}") from None
-    for _text, field, conversion, spec in parsed:
+    for _text, field, spec, conversion in parsed:
         if field is None:
             continue
         if not (field == "" or field.isdigit() or field.isidentifier()):
