@@ -181,10 +181,7 @@ def parse_urdf(text: str | bytes, *, source: str | None = None, package_path: li
         if a is not None:
             axis = _floats(ctx, a, "xyz", 3, (1.0, 0.0, 0.0), el)
         if jtype in ("revolute", "continuous", "prismatic", "planar"):
-            norm = math.sqrt(sum(c * c for c in axis))
-            if norm < 1e-12:
-                raise ctx.error("the axis is zero", a or el)
-            axis = (axis[0] / norm, axis[1] / norm, axis[2] / norm)
+            axis = _unit_axis(ctx, axis, a or el)
         limit = None
         le = el.find("limit")
         if le is not None:
@@ -235,20 +232,58 @@ def parse_urdf(text: str | bytes, *, source: str | None = None, package_path: li
         stray = next(j for j in robot.joints.values() if j.child not in reached)
         raise ctx.error(f"the joints form a loop through link '{stray.child}' (not reachable from root "
                         f"'{robot.root}')", joint_els[stray.name])
-    for name, j in robot.joints.items():
-        if j.mimic is None:
-            continue
-        seen = {name}
-        m = j.mimic
-        while m is not None:
-            target = robot.joints.get(m.joint)
-            if target is None:
-                raise ctx.error(f"mimics unknown joint '{m.joint}'", joint_els[name])
-            if target.name in seen:
-                raise ctx.error(f"mimic joints form a cycle through '{target.name}'", joint_els[name])
-            seen.add(target.name)
-            m = target.mimic
+    _check_mimics(ctx, robot, joint_els)
     return robot
+
+
+def _unit_axis(ctx: _Ctx, axis: tuple[float, ...], el: XElement) -> tuple[float, float, float]:
+    """The axis scaled to length 1 without overflow (divided by its largest component first: 1e200 1e200 0
+    is a fine direction); a zero axis is refused."""
+    big = max(abs(c) for c in axis)
+    if big == 0.0:
+        raise ctx.error(f"the axis xyz=\"{' '.join(f'{c:g}' for c in axis)}\" is zero", el)
+    scaled = [c / big for c in axis]
+    norm = math.hypot(*scaled)  # between 1 and sqrt(3)
+    unit = (scaled[0] / norm, scaled[1] / norm, scaled[2] / norm)
+    if not all(math.isfinite(c) for c in unit) or abs(math.hypot(*unit) - 1.0) > 1e-9:
+        raise ctx.error(f"the axis xyz=\"{' '.join(f'{c:g}' for c in axis)}\" has no usable direction", el)
+    return unit
+
+
+def _check_mimics(ctx: _Ctx, robot: Robot, joint_els: dict[str, XElement]) -> None:
+    """Mimic targets exist and form no cycle (linear time, no recursion), and every mimic joint's position
+    stays finite over its driver's range (the limits; continuous joints: +-pi), mimic chains composed."""
+    state: dict[str, int] = {}  # 1: on the chain being followed, 2: checked
+    for name, j in robot.joints.items():
+        if j.mimic is None or name in state:
+            continue
+        path: list[str] = []
+        cur = name
+        while state.get(cur) != 2:
+            if state.get(cur) == 1:
+                raise ctx.error(f"mimic joints form a cycle through '{cur}'", joint_els[name])
+            joint = robot.joints[cur]
+            if joint.mimic is None:
+                break
+            state[cur] = 1
+            path.append(cur)
+            target = robot.joints.get(joint.mimic.joint)
+            if target is None:
+                raise ctx.error(f"mimics unknown joint '{joint.mimic.joint}'", joint_els[cur])
+            cur = target.name
+        for p in path:
+            state[p] = 2
+    drivers = robot.mimic_drivers()
+    for name, j in robot.joints.items():
+        if j.mimic is None or not j.movable:
+            continue
+        driver, mult, off = drivers[name]
+        lo, hi = robot.joints[driver].bounds() if driver is not None else (0.0, 0.0)
+        ends = (mult * lo + off, mult * hi + off) if driver is not None else (off, off)
+        if not (math.isfinite(mult) and math.isfinite(off) and all(math.isfinite(v) for v in ends)):
+            raise ctx.error(f"mimic multiplier {j.mimic.multiplier:g} and offset {j.mimic.offset:g} take the "
+                            f"position out of the finite range (over '{driver}' in [{lo:g}, {hi:g}])",
+                            joint_els[name])
 
 
 def _budget(budget: "Budget | str | None") -> Budget:
