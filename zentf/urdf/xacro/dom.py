@@ -153,7 +153,10 @@ def serialize(root: Element, limit: int | None = None) -> str:
         if t is str:  # a closing tag
             piece = node
         elif t is Text:
-            piece = _text(node.data)
+            data = node.data
+            if data.count("\n") > 1 and not data.strip():  # blank lines where xacro elements were: one break
+                data = "\n" + data.rsplit("\n", 1)[1]
+            piece = _text(data)
         elif t is Comment:
             piece = "<!--" + node.data + "-->"
         else:

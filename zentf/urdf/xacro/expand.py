@@ -8,6 +8,7 @@ caller passed, and every expansion is metered. Nesting of macros, includes and e
 """
 from __future__ import annotations
 
+import keyword
 import os
 import re
 from typing import Any
@@ -29,6 +30,7 @@ MAX_MACRO_DEPTH = 200
 MAX_INCLUDE_DEPTH = 64
 #: Most warnings kept (``xacro.warning``, unknown attributes...).
 MAX_WARNINGS = 50
+_KEYWORDS = frozenset(keyword.kwlist)
 _XML_NAME = re.compile(r"^[^\W\d][\w.\-:]*$")
 _SUBST = re.compile(r"\$\(([^)]*)\)")
 _VALID_COMMANDS = ("find", "env", "optenv", "dirname", "arg", "eval", "cwd")
@@ -643,11 +645,6 @@ class Processor:
             if default is not None:
                 return self.eval_text(default, symbols)
             raise XacroError(f"undefined property to forward: {forward} (macro '{m.name}')") from None
-
-
-import keyword as _keyword  # noqa: E402
-
-_KEYWORDS = frozenset(_keyword.kwlist)
 
 
 class _EvalScope:

@@ -168,7 +168,6 @@ def main() -> int:
         _reply({"ok": False, "error": e.message, "file": e.file, "line": e.line, "confined": applied})
         return 0
     except MemoryError:
-        text = None
         _reply({"ok": False, "budget": "memory", "confined": applied})
         return 0
     except RecursionError:
