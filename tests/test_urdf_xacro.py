@@ -350,6 +350,9 @@ BOMBS = {
     "yaml_alias_bomb": ("<link name=\"${xacro.load_yaml('laughs.yaml')}\"/>", "YAML aliases unfold to more than"),
     "yaml_recursive_alias": ("<link name=\"${xacro.load_yaml('loop.yaml')}\"/>", "a YAML alias refers to itself"),
     "factorial": ('<link name="${math.factorial(10**7)}"/>', "math.factorial of 10000000 is refused"),
+    "many_big_strings": ("<xacro:property name=\"s\" value=\"${'x' * 8000000}\"/>"
+                         '<link name="${python.len([s + str(i) for i in python.range(1000)])}"/>',
+                         "out of its memory budget"),
 }
 
 

@@ -29,8 +29,8 @@ __all__ = ["Evaluator", "Function", "Lambda", "Method", "ExprError", "MAX_EXPRES
 
 #: Longest expression text parsed (real ones: well under 1 kB).
 MAX_EXPRESSION = 65536
-#: Deepest nesting of expression nodes and lambda calls together.
-MAX_DEPTH = 120
+#: Deepest nesting of expression nodes, lambda calls and lazily evaluated properties together.
+MAX_DEPTH = 400
 #: Largest integer made by arithmetic, in bits (about 20,000 decimal digits).
 MAX_INT_BITS = 65536
 #: Largest width or precision in a format specification.
@@ -246,7 +246,7 @@ class Evaluator:
             raise ExprError(f"invalid expression: {e.msg}") from None
         except (ValueError, RecursionError, MemoryError, OverflowError) as e:
             raise ExprError(f"invalid expression: {type(e).__name__}") from None
-        if len(self._cache) < 4096:
+        if len(self._cache) < 4096 and len(src) <= 1024:  # the cache stays small (a few MB)
             self._cache[text] = tree
         return tree
 

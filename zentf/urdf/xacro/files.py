@@ -51,8 +51,8 @@ class FilePolicy:
         for root in self.roots:
             if real == root or real.startswith(root.rstrip(os.sep) + os.sep):
                 return real
-        raise XacroError(f"'{path}' is outside the model's folder and the package paths "
-                         f"(give its package with --package-path)")
+        raise XacroError(f"'{path}' is outside the model's folder and the package paths (symbolic links "
+                         f"leading out are not followed; give its package's folder with --package-path)")
 
     def read(self, path: str, what: str) -> bytes:
         """The bytes of a file within the roots (FileNotFoundError when it does not exist)."""

@@ -26,10 +26,18 @@ PACKAGE_PATH_ENV = "ZENTF_PACKAGE_PATH"
 _PKG_DIR = os.path.dirname(os.path.abspath(__file__))
 _BOOT = ("import importlib.util,sys\n"
          "d=sys.argv[1]\n"
+         "sys.path.extend(p for p in sys.argv[2:] if p not in sys.path)\n"
          "s=importlib.util.spec_from_file_location('_zentf_xacro',d+'/__init__.py',submodule_search_locations=[d])\n"
          "m=importlib.util.module_from_spec(s);sys.modules['_zentf_xacro']=m;s.loader.exec_module(m)\n"
          "from _zentf_xacro.sandbox import main\n"
          "sys.exit(main())\n")
+
+
+def _yaml_dir() -> str:
+    """Where PyYAML is (isolated mode leaves out a user site-packages; the child is told)."""
+    import yaml
+
+    return os.path.dirname(os.path.dirname(os.path.abspath(yaml.__file__)))
 
 
 @dataclass
@@ -79,7 +87,8 @@ def expand_file(path: str, *, args: dict[str, str] | None = None, package_path: 
         raise XacroError("cannot expand .xacro: no Python interpreter to run the expansion in", path)
     wall = budget.cpu_s * 3 + 15
     try:
-        proc = subprocess.run([sys.executable, "-I", "-c", _BOOT, _PKG_DIR], input=request, capture_output=True,
+        proc = subprocess.run([sys.executable, "-I", "-c", _BOOT, _PKG_DIR, _yaml_dir()], input=request,
+                              capture_output=True,
                               timeout=wall, env=child_env, cwd=os.path.dirname(path))
     except subprocess.TimeoutExpired:
         raise BudgetExceeded(f"xacro expansion stopped: no answer within {wall:g} s (raise it with {BUDGET_OPTION})",

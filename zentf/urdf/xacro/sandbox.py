@@ -3,6 +3,7 @@
 Belt and braces under the restricted evaluator: even a flaw in it could not run a command, write a
 file, open a socket or read outside the allowed folders, nor spend more than the budget.
 
+- it dies with its parent (``PR_SET_PDEATHSIG``);
 - rlimits: ``RLIMIT_CPU`` (the budget's seconds, then SIGXCPU/SIGKILL), ``RLIMIT_AS`` (the budget's
   memory over what the interpreter already uses), ``RLIMIT_FSIZE`` 0 (no file can be written),
   ``RLIMIT_NPROC`` 0 (no process can be started), ``RLIMIT_CORE`` 0;
@@ -28,6 +29,7 @@ __all__ = ["confine", "landlock_abi", "main"]
 
 _SYS_CREATE, _SYS_ADD_RULE, _SYS_RESTRICT = 444, 445, 446  # the same number on every 64-bit Linux arch
 _PR_SET_NO_NEW_PRIVS = 38
+_PR_SET_PDEATHSIG = 1
 _RULE_PATH_BENEATH = 1
 _FS_EXECUTE, _FS_WRITE_FILE, _FS_READ_FILE, _FS_READ_DIR = 1 << 0, 1 << 1, 1 << 2, 1 << 3
 _NET_ALL = (1 << 0) | (1 << 1)        # bind and connect TCP (ABI 4)
@@ -130,6 +132,11 @@ def confine(read_roots: list[str], cpu_s: float, memory_bytes: int) -> dict:
             except (ValueError, OSError):
                 pass
         applied["rlimits"] = True
+    libc = _libc()
+    if libc is not None:  # the expansion ends with its parent, whatever happens to the parent
+        libc.prctl(_PR_SET_PDEATHSIG, 9, 0, 0, 0)
+        if os.getppid() == 1:
+            os._exit(1)
     applied["landlock"] = _landlock(read_roots)
     return applied
 
