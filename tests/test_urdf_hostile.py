@@ -170,6 +170,7 @@ def chain(tmp_path_factory) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_a_100000_link_chain_checks_and_graphs(chain: Path, tmp_path: Path) -> None:
     proc = zentf(["urdf", "check", str(chain)], None, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
@@ -185,6 +186,7 @@ def test_a_100000_link_chain_checks_and_graphs(chain: Path, tmp_path: Path) -> N
     assert f'"joint:j{N_CHAIN}" -> "l{N_CHAIN}";' in gv
 
 
+@pytest.mark.slow
 def test_a_100000_link_chain_has_kinematics_a_publisher_and_a_view(chain: Path, node_options) -> None:
     robot = load_urdf(chain)
     kin = Kinematics(robot)
@@ -220,6 +222,7 @@ def test_a_100000_link_chain_has_kinematics_a_publisher_and_a_view(chain: Path, 
     assert display.robot is not None and len(display._drawn) == N_CHAIN + 1
 
 
+@pytest.mark.slow
 def test_a_100000_deep_mimic_chain_loads_in_linear_time(tmp_path: Path) -> None:
     parts = ['<robot name="mimics">', '<link name="l0"/>']
     for i in range(1, N_CHAIN + 1):

@@ -57,20 +57,23 @@ def _req(ctx: _Ctx, el: XElement, attr: str, owner: XElement | None = None) -> s
 def _floats(ctx: _Ctx, el: XElement, attr: str, n: int, default: tuple | None, owner: XElement | None = None
             ) -> tuple[float, ...]:
     text = el.get(attr)
-    where = (_describe(owner) + " " if owner is not None and owner is not el else "") + _describe(el)
+
+    def where() -> str:  # only when refusing: a model has hundreds of thousands of numbers
+        return (_describe(owner) + " " if owner is not None and owner is not el else "") + _describe(el)
+
     if text is None:
         if default is None:
-            raise ctx.error(f"missing required attribute '{attr}'", el, where)
+            raise ctx.error(f"missing required attribute '{attr}'", el, where())
         return default
     parts = text.split()
     try:
-        values = tuple(float(p) for p in parts)
+        values = tuple(map(float, parts))
     except ValueError:
-        raise ctx.error(f"bad number in {attr}=\"{text}\"", el, where) from None
+        raise ctx.error(f"bad number in {attr}=\"{text}\"", el, where()) from None
     if len(values) != n:
-        raise ctx.error(f"{attr}=\"{text}\" needs {n} number{'s' if n > 1 else ''}, got {len(values)}", el, where)
-    if not all(math.isfinite(v) for v in values):
-        raise ctx.error(f"{attr}=\"{text}\" must be finite numbers", el, where)
+        raise ctx.error(f"{attr}=\"{text}\" needs {n} number{'s' if n > 1 else ''}, got {len(values)}", el, where())
+    if not all(map(math.isfinite, values)):
+        raise ctx.error(f"{attr}=\"{text}\" must be finite numbers", el, where())
     return values
 
 
