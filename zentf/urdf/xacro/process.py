@@ -96,7 +96,7 @@ def expand_file(path: str, *, args: dict[str, str] | None = None, package_path: 
     except OSError as e:
         raise XacroError(f"cannot start the xacro expansion: {e.strerror or e}", path) from None
     rc, out = proc.returncode, proc.stdout
-    if rc in (-signal.SIGXCPU, -signal.SIGKILL):
+    if rc < 0 and -rc in (getattr(signal, "SIGXCPU", -1), getattr(signal, "SIGKILL", -1)):
         raise BudgetExceeded(f"xacro expansion stopped: it used up its CPU budget of {budget.cpu_s:g} s "
                              f"(raise it with {BUDGET_OPTION})", path)
     reply = None
