@@ -196,8 +196,13 @@ def _render(dot_path: Path, fmt: str, out_path: Path) -> Optional[str]:
     exe = shutil.which("dot")
     if exe is None:
         return "graphviz 'dot' not found; wrote the DOT file only (apt-get install graphviz)"
-    proc = subprocess.run([exe, f"-T{fmt}", str(dot_path), "-o", str(out_path)], capture_output=True,
-                          text=True, timeout=120)
+    try:  # absolute paths: a name starting with '-' is never read as an option
+        proc = subprocess.run([exe, f"-T{fmt}", str(dot_path.absolute()), f"-o{out_path.absolute()}"],
+                              capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL)
+    except subprocess.TimeoutExpired:
+        return f"dot took longer than 120 s to render {dot_path}; wrote the DOT file only"
+    except OSError as exc:
+        return f"cannot run dot: {exc.strerror or exc}"
     if proc.returncode != 0:
         first = (proc.stderr.strip().splitlines() or ["failed"])[0]
         return f"dot could not render {dot_path}: {first}"

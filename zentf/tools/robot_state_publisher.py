@@ -39,8 +39,9 @@ from ..transport.wire import codec as wire
 from ..transport.broadcaster import StaticTransformBroadcaster
 from ..core.messages import (Header, JointState, Quaternion, String, TFMessage, Transform, TransformStamped,
                              Vector3)
-from ..transport.names import topic_to_key
 from ..core.ratelimit import RateLimitedLogger
+from ..core.time import Time
+from ..transport.names import topic_to_key
 from ..transport.node import Node
 from ..urdf import Kinematics, Robot
 from ..urdf.kinematics import JointTransforms
@@ -78,8 +79,8 @@ def _joint_state_decoder() -> Any:
 class _Plan:
     """What one joint-name list means, worked out once per distinct list (publishers resend the same):
     the joints it sets, where their values are in the message, its mimic joints, its unknown names,
-    the joints' constants, and the compiled filler of the TFMessage bytes (None when the list names
-    no movable joint)."""
+    the joints' constants (for the rare message a joint of which is not finite, computed apart), and
+    the compiled filler of the TFMessage bytes (None when the list names no movable joint)."""
 
     _ITEM_VALUES = struct.Struct(">d3sd3sd13sd3sd3sd3sd")
 
@@ -96,17 +97,24 @@ class _Plan:
         self.mimics = [(i, given[master], mult, off) for i, master, mult, off in rsp._mimics
                        if master in given and rsp._movable.names[i] not in given]
         idx = [index[names[k]] for k in self.sel] + [m[0] for m in self.mimics]
+        self.idx = np.asarray(idx, dtype=int)
+        self.known = np.asarray([index[names[k]] for k in self.sel], dtype=int)
+        self.sel_arr = np.asarray(self.sel, dtype=int)
+        self.all_known = len(self.sel) == len(names)  # every name known, none repeated: no selection needed
+        self.mimic_src = np.asarray([m[1] for m in self.mimics], dtype=int)
+        self.mimic_mult = np.asarray([m[2] for m in self.mimics], dtype=float)
+        self.mimic_off = np.asarray([m[3] for m in self.mimics], dtype=float)
+        self.joints = rsp._movable.subset(self.idx)
         self.filler: Any = None
         k = len(idx)
         if not k:
             return
-        ip = np.intp
-        j = rsp._movable.subset(np.asarray(idx, dtype=ip))
         # the payload template: TFMessage{transforms: [TransformStamped x k]} with zeroed stamps/values
         p = msgpack.packb
         head = b"\x83" + p("header") + b"\x82" + p("stamp") + b"\x82" + p("sec") + b"\xce"
         nsec_key = b"\xa7nanosec\xce"
-        out = bytearray(b"\x81\xaatransforms" + (bytes((0x90 | k,)) if k < 16 else b"\xdc" + k.to_bytes(2, "big")))
+        out = bytearray(b"\x81\xaatransforms" + (bytes((0x90 | k,)) if k < 16 else b"\xdc" + k.to_bytes(2, "big")
+                                                 if k < 0x10000 else b"\xdd" + k.to_bytes(4, "big")))
         sec_pos, nsec_pos, val_pos = [], [], []  # where each item's sec, nanosec and first double go
         zero = self._ITEM_VALUES.pack(0.0, b"\xa1y\xcb", 0.0, b"\xa1z\xcb", 0.0, b"\xa8rotation\x84\xa1x\xcb", 0.0,
                                       b"\xa1y\xcb", 0.0, b"\xa1z\xcb", 0.0, b"\xa1w\xcb", 0.0)
@@ -118,10 +126,12 @@ class _Plan:
             out += b"\0\0\0\0" + rsp._frames[i]
             val_pos.append(len(out))
             out += zero
+        j = self.joints
+        ip = np.intp
         self.filler = JointTfFiller(
-            bytes(out), np.asarray(self.sel, dtype=ip), np.asarray([m[1] for m in self.mimics], dtype=ip),
-            np.asarray([m[2] for m in self.mimics], dtype=float), np.asarray([m[3] for m in self.mimics], dtype=float),
-            np.asarray([index[names[k]] for k in self.sel], dtype=ip), rsp._last_publish,
+            bytes(out), np.asarray(self.sel, dtype=ip), np.asarray(self.mimic_src, dtype=ip),
+            np.ascontiguousarray(self.mimic_mult), np.ascontiguousarray(self.mimic_off),
+            np.asarray(self.known, dtype=ip), rsp._last_publish,
             *(np.ascontiguousarray(a, dtype=float) for a in (j.t0, j.q0, j.q0a, j.half, j.slide)),
             np.asarray(sec_pos, dtype=ip), np.asarray(nsec_pos, dtype=ip), np.asarray(val_pos, dtype=ip))
 
@@ -215,7 +225,6 @@ class RobotStatePublisher:
             if stamp is not None:
                 self._publish_read(plan, stamp[0], stamp[1])
                 return
-        msg = None
         try:
             msg = self._decoder.decode(payload)
         except Exception:
@@ -255,9 +264,12 @@ class RobotStatePublisher:
                 self.ignored += 1
                 return False
             payload = filler.payload(position, sec, nsec)
-            if payload is None:
-                return self._non_finite(names, position)
-            filler.mark(stamp)
+            if payload is None:  # a value or a translation is not finite: those joints are left out
+                payload = self._finite_part(plan, position, sec, nsec, stamp)
+                if payload is None:
+                    return False
+            else:
+                filler.mark(stamp)
             self.published += 1
         self._tf.publish_bytes(payload)
         return True
@@ -291,14 +303,53 @@ class RobotStatePublisher:
             self._last_publish[:] = 0
         self._last_callback = now
 
-    def _non_finite(self, names: list[str], position: list[float]) -> bool:
-        """Count and log a JointState with a non-finite position (the caller holds the lock)."""
-        self.ignored += 1
+    @staticmethod
+    def _compute(plan: _Plan, position: list[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(values, translations, quaternions) of a plan's joints, mimics included (numpy; overflow quiet): what
+        the compiled filler computes, apart, for a message some joint of which is not finite."""
         given = np.asarray(position, dtype=float)
-        bad = names[int(np.flatnonzero(~np.isfinite(given))[0])] if not np.isfinite(given).all() else "?"
-        self._log.log(logging.WARNING, "nonfinite", "ignored a JointState with a non-finite position (joint '%s')",
-                      bad)
-        return False
+        values = given if plan.all_known else given[plan.sel_arr]
+        with np.errstate(all="ignore"):
+            if plan.mimics:
+                values = np.concatenate((values, given[plan.mimic_src] * plan.mimic_mult + plan.mimic_off))
+            t, q = plan.joints.compute(values)
+        return values, t, q
+
+    def _finite_part(self, plan: _Plan, position: list[float], sec: int, nsec: int, stamp: int) -> bytes | None:
+        """The TFMessage of the joints whose value and transform are finite; each joint left out is named in a
+        rate-limited line (a mimic of a huge master, a NaN position), the others are published as usual.
+        None when no joint is left (the caller holds the lock)."""
+        values, t, q = self._compute(plan, position)
+        ok = np.isfinite(values) & np.isfinite(t).all(axis=1) & np.isfinite(q).all(axis=1)
+        n_sel = len(plan.sel)
+        for k in np.flatnonzero(~ok)[:8]:
+            j = int(plan.idx[k])
+            name = self._movable.names[j]
+            if k < n_sel:
+                why = f"its position {position[plan.sel[k]]!r} is not finite" if not np.isfinite(values[k]) \
+                    else f"its transform at {values[k]!r} is not finite"
+            else:
+                _i, src, mult, off = plan.mimics[k - n_sel]
+                why = (f"as a mimic ({mult:g} * {position[src]!r} + {off:g}) its position is not finite"
+                       if not np.isfinite(values[k]) else f"its transform at {values[k]!r} is not finite")
+            self._log.log(logging.WARNING, ("dropped", name), "left joint '%s' out of a JointState's transforms: %s",
+                          name, why)
+        self.ignored += 1
+        if not ok.any():
+            return None
+        self._last_publish[plan.known[ok[:n_sel]]] = stamp
+        prefix = self.frame_prefix
+        header_stamp = Time(sec, nsec)
+        out = []
+        for k in np.flatnonzero(ok):
+            j = int(plan.idx[k])
+            tk, qk = t[k], q[k]
+            out.append(TransformStamped(Header(header_stamp, prefix + self._movable.parents[j]),
+                                        prefix + self._movable.children[j],
+                                        Transform(Vector3(float(tk[0]), float(tk[1]), float(tk[2])),
+                                                  Quaternion(float(qk[0]), float(qk[1]), float(qk[2]),
+                                                             float(qk[3])))))
+        return wire.encode_tf(out)
 
     def _plan(self, names: list[str]) -> _Plan:
         """The cached plan of a joint-name list (the same list as last time: one list comparison)."""
@@ -340,7 +391,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         p = prepare(PROG, _parser(), argv)
     except START_ERRORS as e:
-        program.error_line(PROG, str(e))
+        print(f"{PROG}: error: {e}", file=sys.stderr, flush=True)
         return 2
     return 0 if p is None else run(p)
 
