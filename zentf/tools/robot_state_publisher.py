@@ -7,14 +7,13 @@ JointState's own stamp, unless every joint in it was published less than ``1/pub
 Mimic joints follow their master. ``frame_prefix`` is prepended to every frame id as is (ROS 2;
 ROS 1 used tf_prefix with a '/'). The URDF text is published latched on ``robot_description``
 (std_msgs/String). Joint states are decoded and turned into one TFMessage in Zenoh's callback
-thread (no executor hop; a raw subscription through the node's wire profile): on zentf's msgpack wire,
+thread (no executor hop; a raw subscription through the node's wire profile). On zentf's msgpack wire:
 throttle, finite check, kinematics and the message bytes in one compiled call (zentf/tools/jointtf.pyx:
-at 100 Hz the process wakes with cold caches, where each numpy call costs 5-15 us), and a JointState
-whose name list is byte for byte the one last seen (publishers resend the same list) is read in C
-without decoding a name (``JointTfFiller.read``); anything else, or anything odd, takes the general
-decoder, which names what is wrong. On a wire with other payloads (``--wire ros2``: CDR) the
-JointState is decoded by the profile, the joints computed with numpy and the TFMessage written by the
-profile's encoder.
+at 100 Hz the process wakes with cold caches, where numpy's per-call cost would dominate), and a
+JointState whose name list is byte for byte the one last seen (publishers resend the same list) is
+read in C without decoding a name (``JointTfFiller.read``); anything else, or anything odd, takes the
+general decoder, which names what is wrong. On a wire of other payloads (``--wire ros2``: CDR) the
+profile decodes the JointState, numpy computes the joints and the profile writes the TFMessage.
 
 The program (``zentf run robot_state_publisher``):
 
@@ -41,13 +40,15 @@ import numpy as np
 
 from ..core.messages import (Header, JointState, Quaternion, String, TFMessage, Transform, TransformStamped,
                              Vector3)
+from ..core.ratelimit import RateLimitedLogger
+from ..core.time import Time
 from ..transport import program
 from ..transport.broadcaster import StaticTransformBroadcaster
-from ..transport.node import Node, RateLimitedLog, RawSample
+from ..transport.node import Node, RawSample
 from ..transport.wire import codec as wire
 from ..urdf import Kinematics, Robot
 from ..urdf.kinematics import JointTransforms
-from .jointtf import JointTfFiller  # the compiled hot path on zentf's wire (zentf/tools/jointtf.pyx)
+from .jointtf import JointTfFiller  # zentf's wire: decode, kinematics and the TFMessage bytes in C
 from .robot_model import START_ERRORS, Prepared, own_arguments, prepare
 
 __all__ = ["RobotStatePublisher"]
@@ -58,11 +59,8 @@ _MAX_SEC = 2**32
 
 
 def _joint_state_decoder() -> Any:
-    """msgspec decoder of a JointState's plain-dict wire form (strict types; None without msgspec)."""
-    try:
-        import msgspec
-    except ImportError:  # pragma: no cover - msgspec is a dependency
-        return None
+    """msgspec decoder of a JointState's plain-dict wire form (strict types)."""
+    import msgspec
 
     def struct_(name: str, fields: list) -> Any:
         return msgspec.defstruct(name, fields, gc=False)
@@ -77,10 +75,10 @@ def _joint_state_decoder() -> Any:
 class _Plan:
     """What one joint-name list means, worked out once per distinct list (publishers resend the same):
     the joints it sets, where their values are in the message, its mimic joints, its unknown names,
-    the joints' constants, and (on zentf's wire) the compiled filler of the TFMessage bytes."""
+    the joints' constants (for the rare message a joint of which is not finite, computed apart), and
+    the compiled filler of the TFMessage bytes (None when the list names no movable joint)."""
 
     _ITEM_VALUES = struct.Struct(">d3sd3sd13sd3sd3sd3sd")
-    _VALUE_OFFSETS = (0, 11, 22, 43, 54, 65, 76)  # of the 7 doubles inside _ITEM_VALUES
 
     def __init__(self, rsp: "RobotStatePublisher", names: list[str]) -> None:
         index = rsp._index
@@ -103,36 +101,35 @@ class _Plan:
         self.mimic_mult = np.asarray([m[2] for m in self.mimics], dtype=float)
         self.mimic_off = np.asarray([m[3] for m in self.mimics], dtype=float)
         self.joints = rsp._movable.subset(self.idx)
+        self.filler: Any = None
+        k = len(idx)
+        if not k:
+            return
         # the payload template: TFMessage{transforms: [TransformStamped x k]} with zeroed stamps/values
         p = msgpack.packb
         head = b"\x83" + p("header") + b"\x82" + p("stamp") + b"\x82" + p("sec") + b"\xce"
         nsec_key = b"\xa7nanosec\xce"
-        k = len(idx)
-        out = bytearray(b"\x81\xaatransforms" + (bytes((0x90 | k,)) if k < 16 else b"\xdc" + k.to_bytes(2, "big")))
-        sec_pos, nsec_pos, val_pos = [], [], []
+        out = bytearray(b"\x81\xaatransforms" + (bytes((0x90 | k,)) if k < 16 else b"\xdc" + k.to_bytes(2, "big")
+                                                 if k < 0x10000 else b"\xdd" + k.to_bytes(4, "big")))
+        sec_pos, nsec_pos, val_pos = [], [], []  # where each item's sec, nanosec and first double go
         zero = self._ITEM_VALUES.pack(0.0, b"\xa1y\xcb", 0.0, b"\xa1z\xcb", 0.0, b"\xa8rotation\x84\xa1x\xcb", 0.0,
                                       b"\xa1y\xcb", 0.0, b"\xa1z\xcb", 0.0, b"\xa1w\xcb", 0.0)
-        for j in idx:
+        for i in idx:
             out += head
-            sec_pos.append(range(len(out), len(out) + 4))
+            sec_pos.append(len(out))
             out += b"\0\0\0\0" + nsec_key
-            nsec_pos.append(range(len(out), len(out) + 4))
-            out += b"\0\0\0\0" + rsp._frames[j]
-            base = len(out)
-            val_pos.append([range(base + o, base + o + 8) for o in self._VALUE_OFFSETS])
+            nsec_pos.append(len(out))
+            out += b"\0\0\0\0" + rsp._frames[i]
+            val_pos.append(len(out))
             out += zero
-        #: the template filled in one compiled call (None: the numpy path, on a wire of other payloads)
-        self.filler = None
-        if k and rsp._msgpack:
-            j = self.joints
-            ip = np.intp
-            self.filler = JointTfFiller(
-                bytes(out), np.asarray(self.sel, dtype=ip), np.asarray(self.mimic_src, dtype=ip),
-                np.ascontiguousarray(self.mimic_mult), np.ascontiguousarray(self.mimic_off),
-                np.asarray(self.known, dtype=ip), rsp._last_publish,
-                *(np.ascontiguousarray(a, dtype=float) for a in (j.t0, j.q0, j.q0a, j.half, j.slide)),
-                np.asarray([r.start for r in sec_pos], dtype=ip), np.asarray([r.start for r in nsec_pos], dtype=ip),
-                np.asarray([v[0].start for v in val_pos], dtype=ip))
+        j = self.joints
+        ip = np.intp
+        self.filler = JointTfFiller(
+            bytes(out), np.asarray(self.sel, dtype=ip), np.asarray(self.mimic_src, dtype=ip),
+            np.ascontiguousarray(self.mimic_mult), np.ascontiguousarray(self.mimic_off),
+            np.asarray(self.known, dtype=ip), rsp._last_publish,
+            *(np.ascontiguousarray(a, dtype=float) for a in (j.t0, j.q0, j.q0a, j.half, j.slide)),
+            np.asarray(sec_pos, dtype=ip), np.asarray(nsec_pos, dtype=ip), np.asarray(val_pos, dtype=ip))
 
 
 class RobotStatePublisher:
@@ -150,7 +147,7 @@ class RobotStatePublisher:
         self.kin = Kinematics(robot)
         #: zentf's msgpack payloads: the compiled reader and writer apply (else the profile decodes and encodes)
         self._msgpack = node.wire.payload_format == "msgpack"
-        self._log = RateLimitedLog(log)
+        self._log = RateLimitedLogger(log)
         self._lock = threading.Lock()
         self.received = 0     # joint state messages
         self.published = 0    # TFMessages sent on tf
@@ -217,7 +214,7 @@ class RobotStatePublisher:
             with self._lock:
                 self.ignored += 1
             sender = self.node.wire.authority(sample.attachment, "unknown sender")
-            self._log("bad", f"ignored a bad JointState from {sender}: {e}")
+            self._log.log(logging.WARNING, ("bad", sender), "ignored a bad JointState from %s: %s", sender, e)
 
     def on_payload(self, payload: bytes) -> None:
         """One JointState as zentf's wire carries it (msgpack bytes): publish its transforms; raises on a
@@ -229,12 +226,10 @@ class RobotStatePublisher:
             if stamp is not None:
                 self._publish_read(plan, stamp[0], stamp[1])
                 return
-        msg = None
-        if self._decoder is not None:
-            try:
-                msg = self._decoder.decode(payload)
-            except Exception:
-                msg = None
+        try:
+            msg = self._decoder.decode(payload)
+        except Exception:
+            msg = None
         if msg is None:  # the generic path names what is wrong
             js = wire.decode(payload, JointState)
             names, position, stamp = js.name, js.position, (js.header.stamp.sec, js.header.stamp.nanosec)
@@ -251,57 +246,34 @@ class RobotStatePublisher:
             self.received += 1
             if len(names) != len(position):
                 self.ignored += 1
-                self._log("size", f"Robot state publisher ignored an invalid JointState message: {len(names)} "
-                          f"names but {len(position)} positions")
+                self._log.log(logging.WARNING, "size", "Robot state publisher ignored an invalid JointState "
+                              "message: %d names but %d positions", len(names), len(position))
                 return False
             if not (0 <= sec < _MAX_SEC and 0 <= nsec < _NS):
                 self.ignored += 1
-                self._log("stamp", f"ignored a JointState with an out-of-range stamp ({sec}, {nsec})")
+                self._log.log(logging.WARNING, "stamp", "ignored a JointState with an out-of-range stamp (%s, %s)",
+                              sec, nsec)
                 return False
             stamp = sec * _NS + nsec
             plan = self._plan(names)
             self._arrived(plan)
             filler = plan.filler
-            if filler is not None:  # compiled (zentf's wire): throttle, finite check, kinematics and bytes
-                if not self.ignore_timestamp and not filler.fresh(stamp, self.publish_interval_ns):
-                    self.ignored += 1
-                    return False
-                payload = filler.payload(position, sec, nsec)
+            if filler is None:  # no movable joint named: nothing to publish
+                return False
+            if not self.ignore_timestamp and not filler.fresh(stamp, self.publish_interval_ns):
+                self.ignored += 1
+                return False
+            # zentf's wire: finite check, kinematics and bytes in one compiled call
+            payload = filler.payload(position, sec, nsec) if self._msgpack else None
+            if payload is None:  # another wire's format, or a joint not finite (then left out)
+                payload = self._finite_part(plan, position, sec, nsec, stamp)
                 if payload is None:
-                    return self._non_finite(names, position)
-                filler.mark(stamp)
-            else:  # the same in numpy, written by the wire's encoder
-                last = self._last_publish
-                if not self.ignore_timestamp and len(plan.known):
-                    if stamp < int(last[plan.known].min()) + self.publish_interval_ns:
-                        self.ignored += 1
-                        return False
-                if not len(plan.idx):
                     return False
-                given = np.asarray(position, dtype=float)
-                values = given if plan.all_known else given[plan.sel_arr]
-                if plan.mimics:
-                    values = np.concatenate((values, given[plan.mimic_src] * plan.mimic_mult + plan.mimic_off))
-                if not np.isfinite(values).all():
-                    return self._non_finite(names, position)
-                last[plan.known] = stamp
-                t, q = plan.joints.compute(values)
-                payload = self._encode(plan, sec, nsec, t, q)
+            else:
+                filler.mark(stamp)
             self.published += 1
         self._tf.publish_bytes(payload)
         return True
-
-    def _encode(self, plan: _Plan, sec: int, nsec: int, t: np.ndarray, q: np.ndarray) -> bytes:
-        """The TFMessage of a plan's joints (translations ``t``, quaternions ``q``) in the wire's format."""
-        prefix = self.frame_prefix
-        parents, children = self._movable.parents, self._movable.children
-        stamp = {"sec": sec, "nanosec": nsec}
-        items = [{"header": {"stamp": stamp, "frame_id": prefix + parents[j]}, "child_frame_id": prefix + children[j],
-                  "transform": {"translation": {"x": float(tk[0]), "y": float(tk[1]), "z": float(tk[2])},
-                                "rotation": {"x": float(qk[0]), "y": float(qk[1]), "z": float(qk[2]),
-                                             "w": float(qk[3])}}}
-                 for j, tk, qk in zip(plan.idx.tolist(), t, q)]
-        return self.node.wire.encode_tf(items)
 
     def _publish_read(self, plan: _Plan, sec: int, nsec: int) -> None:
         """``process`` for a message ``plan.filler.read`` took in (names known, sizes, stamp and values
@@ -324,21 +296,63 @@ class RobotStatePublisher:
         """A valid JointState of this plan came (the caller holds the lock): its unknown names logged, the
         clock noted (gone back: every joint is published again)."""
         if plan.unknown:
-            self._log(f"unknown:{plan.unknown[0]}", f"joint state names unknown joint '{plan.unknown[0]}' (not a "
-                      f"movable joint of robot '{self.robot.name}'); ignored")
+            self._log.log(logging.WARNING, ("unknown", plan.unknown[0]), "joint state names unknown joint '%s' "
+                          "(not a movable joint of robot '%s'); ignored", plan.unknown[0], self.robot.name)
         now = self._clock.now_ns()
         if now < self._last_callback:  # e.g. a bag played in a loop with --clock (ROS 2 does the same)
             log.warning("Moved backwards in time, re-publishing joint transforms!")
             self._last_publish[:] = 0
         self._last_callback = now
 
-    def _non_finite(self, names: list[str], position: list[float]) -> bool:
-        """Count and log a JointState with a non-finite position (the caller holds the lock)."""
-        self.ignored += 1
+    @staticmethod
+    def _compute(plan: _Plan, position: list[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(values, translations, quaternions) of a plan's joints, mimics included (numpy; overflow quiet): what
+        the compiled filler computes, apart, for a message some joint of which is not finite."""
         given = np.asarray(position, dtype=float)
-        bad = names[int(np.flatnonzero(~np.isfinite(given))[0])] if not np.isfinite(given).all() else "?"
-        self._log("nonfinite", f"ignored a JointState with a non-finite position (joint '{bad}')")
-        return False
+        values = given if plan.all_known else given[plan.sel_arr]
+        with np.errstate(all="ignore"):
+            if plan.mimics:
+                values = np.concatenate((values, given[plan.mimic_src] * plan.mimic_mult + plan.mimic_off))
+            t, q = plan.joints.compute(values)
+        return values, t, q
+
+    def _finite_part(self, plan: _Plan, position: list[float], sec: int, nsec: int, stamp: int) -> bytes | None:
+        """The TFMessage, in the wire's format, of the joints whose value and transform are finite; each joint
+        left out is named in a rate-limited line (a mimic of a huge master, a NaN position) and the message
+        counted as ignored, the others are published as usual. None when no joint is left (the caller holds
+        the lock)."""
+        values, t, q = self._compute(plan, position)
+        ok = np.isfinite(values) & np.isfinite(t).all(axis=1) & np.isfinite(q).all(axis=1)
+        n_sel = len(plan.sel)
+        for k in np.flatnonzero(~ok)[:8]:
+            j = int(plan.idx[k])
+            name = self._movable.names[j]
+            if k < n_sel:
+                why = f"its position {position[plan.sel[k]]!r} is not finite" if not np.isfinite(values[k]) \
+                    else f"its transform at {values[k]!r} is not finite"
+            else:
+                _i, src, mult, off = plan.mimics[k - n_sel]
+                why = (f"as a mimic ({mult:g} * {position[src]!r} + {off:g}) its position is not finite"
+                       if not np.isfinite(values[k]) else f"its transform at {values[k]!r} is not finite")
+            self._log.log(logging.WARNING, ("dropped", name), "left joint '%s' out of a JointState's transforms: %s",
+                          name, why)
+        if not ok.all():
+            self.ignored += 1
+        if not ok.any():
+            return None
+        self._last_publish[plan.known[ok[:n_sel]]] = stamp
+        prefix = self.frame_prefix
+        header_stamp = Time(sec, nsec)
+        out = []
+        for k in np.flatnonzero(ok):
+            j = int(plan.idx[k])
+            tk, qk = t[k], q[k]
+            out.append(TransformStamped(Header(header_stamp, prefix + self._movable.parents[j]),
+                                        prefix + self._movable.children[j],
+                                        Transform(Vector3(float(tk[0]), float(tk[1]), float(tk[2])),
+                                                  Quaternion(float(qk[0]), float(qk[1]), float(qk[2]),
+                                                             float(qk[3])))))
+        return self.node.wire.encode_tf(out)
 
     def _plan(self, names: list[str]) -> _Plan:
         """The cached plan of a joint-name list (the same list as last time: one list comparison)."""

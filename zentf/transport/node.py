@@ -25,12 +25,13 @@ from ..core.messages import Message
 from .names import fully_qualified_node_name, normalize_namespace, resolve_topic, validate_node_name
 from .options import NodeOptions
 from .wire.profiles import make_profile
+from ..core.ratelimit import RateLimitedLogger
+from ..core.text import parse_bool, stderr_log_handler
 from ..core.time import Duration, to_duration
 from .entities import undeclare_all
 
 __all__ = ["Node", "Publisher", "Subscription", "RawSubscription", "RawPublisher", "RawSample", "GraphToken",
-           "Timer", "Parameter", "NodeNameError", "ParameterNotDeclaredException", "RateLimitedLog", "spin",
-           "init_logging"]
+           "Timer", "Parameter", "NodeNameError", "ParameterNotDeclaredException", "spin", "init_logging"]
 
 log = logging.getLogger("zentf.transport.node")
 
@@ -44,35 +45,14 @@ class ParameterNotDeclaredException(KeyError):
         return str(self.args[0]) if self.args else "parameter not declared"
 
 
+#: ROS-like log lines: ``[WARNING] [zentf.transport.listener]: ...``
+LOG_FORMAT = "[%(levelname)s] [%(name)s]: %(message)s"
+
+
 def init_logging(level: int = logging.INFO) -> None:
-    """ROS-like one-line log records on stderr, unless the program configured logging already."""
-    root = logging.getLogger()
-    if not root.handlers:
-        logging.basicConfig(level=level, format="[%(levelname)s] [%(name)s]: %(message)s")
-
-
-class RateLimitedLog:
-    """Log a recurring problem once per ``period`` seconds per key, with the count of the others."""
-
-    def __init__(self, logger: logging.Logger, period: float = 5.0) -> None:
-        self._logger = logger
-        self._period = period
-        self._last: dict[str, float] = {}
-        self._suppressed: dict[str, int] = {}
-        self._lock = threading.Lock()
-
-    def __call__(self, key: str, msg: str, level: int = logging.WARNING) -> None:
-        now = _time.monotonic()
-        with self._lock:
-            last = self._last.get(key)
-            if last is not None and now - last < self._period:
-                self._suppressed[key] = self._suppressed.get(key, 0) + 1
-                return
-            self._last[key] = now
-            n = self._suppressed.pop(key, 0)
-            if len(self._last) > 4096:  # keys include sender names; bound the memory
-                self._last.clear()
-        self._logger.log(level, msg + (f" ({n} similar suppressed)" if n else ""))
+    """ROS-like one-line log records on stderr, names from outside escaped, unless the program configured
+    logging already."""
+    logging.basicConfig(level=level, handlers=[stderr_log_handler(LOG_FORMAT)])
 
 
 @dataclass
@@ -247,7 +227,8 @@ class RawSubscription:
                                     self._type_of(key, enc), enc))
         except Exception as e:  # noqa: BLE001 - never raise into Zenoh's thread
             self.errors += 1
-            self.node._bad_input(f"raw:{self.key}", f"raw subscription on '{self.key}': {type(e).__name__}: {e}")
+            self.node._bad_input.log(logging.WARNING, ("raw", self.key, type(e).__name__),
+                                     "raw subscription on '%s': %s: %s", self.key, type(e).__name__, e)
 
     def destroy(self) -> None:
         undeclare_all((self._sub, self._token))
@@ -308,7 +289,8 @@ class Subscription:
             except ValueError as e:
                 self.errors += 1
                 sender = self.node.wire.authority(att, "unknown sender")
-                self.node._bad_input(key, f"dropped bad message on '{key}' from {sender}: {e}")
+                self.node._bad_input.log(logging.WARNING, ("bad", key, sender),
+                                         "dropped bad message on '%s' from %s: %s", key, sender, e)
                 continue
             self.callback(msg)
 
@@ -424,12 +406,13 @@ class Node:
         self._fq_name = fully_qualified_node_name(self._namespace, self._name)
         self._remappings = dict(opts.remappings)
         self._overrides: dict[str, Any] = dict(params or {})
-        self._overrides.update(opts.resolved_params(self._name))
+        self._overrides.update(opts.resolved_params(self._name, self._namespace))
         self._params: dict[str, Parameter] = {}
         self._param_types: dict[str, int] = {}  # rcl_interfaces ParameterType, fixed at declaration
         self._param_callbacks: list[Callable[[list[Parameter]], Any]] = []
         self._logger = logging.getLogger(f"zentf.transport.node.{self._fq_name.strip('/').replace('/', '.')}")
-        self._bad_input = RateLimitedLog(self._logger)
+        #: one line per (problem, key, sender) and period for bad input from the network, names escaped
+        self._bad_input = RateLimitedLogger(self._logger)
         self._publishers: set[Publisher] = set()
         self._subscriptions: set[Subscription] = set()
         self._timers: set[Timer] = set()
@@ -451,10 +434,7 @@ class Node:
             # in the graph stops it cleanly instead of interrupting the rest of this constructor
             _register_node(self)
             self._tokens.append(self.session.liveliness().declare_token(self.wire.node_token(self)))
-            use_sim = self.declare_parameter("use_sim_time", False).value
-            if isinstance(use_sim, str):
-                use_sim = use_sim.strip().lower() in ("1", "true", "yes", "on")
-            use_sim = bool(use_sim)
+            use_sim = parse_bool(self.declare_parameter("use_sim_time", False).value, "parameter use_sim_time")
             self._params["use_sim_time"].value = use_sim
             self._clock = Clock(ClockType.ROS_TIME if use_sim else ClockType.SYSTEM_TIME, sim=use_sim)
             self._clock_sub: RawSubscription | None = None
@@ -667,8 +647,9 @@ class Node:
                 if type(sec) is not int or type(nsec) is not int or sec < 0 or not 0 <= nsec < 1_000_000_000:
                     raise ValueError(f"bad clock value {(sec, nsec)!r}"[:100])
             except Exception as e:
-                self._bad_input(sample.key, f"dropped bad /clock message on '{sample.key}' "
-                                f"from {profile.authority(sample.attachment, 'unknown sender')}: {e}")
+                sender = profile.authority(sample.attachment, "unknown sender")
+                self._bad_input.log(logging.WARNING, ("bad", sample.key, sender),
+                                    "dropped bad /clock message on '%s' from %s: %s", sample.key, sender, e)
                 return
             clock.set_sim_time(sec * 1_000_000_000 + nsec)
             self._post(None)

@@ -49,9 +49,9 @@ def _service_key(node: Any, name: str, srv_type: type[ServiceType], role: str) -
     try:
         return node.wire.service_key(name, srv_type.TYPE_NAME)
     except UnknownTypeError:
-        node._bad_input(f"ros2-no-srv:{srv_type.TYPE_NAME}",
-                        f"{role} {name} skipped: no ROS 2 definition for {srv_type.TYPE_NAME}, "
-                        "it cannot travel with --wire ros2")
+        node._bad_input.log(logging.WARNING, ("ros2-no-srv", srv_type.TYPE_NAME),
+                            "%s %s skipped: no ROS 2 definition for %s, it cannot travel with --wire ros2",
+                            role, name, srv_type.TYPE_NAME)
         return None
 
 
@@ -165,7 +165,8 @@ class ServiceServer:
             try:
                 caller, context = self.node.wire.request_caller(query.attachment)
             except ValueError as e:
-                self.node._bad_input(f"srv:{self.key}", f"refused request on service {self.service_name}: {e}")
+                self.node._bad_input.log(logging.WARNING, ("srv", self.key), "refused request on service %s: %s",
+                                         self.service_name, e)
                 _reply_err(query, f"service {self.service_name}: {e}")
                 return
         except Exception as e:  # pragma: no cover - zenoh gave us something odd
@@ -202,7 +203,8 @@ class Service(ServiceServer):
         try:
             request = call.decode()
         except ValueError as e:
-            self.node._bad_input(f"srv:{self.key}", f"refused bad request on service {name} from {call.caller}: {e}")
+            self.node._bad_input.log(logging.WARNING, ("srv", self.key),
+                                     "refused bad request on service %s from %s: %s", name, call.caller, e)
             call.fail(f"bad request for {self.srv_type.TYPE_NAME}: {e}")
             return
         try:
@@ -216,8 +218,8 @@ class Service(ServiceServer):
             call.respond(response)
         except Exception as e:
             reason = f"{type(e).__name__}: {e}" if str(e) else type(e).__name__
-            self.node._bad_input(f"srv-handler:{self.key}",  # rate-limited: a flood of failing calls
-                                 f"service {name}: handler failed for {call.caller}: {reason}")
+            self.node._bad_input.log(logging.WARNING, ("srv-handler", self.key),  # a flood of failing calls
+                                     "service %s: handler failed for %s: %s", name, call.caller, reason)
             call.fail(f"service {name} failed: {reason}")
 
 
