@@ -181,3 +181,17 @@ def test_robot_state_publisher_follows_a_ros2_joint_state_publisher(ros2_env, sp
         assert head.header.stamp.nanoseconds > 0  # stamped with the JointState's stamp, not zero
         arm = buffer.lookup_transform("base_link", "gripper_pole", Time(), timeout=10)
         assert arm.transform.translation.x == pytest.approx(0.19 - 0.1, abs=1e-12)
+
+
+def test_bag_play_with_the_ros2_wire_reaches_a_ros2_subscriber(ros2_env, spawn) -> None:
+    """A zentf recording (msgpack) played with --wire ros2 arrives as CDR on ROS 2's keys: the SDK's
+    subscriber decodes the drones' /tf and the latched /tf_static, with the recorded values."""
+    sub = spawn([*SDK_NODE, "sub", router_address(ros2_env), "--node", "sdk_listener"], ros2_env)
+    sub.wait_for_line("subscribed", timeout=60)
+    play = zentf(["bag", "play", str(REPO / "configs" / "recordings" / "drones.mcap"), "--rate", "5"], ros2_env)
+    assert play.returncode == 0, play.stderr
+    assert "played 553 msgs" in play.stderr, play.stderr
+    got = json.loads(sub.wait_for_line(r'"topic": "/tf_static"', timeout=30, from_start=True).string)
+    assert (got["parent"], got["child"]) == ("world", "ground")
+    got = json.loads(sub.wait_for_line(r'"topic": "/tf".*"child": "av1"', timeout=30, from_start=True).string)
+    assert got["parent"] == "world" and 1_700_000_000e9 <= got["stamp"] <= 1_700_000_010e9
