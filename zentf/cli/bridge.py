@@ -137,13 +137,13 @@ def bridge_dds(topics: tuple[str, ...], all_topics: bool, domain: Optional[int],
 
     try:
         node = Node(options=zopts)
-        relay = DdsBridge(node, domain_id=domain, topics=topics, all_topics=all_topics, clock=not no_clock,
-                          dds_namespace=dds_namespace, lan=dds_lan, peers=dds_peers, on_state=on_state)
         named = ", ".join(["tf", "tf_static", *([] if no_clock else ["/clock"]), "joint_states", "robot_description",
                            *(parse_topic_spec(t)[0] for t in topics), *(["every known type (--all)"] if all_topics else [])])
         sys.stderr.write(f"bridging {named} between zentf ({node.get_fully_qualified_name()}, wire {node.wire.name}) "
                          f"and DDS domain {domain} ({'LAN' if dds_lan else 'this machine only'}); Ctrl-C stops\n")
         sys.stderr.flush()
+        relay = DdsBridge(node, domain_id=domain, topics=topics, all_topics=all_topics, clock=not no_clock,
+                          dds_namespace=dds_namespace, lan=dds_lan, peers=dds_peers, on_state=on_state)
         deadline = None if duration is None else time.monotonic() + duration
         while node.ok():
             left = 0.2 if deadline is None else min(0.2, deadline - time.monotonic())

@@ -1,0 +1,274 @@
+"""`zentf bridge dds` against a real ROS 2: rclpy on Fast DDS from PyPI wheels (Jazzy, and Kilted), in the
+test venv that tests/ros2/make_env.sh makes once under ~/.cache/zentf (.ci/run calls it). The rclpy side is
+tests/ros2/rclpy_node.py, a process of that venv driven line by line; the bridge is the CLI command; the
+zentf side is real Zenoh through a router of this module's own. Every DDS participant is loopback-only
+and each test group has a ROS domain of its own (a lock file per domain keeps parallel runs apart).
+
+Skipped outside CI (with the reason) when the test venv or cyclonedds is missing; failed in CI.
+"""
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import queue
+import subprocess
+import sys
+import threading
+import time
+import uuid
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from conftest import REPO, Proc, child_env, start_router
+
+TF = "tf2_msgs/msg/TFMessage"
+ENV_SCRIPT = REPO / "tests" / "ros2" / "make_env.sh"
+HELPER = REPO / "tests" / "ros2" / "rclpy_node.py"
+KILTED_PROFILE = REPO / "tests" / "ros2" / "fastdds_no_type_propagation.xml"
+
+
+def _missing(reason: str) -> None:
+    if os.environ.get("CI"):
+        pytest.fail(f"the DDS bridge's tests need this in CI: {reason}")
+    pytest.skip(reason)
+
+
+def ros2_python(distro: str) -> str:
+    """The test venv's python for a ROS 2 distro (skip, or fail in CI, when it is not made)."""
+    try:
+        path = subprocess.run(["bash", str(ENV_SCRIPT), distro, "--path"], capture_output=True, text=True,
+                              check=True, timeout=30).stdout.strip()
+    except (OSError, subprocess.SubprocessError) as e:
+        _missing(f"cannot ask {ENV_SCRIPT.name} for the ROS 2 {distro} test env: {e}")
+    if not (Path(path) / ".ready").exists():
+        _missing(f"no ROS 2 {distro} test env (rclpy + tf2_msgs): run `bash tests/ros2/make_env.sh {distro}`")
+    return str(Path(path) / "bin" / "python")
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _cyclonedds() -> None:
+    try:
+        import cyclonedds  # noqa: F401
+    except ImportError:
+        _missing("cyclonedds is not installed (pip install -e '.[test]')")
+
+
+class DdsDomainLock:
+    """A ROS domain id (1-232) no other test process on this machine holds (a lock file per id)."""
+
+    def __init__(self) -> None:
+        start = uuid.uuid4().int % 232
+        for i in range(232):
+            d = 1 + (start + i) % 232
+            f = open(f"/tmp/zentf-test-dds-domain-{d}.lock", "w")  # noqa: SIM115 - held until release
+            try:
+                fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                f.close()
+                continue
+            self.id, self._f = d, f
+            return
+        raise RuntimeError("no free DDS domain id")
+
+    def release(self) -> None:
+        self._f.close()
+
+
+class Rclpy:
+    """tests/ros2/rclpy_node.py in the ROS 2 test venv: commands in, JSON lines out."""
+
+    def __init__(self, python: str, domain: int, name: str = "zentf_test_rclpy", env: dict | None = None) -> None:
+        e = dict(os.environ if env is None else env)
+        for var in ("PYTHONPATH", "RMW_IMPLEMENTATION", "CYCLONEDDS_URI", "FASTRTPS_DEFAULT_PROFILES_FILE",
+                    "FASTDDS_DEFAULT_PROFILES_FILE", "ROS_LOCALHOST_ONLY", "ROS_STATIC_PEERS"):
+            if env is None:
+                e.pop(var, None)
+        e.update({"ROS_DOMAIN_ID": str(domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
+                  "PYTHONUNBUFFERED": "1"})
+        self.proc = Proc([python, str(HELPER), name], env=e, stdin=subprocess.PIPE)
+        self.msgs: "queue.Queue[dict]" = queue.Queue()
+        self.proc.wait_for_line(r'"ok": "ready"', timeout=60)
+
+    def send(self, **cmd: object) -> None:
+        assert self.proc.popen.stdin is not None
+        self.proc.popen.stdin.write(json.dumps(cmd) + "\n")
+        self.proc.popen.stdin.flush()
+
+    def call(self, **cmd: object) -> dict:
+        """Send a command and return its {"ok": ...} answer."""
+        self.send(**cmd)
+        m = self.proc.wait_for_line(r'^\{"ok": "' + str(cmd["cmd"]) + '"', timeout=30)
+        return json.loads(m.string)
+
+    def wait_msg(self, topic: str, pred=lambda v: True, timeout: float = 30.0, *, from_start: bool = True) -> dict:
+        """The first message received on ``topic`` (since the start) for which pred(value) holds."""
+        deadline = time.monotonic() + timeout
+        i = 0
+        while True:
+            lines = self.proc.lines
+            while i < len(lines):
+                line = lines[i]
+                i += 1
+                if line.startswith('{"msg": '):
+                    got = json.loads(line)
+                    if got["msg"] == topic and pred(got["value"]):
+                        return got["value"]
+            if time.monotonic() > deadline:
+                raise AssertionError(f"rclpy got no matching message on {topic} in {timeout}s; "
+                                     f"output:\n{self.proc.output()[-2000:]}")
+            time.sleep(0.02)
+
+    def received(self, topic: str) -> list[dict]:
+        return [json.loads(x)["value"] for x in list(self.proc.lines)
+                if x.startswith('{"msg": ') and json.loads(x)["msg"] == topic]
+
+    def wait_nodes(self, want: tuple[str, str], timeout: float = 30.0) -> list:
+        deadline = time.monotonic() + timeout
+        while True:
+            nodes = self.call(cmd="nodes")["nodes"]
+            if list(want) in nodes:
+                return nodes
+            if time.monotonic() > deadline:
+                raise AssertionError(f"rclpy's graph lacks {want}: {nodes}")
+            time.sleep(0.2)
+
+    def stop(self) -> None:
+        try:
+            self.send(cmd="quit")
+            self.proc.wait(10)
+        except Exception:
+            pass
+        self.proc.stop()
+
+
+def ts(parent: str, child: str, xyz, q=(0.0, 0.0, 0.0, 1.0), sec: int = 100, nsec: int = 5) -> dict:
+    return {"header": {"stamp": {"sec": sec, "nanosec": nsec}, "frame_id": parent}, "child_frame_id": child,
+            "transform": {"translation": dict(zip("xyz", map(float, xyz))),
+                          "rotation": dict(zip("xyzw", map(float, q)))}}
+
+
+class World:
+    """A router, a ROS domain, a bridge (CLI) between them and an rclpy node, for one test module."""
+
+    def __init__(self, distro: str = "jazzy", *, bridge_args: tuple[str, ...] = (), rclpy_env: dict | None = None):
+        self.python = ros2_python(distro)
+        self.procs: list[Proc] = []
+        self.router_proc, self.router = start_router()
+        self.lock = DdsDomainLock()
+        self.domain = self.lock.id
+        self.ns = f"t_{uuid.uuid4().hex[:10]}"
+        self.env = child_env(self.router, self.ns)
+        self.env.pop("ZENTF_WIRE", None)
+        self.env["ROS_DOMAIN_ID"] = str(self.domain)
+        self.rclpy = Rclpy(self.python, self.domain, env=rclpy_env)
+        self.bridge = self.start_bridge(*bridge_args)
+
+    def start_bridge(self, *args: str, name: str = "zentf_bridge_dds", env: dict | None = None) -> Proc:
+        p = Proc([sys.executable, "-m", "zentf.cli", "bridge", "dds", "--name", name, *args],
+                 env=env or self.env)
+        self.procs.append(p)
+        p.wait_for_line("bridging tf, tf_static", timeout=60)
+        return p
+
+    def node_options(self, **kw: object):
+        from zentf.options import NodeOptions, ZenohOptions
+
+        return NodeOptions(namespace=self.ns, zenoh=ZenohOptions(connect=[self.router], no_multicast=True,
+                                                                  mode="client"), **kw)
+
+    def close(self) -> None:
+        for p in self.procs:
+            p.stop(timeout=5)
+        self.rclpy.stop()
+        self.router_proc.stop()
+        self.lock.release()
+
+
+@pytest.fixture(scope="module")
+def world() -> Iterator[World]:
+    w = World(bridge_args=("--topic", "cmd_vel:geometry_msgs/msg/Twist", "--all"))
+    w.bridge.wait_for_line("dds bridge: active", timeout=30)
+    try:
+        yield w
+    finally:
+        w.close()
+
+
+def _lookup(buffer, target: str, source: str, publish, timeout: float = 30.0):
+    """Publish (again) until the buffer has target<-source; returns the transform."""
+    from zentf import Time
+
+    deadline = time.monotonic() + timeout
+    while True:
+        publish()
+        if buffer.can_transform(target, source, Time(), timeout=0.3):
+            return buffer.lookup_transform(target, source, Time())
+        if time.monotonic() > deadline:
+            raise AssertionError(f"no transform {target} <- {source} through the bridge")
+
+
+def _xyz(t) -> list[float]:
+    tr = t.transform.translation
+    q = t.transform.rotation
+    return [tr.x, tr.y, tr.z, q.x, q.y, q.z, q.w]
+
+
+def test_rclpy_tf_and_statics_reach_zentf_listeners(world: World) -> None:
+    """rclpy /tf and /tf_static -> bridge -> zentf: lookups equal what rclpy published; a zentf listener
+    started after the robot's one static publish gets the statics."""
+    from zentf import Buffer, Node, TransformListener
+
+    world.rclpy.call(cmd="pub", topic="/tf_static", type=TF, latched=True,
+                     msg={"transforms": [ts("base", "laser", (0.5, -0.25, 0.2), (0.0, 0.0, 0.6, 0.8))]})
+    with Node("early_listener", options=world.node_options()) as node:
+        buf = Buffer()
+        TransformListener(buf, node)
+        pub_tf = lambda: world.rclpy.call(cmd="pub", topic="/tf", type=TF,  # noqa: E731
+                                          msg={"transforms": [ts("odom", "base", (1.5, 2.0, 3.0), sec=200, nsec=7)]})
+        t = _lookup(buf, "odom", "base", pub_tf)
+        assert _xyz(t) == [1.5, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0]
+        assert (t.header.stamp.sec, t.header.stamp.nanosec) == (200, 7)
+        t = _lookup(buf, "base", "laser", lambda: None)
+        assert _xyz(t) == [0.5, -0.25, 0.2, 0.0, 0.0, 0.6, 0.8]
+    with Node("late_listener", options=world.node_options()) as node:  # the robot published its static once
+        buf = Buffer()
+        TransformListener(buf, node)
+        t = _lookup(buf, "base", "laser", lambda: None)
+        assert _xyz(t) == [0.5, -0.25, 0.2, 0.0, 0.0, 0.6, 0.8]
+
+
+def test_zentf_broadcasters_reach_rclpy_subscribers(world: World) -> None:
+    """zentf TransformBroadcaster and StaticTransformBroadcaster -> bridge -> rclpy: the TFMessage fields
+    equal what was sent; an rclpy subscriber started late gets /tf_static."""
+    from zentf import Node, StaticTransformBroadcaster, TransformBroadcaster
+    from zentf.core.messages import TransformStamped
+
+    world.rclpy.call(cmd="sub", topic="/tf", type=TF)
+    world.rclpy.call(cmd="sub", topic="/tf_static", type=TF, latched=True)
+    with Node("zentf_tf_pub", options=world.node_options()) as node:
+        StaticTransformBroadcaster(node).send_transform(
+            TransformStamped.from_dict(ts("world", "cam", (4.0, -5.0, 6.5), (0.0, 0.0, 0.6, 0.8), sec=3, nsec=4)))
+        tb = TransformBroadcaster(node)
+        dyn = TransformStamped.from_dict(ts("world", "arm", (0.25, 0.5, 0.75), sec=10, nsec=11))
+        deadline = time.monotonic() + 30
+        while not any(t["child_frame_id"] == "arm" for m in world.rclpy.received("/tf") for t in m["transforms"]):
+            assert time.monotonic() < deadline, "rclpy got nothing on /tf"
+            tb.send_transform(dyn)
+            time.sleep(0.1)
+        got = world.rclpy.wait_msg("/tf", lambda v: v["transforms"][0]["child_frame_id"] == "arm")
+        assert got["transforms"][0] == ts("world", "arm", (0.25, 0.5, 0.75), sec=10, nsec=11)
+        got = world.rclpy.wait_msg("/tf_static", lambda v: any(t["child_frame_id"] == "cam" for t in v["transforms"]))
+        assert [t for t in got["transforms"] if t["child_frame_id"] == "cam"] == [
+            ts("world", "cam", (4.0, -5.0, 6.5), (0.0, 0.0, 0.6, 0.8), sec=3, nsec=4)]
+    # the zentf node is gone; a new rclpy subscriber still gets the static (the bridge's latched writer)
+    late = Rclpy(world.python, world.domain, name="late_rclpy")
+    try:
+        late.call(cmd="sub", topic="/tf_static", type=TF, latched=True)
+        got = late.wait_msg("/tf_static", lambda v: any(t["child_frame_id"] == "cam" for t in v["transforms"]))
+        assert [t["transform"]["translation"] for t in got["transforms"] if t["child_frame_id"] == "cam"] == [
+            {"x": 4.0, "y": -5.0, "z": 6.5}]
+    finally:
+        late.stop()
