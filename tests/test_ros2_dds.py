@@ -272,3 +272,80 @@ def test_zentf_broadcasters_reach_rclpy_subscribers(world: World) -> None:
             {"x": 4.0, "y": -5.0, "z": 6.5}]
     finally:
         late.stop()
+
+
+def test_clock_drives_sim_time_and_robot_state_publisher_feeds_rclpy(world: World) -> None:
+    """/clock from rclpy drives a zentf node's sim time; a zentf robot_state_publisher's tf_static and
+    robot_description reach rclpy subscribers."""
+    from zentf import Node
+
+    with Node("sim_node", params={"use_sim_time": True}, options=world.node_options()) as node:
+        deadline = time.monotonic() + 30
+        while node.get_clock().now().nanoseconds != 1234 * 10**9 + 5:
+            assert time.monotonic() < deadline, f"sim time stayed {node.get_clock().now()}"
+            world.rclpy.call(cmd="pub", topic="/clock", type="rosgraph_msgs/msg/Clock", best_effort=True,
+                             msg={"clock": {"sec": 1234, "nanosec": 5}})
+            time.sleep(0.05)
+    urdf = REPO / "tests" / "data" / "urdf" / "urdf_tutorial" / "urdf" / "03-origins.urdf"
+    world.rclpy.call(cmd="sub", topic="/robot_description", type="std_msgs/msg/String", latched=True)
+    world.rclpy.call(cmd="sub", topic="/tf_static", type=TF, latched=True)
+    rsp = Proc([sys.executable, "-m", "nodes.robot_state_publisher", str(urdf)], env=world.env)
+    try:
+        got = world.rclpy.wait_msg("/tf_static", lambda v: any(t["child_frame_id"] == "right_leg"
+                                                                for t in v["transforms"]))
+        leg = next(t for t in got["transforms"] if t["child_frame_id"] == "right_leg")
+        assert leg["header"]["frame_id"] == "base_link"
+        assert leg["transform"]["translation"] == {"x": 0.0, "y": -0.22, "z": 0.25}
+        desc = world.rclpy.wait_msg("/robot_description", lambda v: "base_to_right_leg" in v["data"])
+        assert desc["data"] == urdf.read_text()
+    finally:
+        rsp.stop()
+
+
+def test_graphs_list_each_other(world: World) -> None:
+    """rclpy's graph API lists the bridge's node; zentf's graph lists the rclpy node and its topics."""
+    from zentf import graph
+
+    world.rclpy.wait_nodes(["/", "zentf_bridge_dds"])
+    from zentf.options import ZenohOptions
+
+    session = ZenohOptions(connect=[world.router], no_multicast=True, mode="client").open_session()
+    try:
+        deadline = time.monotonic() + 30
+        while True:
+            nodes = [n.fq_name for n in graph.list_nodes(session, timeout=1.0)]
+            topics = {t.name: t for t in graph.list_topics(session, timeout=1.0)}
+            if f"/{world.ns}/zentf_test_rclpy" in nodes and f"/{world.ns}/tf_static" in topics:
+                break
+            assert time.monotonic() < deadline, f"zentf's graph lacks the rclpy node: {nodes} {list(topics)}"
+        assert TF in topics[f"/{world.ns}/tf_static"].types
+        assert f"/{world.ns}/zentf_test_rclpy" in topics[f"/{world.ns}/tf_static"].publishers
+    finally:
+        session.close()
+
+
+def test_named_and_discovered_topics(world: World) -> None:
+    """--topic cmd_vel:geometry_msgs/msg/Twist carries a zentf publisher's Twist to rclpy; --all finds an
+    rclpy PointStamped topic the bridge was not told of and carries it to a zentf subscriber."""
+    from zentf import Node
+    from zentf.core.messages import PointStamped, Twist
+
+    world.rclpy.call(cmd="sub", topic="/cmd_vel", type="geometry_msgs/msg/Twist")
+    got: "queue.Queue" = queue.Queue()
+    with Node("zentf_topics", options=world.node_options()) as node:
+        node.create_subscription("probe_point", PointStamped, got.put)
+        pub = node.create_publisher("cmd_vel", Twist)
+        twist = Twist.from_dict({"linear": {"x": 0.5, "y": 0.0, "z": 0.0}, "angular": {"x": 0.0, "y": 0.0, "z": -1.5}})
+        deadline = time.monotonic() + 30
+        while not world.rclpy.received("/cmd_vel"):
+            assert time.monotonic() < deadline, "rclpy got no /cmd_vel"
+            pub.publish(twist)
+            time.sleep(0.1)
+        assert world.rclpy.received("/cmd_vel")[0] == twist.to_dict()
+        point = {"header": {"stamp": {"sec": 7, "nanosec": 8}, "frame_id": "map"}, "point": {"x": 1.0, "y": 2.0, "z": 3.0}}
+        deadline = time.monotonic() + 30
+        while got.empty():
+            assert time.monotonic() < deadline, "the discovered /probe_point never reached zentf"
+            world.rclpy.call(cmd="pub", topic="/probe_point", type="geometry_msgs/msg/PointStamped", msg=point)
+            time.sleep(0.1)
+        assert got.get().to_dict() == point
