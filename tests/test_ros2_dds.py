@@ -349,3 +349,85 @@ def test_named_and_discovered_topics(world: World) -> None:
             world.rclpy.call(cmd="pub", topic="/probe_point", type="geometry_msgs/msg/PointStamped", msg=point)
             time.sleep(0.1)
         assert got.get().to_dict() == point
+
+
+def _count_zentf(world: World, key: str, n: int, send, what: str) -> list:
+    """Samples on a zentf key while ``send()`` publishes n distinct messages, after a quiet spell."""
+    from zentf.options import ZenohOptions
+
+    session = ZenohOptions(connect=[world.router], no_multicast=True, mode="client").open_session()
+    seen: list = []
+    try:
+        sub = session.declare_subscriber(key, lambda s: seen.append(s.payload.to_bytes())
+                                         if b"\xa3dup" in s.payload.to_bytes() else None)
+        send()
+        deadline = time.monotonic() + 30
+        while len(seen) < n:
+            assert time.monotonic() < deadline, f"{what}: {len(seen)} of {n} arrived"
+            time.sleep(0.05)
+        time.sleep(1.0)  # a duplicate would arrive within this
+        sub.undeclare()
+    finally:
+        session.close()
+    return seen
+
+
+def test_two_bridges_one_relays_no_duplicates(world: World) -> None:
+    """A second bridge between the same DDS domain and zentf graph: one of them stands by; every message
+    arrives once on each side; when the relaying one stops, the other takes over."""
+    second = world.start_bridge("--all", "--topic", "cmd_vel:geometry_msgs/msg/Twist", name="second_bridge")
+    procs = {"first": world.bridge, "second": second}
+    deadline = time.monotonic() + 30
+    standby = None
+    while standby is None:
+        standby = next((k for k, p in procs.items() if any("dds bridge: standby" in x for x in p.lines)), None)
+        assert time.monotonic() < deadline, "neither bridge stood by"
+        time.sleep(0.05)
+    n = 20
+    from zentf import Buffer, Node, TransformListener
+
+    with Node("warm_listener", options=world.node_options()) as node:  # rclpy's /tf writer matched first
+        buf = Buffer()
+        TransformListener(buf, node)
+        _lookup(buf, "warm", "up", lambda: world.rclpy.call(cmd="pub", topic="/tf", type=TF,
+                                                             msg={"transforms": [ts("warm", "up", (0, 0, 0))]}))
+    seen = _count_zentf(world, f"{world.ns}/tf", n, lambda: [
+        world.rclpy.call(cmd="pub", topic="/tf", type=TF, msg={"transforms": [ts("dup", f"c{i}", (i, 0, 0))]})
+        for i in range(n)], "rclpy -> zentf")
+    assert len(seen) == n, f"{len(seen)} samples for {n} messages"
+
+    from zentf import TransformBroadcaster
+    from zentf.core.messages import TransformStamped
+
+    world.rclpy.call(cmd="sub", topic="/tf", type=TF)
+    before = len([m for m in world.rclpy.received("/tf") if m["transforms"][0]["header"]["frame_id"] == "z2r"])
+    with Node("zentf_dup_pub", options=world.node_options()) as node:
+        tb = TransformBroadcaster(node)
+        warm = TransformStamped.from_dict(ts("warm2", "up", (0, 0, 0)))
+        deadline = time.monotonic() + 30
+        while not any(m["transforms"][0]["header"]["frame_id"] == "warm2" for m in world.rclpy.received("/tf")):
+            assert time.monotonic() < deadline, "rclpy got nothing from zentf"
+            tb.send_transform(warm)
+            time.sleep(0.1)
+        for i in range(n):
+            tb.send_transform(TransformStamped.from_dict(ts("z2r", f"c{i}", (i, 0, 0))))
+        deadline = time.monotonic() + 30
+        got = lambda: [m for m in world.rclpy.received("/tf") if m["transforms"][0]["header"]["frame_id"] == "z2r"]  # noqa: E731
+        while len(got()) - before < n:
+            assert time.monotonic() < deadline, f"zentf -> rclpy: {len(got()) - before} of {n}"
+            time.sleep(0.05)
+        time.sleep(1.0)
+    # each message once per rclpy subscription (the helper has /tf subscriptions from earlier tests too)
+    counts = {}
+    for m in got()[before:]:
+        counts[m["transforms"][0]["child_frame_id"]] = counts.get(m["transforms"][0]["child_frame_id"], 0) + 1
+    assert len(set(counts.values())) == 1 and len(counts) == n, counts
+
+    relaying = "second" if standby == "first" else "first"
+    procs[relaying].stop()
+    procs[standby].wait_for_line("dds bridge: active", timeout=30)
+    if relaying == "first":
+        world.bridge = second
+    seen = _count_zentf(world, f"{world.ns}/tf", 1, lambda: world.rclpy.call(
+        cmd="pub", topic="/tf", type=TF, msg={"transforms": [ts("dup", "after", (1, 0, 0))]}), "after takeover")
+    assert len(seen) == 1
