@@ -89,7 +89,7 @@ class Rclpy:
         e.update({"ROS_DOMAIN_ID": str(domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
                   "PYTHONUNBUFFERED": "1"})
         self.proc = Proc([python, str(HELPER), name], env=e, stdin=subprocess.PIPE)
-        self.msgs: "queue.Queue[dict]" = queue.Queue()
+        self.subs: dict[str, int] = {}   # subscriptions made per topic: each gets every message once
         self.proc.wait_for_line(r'"ok": "ready"', timeout=60)
 
     def send(self, **cmd: object) -> None:
@@ -99,6 +99,8 @@ class Rclpy:
 
     def call(self, **cmd: object) -> dict:
         """Send a command and return its {"ok": ...} answer."""
+        if cmd["cmd"] == "sub":
+            self.subs[str(cmd["topic"])] = self.subs.get(str(cmd["topic"]), 0) + 1
         self.send(**cmd)
         m = self.proc.wait_for_line(r'^\{"ok": "' + str(cmd["cmd"]) + '"', timeout=30)
         return json.loads(m.string)
@@ -421,7 +423,7 @@ def test_two_bridges_one_relays_no_duplicates(world: World) -> None:
     counts = {}
     for m in got()[before:]:
         counts[m["transforms"][0]["child_frame_id"]] = counts.get(m["transforms"][0]["child_frame_id"], 0) + 1
-    assert len(set(counts.values())) == 1 and len(counts) == n, counts
+    assert counts == {f"c{i}": world.rclpy.subs["/tf"] for i in range(n)}  # once per rclpy subscription
 
     relaying = "second" if standby == "first" else "first"
     procs[relaying].stop()
@@ -431,3 +433,72 @@ def test_two_bridges_one_relays_no_duplicates(world: World) -> None:
     seen = _count_zentf(world, f"{world.ns}/tf", 1, lambda: world.rclpy.call(
         cmd="pub", topic="/tf", type=TF, msg={"transforms": [ts("dup", "after", (1, 0, 0))]}), "after takeover")
     assert len(seen) == 1
+
+
+def test_ros2_wire_bridge_beside_a_zentf_wire_one(world: World) -> None:
+    """--wire ros2 (rmw_zenoh's format on the zentf side) beside the zentf-wire bridge on the same DDS
+    domain: rclpy's /tf reaches a ros2-wire zentf listener, a ros2-wire broadcaster reaches rclpy once
+    (neither bridge relays what the other wrote to DDS)."""
+    from zentf import Buffer, Node, TransformBroadcaster, TransformListener
+    from zentf.core.messages import TransformStamped
+    from zentf.options import NodeOptions, ZenohOptions
+
+    env = dict(world.env)
+    env.pop("ZENTF_NAMESPACE", None)
+    world.start_bridge("--wire", "ros2", "--domain", str(world.domain), name="ros2_wire_bridge", env=env)
+    opts = NodeOptions(wire="ros2", domain_id=world.domain,
+                       zenoh=ZenohOptions(connect=[world.router], no_multicast=True, mode="client"))
+    world.rclpy.call(cmd="sub", topic="/tf", type=TF)
+    with Node("ros2_wire_node", options=opts) as node:
+        buf = Buffer()
+        TransformListener(buf, node)
+        t = _lookup(buf, "rw_odom", "rw_base", lambda: world.rclpy.call(
+            cmd="pub", topic="/tf", type=TF, msg={"transforms": [ts("rw_odom", "rw_base", (7.0, 8.0, 9.0))]}))
+        assert _xyz(t) == [7.0, 8.0, 9.0, 0.0, 0.0, 0.0, 1.0]
+        tb = TransformBroadcaster(node)
+        deadline = time.monotonic() + 30
+        mine = lambda: [m for m in world.rclpy.received("/tf") if m["transforms"][0]["header"]["frame_id"] == "rw_z"]  # noqa: E731
+        while not mine():
+            assert time.monotonic() < deadline, "rclpy got nothing from the ros2-wire node"
+            tb.send_transform(TransformStamped.from_dict(ts("rw_z", "warm", (0, 0, 0))))
+            time.sleep(0.1)
+        before = len(mine())
+        tb.send_transform(TransformStamped.from_dict(ts("rw_z", "once", (1, 2, 3))))
+        deadline = time.monotonic() + 30
+        while not any(m["transforms"][0]["child_frame_id"] == "once" for m in mine()):
+            assert time.monotonic() < deadline, "rclpy did not get the ros2-wire transform"
+            time.sleep(0.05)
+        time.sleep(1.0)  # a copy through the zentf-wire bridge would arrive within this
+        once = [m for m in mine()[before:] if m["transforms"][0]["child_frame_id"] == "once"]
+        assert len(once) == world.rclpy.subs["/tf"]  # once per rclpy subscription
+        assert once[0]["transforms"][0]["transform"]["translation"] == {"x": 1.0, "y": 2.0, "z": 3.0}
+
+
+def test_kilted_with_the_robot_setting() -> None:
+    """Kilted (Fast DDS 3) with the documented robot setting (type propagation off): /tf both ways."""
+    profile_env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "RMW_IMPLEMENTATION")}
+    profile_env["FASTDDS_DEFAULT_PROFILES_FILE"] = str(KILTED_PROFILE)
+    w = World("kilted", rclpy_env=profile_env)
+    try:
+        from zentf import Buffer, Node, TransformBroadcaster, TransformListener
+        from zentf.core.messages import TransformStamped
+
+        w.rclpy.call(cmd="sub", topic="/tf", type=TF)
+        with Node("kilted_listener", options=w.node_options()) as node:
+            buf = Buffer()
+            TransformListener(buf, node)
+            t = _lookup(buf, "k_odom", "k_base", lambda: w.rclpy.call(
+                cmd="pub", topic="/tf", type=TF, msg={"transforms": [ts("k_odom", "k_base", (1.0, 2.0, 3.0))]}))
+            assert _xyz(t) == [1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0]
+            tb = TransformBroadcaster(node)
+            deadline = time.monotonic() + 30
+            while not w.rclpy.received("/tf") or not any(
+                    m["transforms"][0]["header"]["frame_id"] == "k_z" for m in w.rclpy.received("/tf")):
+                assert time.monotonic() < deadline, "Kilted rclpy got nothing from zentf"
+                tb.send_transform(TransformStamped.from_dict(ts("k_z", "k_c", (4.0, 5.0, 6.0))))
+                time.sleep(0.1)
+        got = w.rclpy.wait_msg("/tf", lambda v: v["transforms"][0]["header"]["frame_id"] == "k_z")
+        assert got["transforms"][0] == ts("k_z", "k_c", (4.0, 5.0, 6.0))
+        w.rclpy.wait_nodes(["/", "zentf_bridge_dds"])
+    finally:
+        w.close()
