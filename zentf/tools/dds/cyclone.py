@@ -203,9 +203,10 @@ class RawReader:
 
 
 class RawWriter:
-    """A DDS writer of CDR bytes (with the encapsulation header), marked as the bridge's."""
+    """A DDS writer of CDR bytes (with the encapsulation header), marked as a zentf bridge's unless
+    ``mark`` is false."""
 
-    def __init__(self, domain: "DdsDomain", topic: Any, qos: TopicQos) -> None:
+    def __init__(self, domain: "DdsDomain", topic: Any, qos: TopicQos, *, mark: bool = True) -> None:
         from cyclonedds._clayer import ddspy_write
         from cyclonedds.core import Policy, Qos
         from cyclonedds.pub import DataWriter
@@ -214,7 +215,9 @@ class RawWriter:
         pol = [Policy.Reliability.Reliable(duration(seconds=1)) if qos.reliable else Policy.Reliability.BestEffort,
                Policy.Durability.TransientLocal if qos.transient_local else Policy.Durability.Volatile,
                Policy.History.KeepLast(max(1, qos.depth)),
-               Policy.DataRepresentation(use_cdrv0_representation=True), Policy.Userdata(BRIDGE_MARK)]
+               Policy.DataRepresentation(use_cdrv0_representation=True)]
+        if mark:
+            pol.append(Policy.Userdata(BRIDGE_MARK))
         self.writer = DataWriter(domain.participant, topic, qos=Qos(*pol))
         self.ref = self.writer._ref
         self.guid = self.writer.guid.bytes
@@ -237,7 +240,7 @@ class DdsDomain:
     """A participant on one DDS domain; ``wait()`` blocks until readers have data (their attach values)."""
 
     def __init__(self, domain_id: int, *, lan: bool = False, peers: Iterable[str] = (),
-                 user_data: bytes = b"enclave=/;") -> None:
+                 user_data: bytes = b"enclave=/;", mark: bool = True) -> None:
         from cyclonedds.core import Policy, Qos
         from cyclonedds.domain import Domain, DomainParticipant
 
@@ -247,7 +250,7 @@ class DdsDomain:
         self.config = config_xml(lan=lan, peers=peers)
         lib = _c()
         self._domain = Domain(domain_id, self.config)
-        self.participant = DomainParticipant(domain_id, qos=Qos(Policy.Userdata(user_data + BRIDGE_MARK)))
+        self.participant = DomainParticipant(domain_id, qos=Qos(Policy.Userdata(user_data + (BRIDGE_MARK if mark else b""))))
         self.guid = self.participant.guid.bytes
         pref = self.participant._ref
         self.waitset = _check(lib.dds_create_waitset(pref), "dds_create_waitset")
@@ -280,8 +283,8 @@ class DdsDomain:
     def reader(self, dds_name: str, type_name: str, qos: TopicQos, attach: int) -> RawReader:
         return RawReader(self, self.topic(dds_name, type_name), qos, attach)
 
-    def writer(self, dds_name: str, type_name: str, qos: TopicQos) -> RawWriter:
-        return RawWriter(self, self.topic(dds_name, type_name), qos)
+    def writer(self, dds_name: str, type_name: str, qos: TopicQos, *, mark: bool = True) -> RawWriter:
+        return RawWriter(self, self.topic(dds_name, type_name), qos, mark=mark)
 
     # ---- waiting
     def wait(self, timeout: float) -> list[int]:
