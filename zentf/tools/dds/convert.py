@@ -23,6 +23,10 @@ try:  # the compiled decoder (zentf/tfwire.pyx): None for anything doubtful, the
     from ...tfwire import cdr_tf as _cdr_tf
 except ImportError:  # pragma: no cover - the compiled core is not built
     _cdr_tf = None
+try:  # CDR straight to msgpack in C (tfconvert.pyx): None for anything doubtful
+    from .tfconvert import tf_cdr_to_msgpack as _compiled
+except ImportError:  # pragma: no cover - not built
+    _compiled = None
 
 _NS = 1_000_000_000
 _STAMP = b"\x83\xa6header\x82\xa5stamp\x82\xa3sec\xce"
@@ -62,6 +66,15 @@ def tf_cdr_to_msgpack(cdr: bytes) -> tuple[bytes, int]:
     """(zentf payload, transforms left out) of a CDR TFMessage: what zentf's TransformBroadcaster would
     send for it. Elements that cannot be read (bad stamp, name not UTF-8) are left out and counted;
     ValueError if the payload is not a CDR TFMessage at all."""
+    if _compiled is not None:
+        out = _compiled(cdr)
+        if out is not None:
+            return out, 0
+    return _python_tf_cdr_to_msgpack(cdr)
+
+
+def _python_tf_cdr_to_msgpack(cdr: bytes) -> tuple[bytes, int]:
+    """tf_cdr_to_msgpack without the compiled module (and for what it finds doubtful)."""
     samples = _cdr_tf(cdr) if _cdr_tf is not None else None
     bad = 0
     if samples is None:

@@ -232,6 +232,40 @@ class RawWriter:
         _c().dds_delete(self.ref)
 
 
+_DOMAINS: dict[int, tuple[Any, str, int]] = {}
+_DOMAINS_LOCK = threading.Lock()
+
+
+def _domain(domain_id: int, config: str) -> Any:
+    """Cyclone's domain object (one per domain id in a process, shared: a second one fails)."""
+    from cyclonedds.domain import Domain
+
+    with _DOMAINS_LOCK:
+        held = _DOMAINS.get(domain_id)
+        if held is not None:
+            dom, cfg, n = held
+            if cfg != config:
+                raise ValueError(f"DDS domain {domain_id} is already open in this process with another "
+                                 "configuration (loopback vs --lan, or other peers)")
+            _DOMAINS[domain_id] = (dom, cfg, n + 1)
+            return dom
+        dom = Domain(domain_id, config)
+        _DOMAINS[domain_id] = (dom, config, 1)
+        return dom
+
+
+def _release_domain(domain_id: int) -> None:
+    with _DOMAINS_LOCK:
+        held = _DOMAINS.get(domain_id)
+        if held is None:
+            return
+        dom, cfg, n = held
+        if n > 1:
+            _DOMAINS[domain_id] = (dom, cfg, n - 1)
+        else:
+            del _DOMAINS[domain_id]
+
+
 #: attach values of the waitset's own conditions (readers get 0, 1, 2, ...)
 WAKE, DISCOVERY = -1, -2
 
@@ -242,14 +276,14 @@ class DdsDomain:
     def __init__(self, domain_id: int, *, lan: bool = False, peers: Iterable[str] = (),
                  user_data: bytes = b"enclave=/;", mark: bool = True) -> None:
         from cyclonedds.core import Policy, Qos
-        from cyclonedds.domain import Domain, DomainParticipant
+        from cyclonedds.domain import DomainParticipant
 
         if not 0 <= domain_id <= 232:
             raise ValueError(f"ROS_DOMAIN_ID must be an integer 0-232, got {domain_id}")
         self.domain_id = domain_id
         self.config = config_xml(lan=lan, peers=peers)
         lib = _c()
-        self._domain = Domain(domain_id, self.config)
+        self._domain = _domain(domain_id, self.config)
         self.participant = DomainParticipant(domain_id, qos=Qos(Policy.Userdata(user_data + (BRIDGE_MARK if mark else b""))))
         self.guid = self.participant.guid.bytes
         pref = self.participant._ref
@@ -377,3 +411,4 @@ class DdsDomain:
         self._closed = True
         self.wake()
         _c().dds_delete(self.participant._ref)
+        _release_domain(self.domain_id)
