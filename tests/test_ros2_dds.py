@@ -502,3 +502,33 @@ def test_kilted_with_the_robot_setting() -> None:
         w.rclpy.wait_nodes(["/", "zentf_bridge_dds"])
     finally:
         w.close()
+
+
+def test_launch_demo_with_dds() -> None:
+    """`zentf launch laser dds:=true`: the demo's bridge program puts its frames on DDS for rclpy."""
+    python = ros2_python("jazzy")
+    router_proc, router = start_router()
+    lock = DdsDomainLock()
+    env = child_env(router, f"t_{uuid.uuid4().hex[:10]}")
+    env.pop("ZENTF_WIRE", None)
+    env["ROS_DOMAIN_ID"] = str(lock.id)
+    launch = rclpy = None
+    try:
+        launch = Proc([sys.executable, "-m", "zentf.cli", "launch", "laser", "dds:=true"], env=env)
+        launch.wait_for_line("dds bridge: active", timeout=60)
+        rclpy = Rclpy(python, lock.id)
+        rclpy.call(cmd="sub", topic="/tf_static", type=TF, latched=True)
+        got = rclpy.wait_msg("/tf_static", lambda v: {"laser", "camera"} <= {t["child_frame_id"] for t in v["transforms"]})
+        laser = next(t for t in got["transforms"] if t["child_frame_id"] == "laser")
+        assert laser["header"]["frame_id"] == "base_link"
+        assert laser["transform"]["translation"] == {"x": 0.4, "y": 0.0, "z": 0.2}
+        rclpy.wait_nodes(["/", "dds_bridge"])
+        launch.signal(2)
+        assert launch.wait(30) == 0
+    finally:
+        if rclpy is not None:
+            rclpy.stop()
+        if launch is not None:
+            launch.stop()
+        router_proc.stop()
+        lock.release()
