@@ -532,3 +532,47 @@ def test_launch_demo_with_dds() -> None:
             launch.stop()
         router_proc.stop()
         lock.release()
+
+
+def test_bad_input_is_dropped_with_one_line(world: World) -> None:
+    """Malformed CDR from DDS and a wrong payload from zentf are dropped (counted, one rate-limited line);
+    the bridge keeps relaying; bad command lines are one line and exit 2."""
+    from zentf import Buffer, Node, TransformListener
+    from zentf.options import ZenohOptions
+    from zentf.tools.dds.cyclone import DdsDomain, TopicQos
+
+    forger = DdsDomain(world.domain, mark=False)
+    try:
+        w = forger.writer("rt/tf", TF, TopicQos(depth=100), mark=False)
+        from zentf.ros import encode_tf
+        from zentf.tools.dds.cyclone import DdsError
+
+        for garbage in (b"\x00\x01\x00\x00\xff\xff\xff\x7f" + b"\x00" * 64, b"\x01\x00"):
+            with pytest.raises(DdsError):  # Cyclone checks the CDR against the type: it never leaves a writer
+                w.write(garbage)
+        # well-formed CDR with bad content: a name that is not UTF-8, a negative stamp, NaN
+        not_utf8 = encode_tf([ts("ab", "cd", (1, 2, 3))]).replace(b"ab\x00", b"\xff\xfe\x00")
+        bad = [not_utf8, encode_tf([ts("n_odom", "n_base", (1, 2, 3), sec=-5)]),
+               encode_tf([ts("n_odom", "n_base", (float("nan"), 2, 3))])]
+        session = ZenohOptions(connect=[world.router], no_multicast=True, mode="client").open_session()
+        with Node("after_garbage", options=world.node_options()) as node:
+            buf = Buffer()
+            TransformListener(buf, node)
+            for payload in bad:
+                w.write(payload)
+            session.put(f"{world.ns}/tf", b"\xc1 not msgpack")             # zentf side: garbage on the tf key
+            t = _lookup(buf, "g_odom", "g_base", lambda: w.write(encode_tf([ts("g_odom", "g_base", (1, 2, 3))])))
+            assert _xyz(t) == [1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0]
+            assert not buf.can_transform("n_odom", "n_base", __import__("zentf").Time())
+        session.close()
+    finally:
+        forger.close()
+    assert world.bridge.returncode is None
+    world.bridge.wait_for_line(r"not relayed to DDS from '/t_\w+/tf': not valid msgpack", timeout=10, from_start=True)
+    for args, text in ((["--topic", "x:nope/msg/Nothing"], "no ROS 2 message type 'nope/msg/Nothing'"),
+                       (["--topic", "bad name:std_msgs/msg/String"], "bad topic name"),
+                       (["--domain", "300"], "300")):
+        r = subprocess.run([sys.executable, "-m", "zentf.cli", "bridge", "dds", *args], env=world.env,
+                           capture_output=True, text=True, timeout=60)
+        assert r.returncode == 2, (args, r.stderr)
+        assert text in r.stderr and "Traceback" not in r.stderr

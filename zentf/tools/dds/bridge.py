@@ -26,7 +26,7 @@ from typing import Any, Iterable, Sequence
 
 from ...core.messages import MESSAGE_TYPES, TFMessage, TransformStamped
 from ...entities import undeclare_all
-from ...names import encode_chunk, normalize_namespace
+from ...names import encode_chunk, normalize_namespace, validate_node_name
 from ...node import Node, RateLimitedLog
 from ...profile import zentf_entity_token
 from ...ros import UnknownTypeError, encode_tf, ros_type_name, type_hash
@@ -57,6 +57,11 @@ _DISCOVERY_QOS = TopicQos(reliable=True, transient_local=True, depth=1)
 ELECTION_GRACE = 3.0
 _TOKEN_ROOT = "@zentf/bridge_dds"
 _INFO_ATTACH = -3
+#: Bounds on what the DDS side can make the bridge hold (anything on the network may announce topics
+#: and nodes): routes made by --all, nodes kept per participant, endpoints and participants tracked.
+MAX_DISCOVERED_ROUTES = 256
+MAX_NODES_PER_PARTICIPANT = 256
+MAX_TRACKED = 20_000
 
 
 def bridgeable(type_name: str) -> bool:
@@ -149,6 +154,7 @@ class DdsBridge:
         self._peers: dict[bytes, float] = {}          # other bridges on this graph: guid -> first seen
         self._peers_lock = threading.Lock()
         self._next_attach = 0
+        self._discovered_routes = 0
         self._info_dirty = True
         self.domain = DdsDomain(domain_id, lan=lan, peers=peers)
         try:
@@ -351,13 +357,15 @@ class DdsBridge:
     def _discover(self) -> None:
         seen, gone = self.domain.take_participants()
         for p in seen:
-            self._participants[p.guid] = p.user_data
+            if len(self._participants) < MAX_TRACKED or p.guid in self._participants:
+                self._participants[p.guid] = p.user_data
         for g in gone:
             self._participants.pop(g, None)
             self._ros_nodes.pop(g, None)
         eps, left = self.domain.take_endpoints()
         for e in eps:
-            self._endpoints[e.guid] = e
+            if len(self._endpoints) < MAX_TRACKED or e.guid in self._endpoints:
+                self._endpoints[e.guid] = e
         for g in left:
             self._endpoints.pop(g, None)
         if seen or gone or eps or left:
@@ -372,27 +380,39 @@ class DdsBridge:
 
     def _routes_from_discovery(self, eps: list[Endpoint]) -> None:
         for e in eps:
-            if not self._is_foreign(e.participant):
-                continue
-            fq = ros_topic(e.topic)
-            if fq is None:
-                continue
-            type_name = ros_type_name(e.type_name)
-            dds_name = e.topic
-            if dds_name in self._routes:
-                continue
-            spec_name = self._wanted.get(fq)
-            if spec_name is not None:
-                if bridgeable(type_name):
-                    self._wanted.pop(fq, None)
-                    self._add_route(spec_name, fq, type_name, self._qos_for(type_name))
-                else:
-                    self._complain(f"type:{fq}", f"cannot bridge {fq}: zentf has no ROS 2 message type {type_name}")
-                continue
-            if self._all and bridgeable(type_name):
-                name = self._mount(fq)
-                if name is not None:
-                    self._add_route(name, fq, type_name, self._qos_for(type_name))
+            try:
+                self._route_for(e)
+            except Exception as ex:  # noqa: BLE001 - a name zentf cannot use must not stop the others
+                self._complain(f"route:{type(ex).__name__}", f"cannot bridge DDS topic {e.topic!r}: {ex}")
+
+    def _route_for(self, e: Endpoint) -> None:
+        if not self._is_foreign(e.participant):
+            return
+        fq = ros_topic(e.topic)
+        if fq is None:
+            return
+        type_name = ros_type_name(e.type_name)
+        dds_name = e.topic
+        if dds_name in self._routes:
+            return
+        spec_name = self._wanted.get(fq)
+        if spec_name is not None:
+            if bridgeable(type_name):
+                self._wanted.pop(fq, None)
+                self._add_route(spec_name, fq, type_name, self._qos_for(type_name))
+            else:
+                self._complain(f"type:{fq}", f"cannot bridge {fq}: zentf has no ROS 2 message type {type_name}")
+            return
+        if self._all and bridgeable(type_name):
+            name = self._mount(fq)
+            if name is None:
+                return
+            if self._discovered_routes >= MAX_DISCOVERED_ROUTES:
+                self._complain("routes", f"not bridging {fq}: --all already bridges "
+                                         f"{MAX_DISCOVERED_ROUTES} discovered topics")
+                return
+            if self._add_route(name, fq, type_name, self._qos_for(type_name)) is not None:
+                self._discovered_routes += 1
 
     def _read_discovery_info(self) -> None:
         for cdr, _info in self._info_reader.take():
@@ -404,9 +424,9 @@ class DdsBridge:
             except Exception as e:  # noqa: BLE001
                 self._complain("info", f"bad ros_discovery_info sample: {e}")
                 continue
-            if gid == self.guid:
+            if gid == self.guid or (len(self._ros_nodes) >= MAX_TRACKED and gid not in self._ros_nodes):
                 continue
-            self._ros_nodes[gid] = nodes
+            self._ros_nodes[gid] = nodes[:MAX_NODES_PER_PARTICIPANT]
         self._sync_proxies()
 
     def _publish_discovery_info(self) -> None:
@@ -448,9 +468,11 @@ class DdsBridge:
             if rest != self._dds_ns and not rest.startswith(self._dds_ns + "/"):
                 return []
             rest = rest[len(self._dds_ns):].strip("/")
-        if not name:
+        try:
+            validate_node_name(name)
+            zns = normalize_namespace("/".join(p for p in (self.node._namespace, rest) if p))
+        except ValueError:  # not a ROS name: nothing to announce
             return []
-        zns = "/".join(p for p in (self.node._namespace, rest) if p)
         proxy = self._proxies.get((zns, name))
         if proxy is None:
             proxy = self._proxies[(zns, name)] = _ProxyNode(zns, name, self.node.session)
