@@ -308,6 +308,8 @@ def test_graphs_list_each_other(world: World) -> None:
     """rclpy's graph API lists the bridge's node; zentf's graph lists the rclpy node and its topics."""
     from zentf import graph
 
+    world.rclpy.call(cmd="pub", topic="/tf_static", type=TF, latched=True,
+                     msg={"transforms": [ts("base", "laser", (0.5, -0.25, 0.2), (0.0, 0.0, 0.6, 0.8))]})
     world.rclpy.wait_nodes(["/", "zentf_bridge_dds"])
     from zentf.options import ZenohOptions
 
