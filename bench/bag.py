@@ -27,8 +27,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from nodes.frames_publisher import drone_poses  # noqa: E402
-from zentf import wire  # noqa: E402
+from zentf.demos.frames_publisher import drone_poses  # noqa: E402
+from zentf.transport.wire import codec as wire  # noqa: E402
 from zentf.tools.bag import BagReader, BagWriter, Player, Recorder  # noqa: E402
 from zentf.core.messages import TFMessage  # noqa: E402
 
@@ -52,7 +52,7 @@ def free_port() -> int:
 def sessions():
     import zenoh
 
-    from zentf.options import ZenohOptions
+    from zentf.transport.options import ZenohOptions
 
     ep = f"tcp/127.0.0.1:{free_port()}"
     a = ZenohOptions(listen=[ep], no_multicast=True, mode="peer").open_session()
@@ -125,7 +125,7 @@ def pump_process(endpoint: str, key: str, n: int) -> subprocess.Popen:
 def _pump_main(endpoint: str, key: str, n: int) -> None:
     import zenoh
 
-    from zentf.options import ZenohOptions
+    from zentf.transport.options import ZenohOptions
 
     s = ZenohOptions(connect=[endpoint], no_multicast=True, mode="peer").open_session()
     msgs = [payload(i) for i in range(n)]
@@ -139,7 +139,7 @@ def _pump_main(endpoint: str, key: str, n: int) -> None:
 
 
 def bench_record(msgs: list[bytes], d: Path) -> tuple[float, float]:
-    from zentf.options import ZenohOptions
+    from zentf.transport.options import ZenohOptions
 
     ep = f"tcp/127.0.0.1:{free_port()}"
     b = ZenohOptions(listen=[ep], no_multicast=True, mode="peer").open_session()

@@ -182,9 +182,9 @@ def main() -> int:
             pass
         import zenoh
 
-        from zentf.options import ZenohOptions
-        from zentf.profile import make_profile
-        from zentf import wire as zwire
+        from zentf.transport.options import ZenohOptions
+        from zentf.transport.wire.profiles import make_profile
+        from zentf.transport.wire import codec as zwire
         from zentf.ros import tf_samples
 
         session = ZenohOptions(connect=[router], mode="client", no_multicast=True).open_session()

@@ -85,7 +85,7 @@ def test_ros_topics_become_zentf_topics_with_zentf_payloads(spawn, zenoh_session
     from rosbags.highlevel import AnyReader
 
     from zentf.tools.bag.plain import to_plain
-    from zentf.wire import unpack
+    from zentf.transport.wire.codec import unpack
 
     odom = Collector(zenoh_session, f"{test_namespace}/odom")
     tf = Collector(zenoh_session, f"{test_namespace}/tf")

@@ -13,7 +13,7 @@ SHOWN = "evil\\x1b[2J\\rFORGED\\nline\\u202e"
 
 INJECTOR = r'''
 import sys, time, json, zenoh
-from zentf import wire
+from zentf.transport.wire import codec as wire
 from zentf.core.messages import TFMessage
 ep, ns, evil = sys.argv[1], sys.argv[2], json.loads(sys.argv[3])
 cfg = zenoh.Config()
@@ -78,7 +78,7 @@ def test_listings_print_hostile_names_escaped(injector, zenoh_env, test_namespac
 
 def test_bag_info_prints_hostile_names_escaped(tmp_path, zenoh_env):
     """`zentf bag info` lists a bag's topics, types and tf frames: a bag from anyone cannot drive the terminal."""
-    from zentf import wire
+    from zentf.transport.wire import codec as wire
     from zentf.core.messages import TFMessage
     from zentf.tools.bag import BagWriter
 

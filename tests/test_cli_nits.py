@@ -93,7 +93,7 @@ def test_flag_only_clients_retry_at_most_1_s_apart():
     """The setting behind the test above (whose timing alone cannot always tell 1 s from 4 s)."""
     import json
 
-    from zentf.options import ZenohOptions
+    from zentf.transport.options import ZenohOptions
 
     cfg = ZenohOptions(connect=["tcp/127.0.0.1:7447"], mode="client").config()
     retry = json.loads(cfg.get_json("connect/retry"))

@@ -230,7 +230,7 @@ def test_frame_ids_longer_than_the_limit_are_refused(name: str, caplog) -> None:
 
 
 def test_buffer_takes_the_bounds_too() -> None:
-    from zentf.buffer import Buffer
+    from zentf.transport.buffer import Buffer
 
     buf = Buffer(max_frames=5, max_frame_id_length=8)
     assert (buf.max_frames, buf.max_frame_id_length) == (5, 8)

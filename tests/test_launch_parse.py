@@ -254,7 +254,7 @@ def test_module_programs_and_bare_names_resolve():
         resolve_launch_file("surely_not_there", cwd="/")
     desc = load_launch("drones", ["static:=true"])
     fp = by_name(desc)["frames_publisher"]
-    assert fp.cmd == [sys.executable, "-m", "nodes.frames_publisher"]
+    assert fp.cmd == [sys.executable, "-m", "zentf.demos.frames_publisher"]
     assert fp.parameters["static"] is True
 
 

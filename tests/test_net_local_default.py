@@ -170,13 +170,13 @@ def test_the_rendezvous_is_taken_over_when_its_holder_exits(spawn, local_env) ->
 ])
 def test_what_the_start_up_warning_names(kwargs, exposed) -> None:
     """The one-line warning's content for each profile and shipped config (mutual TLS: none, below)."""
-    from zentf.options import ZenohOptions, exposure
+    from zentf.transport.options import ZenohOptions, exposure
 
     assert exposure(ZenohOptions(**kwargs).config()) == exposed
 
 
 def test_mutual_tls_is_not_warned_about(tmp_path, monkeypatch) -> None:
-    from zentf.options import ZenohOptions, exposure
+    from zentf.transport.options import ZenohOptions, exposure
 
     (tmp_path / "certs").mkdir()
     for name in ("ca.pem", "client.pem", "client.key"):  # client-tls.json5 names certs/... from the cwd

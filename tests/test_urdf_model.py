@@ -289,7 +289,7 @@ def test_xacro_arguments_reach_the_model(tmp_path: Path) -> None:
 
 
 def test_joint_state_message_round_trip() -> None:
-    from zentf import wire
+    from zentf.transport.wire import codec as wire
     from zentf.core.messages import Header, JointState, Message
     from zentf.core.time import Time
 

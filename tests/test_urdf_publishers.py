@@ -67,7 +67,7 @@ def test_rsp_and_jsp_processes_give_a_listener_the_fk_frames(spawn, zenoh_args) 
 def test_stamp_mimic_prefix_and_unknown_joints(spawn, node_options) -> None:
     from zentf.core.messages import Header, JointState
     from zentf.core.time import Time
-    from zentf.node import Node
+    from zentf.transport.node import Node
 
     rsp = spawn.python("-m", "nodes.robot_state_publisher", str(MY_ROBOT), "--frame-prefix", "r1/",
                        "-p", "publish_frequency:=1000")
@@ -100,7 +100,7 @@ def test_stamp_mimic_prefix_and_unknown_joints(spawn, node_options) -> None:
 
 def test_missing_meshes_do_not_stop_the_publisher_and_robot_description_is_latched(spawn, node_options) -> None:
     from zentf.core.messages import String
-    from zentf.node import Node
+    from zentf.transport.node import Node
 
     rsp = spawn.python("-m", "nodes.robot_state_publisher", str(BURGER))
     rsp.wait_for_line(r"publishing robot 'turtlebot3_burger' \(7 links\): 4 fixed joints", timeout=30)
@@ -195,8 +195,8 @@ def test_urdf_check_and_graph(tmp_path) -> None:
 def test_rsp_plans_mimics_throttle_and_bad_values(node_options, monkeypatch, compiled) -> None:
     """In process (the payloads captured before they leave): what one JointState turns into, through the
     compiled hot path (zentf/tools/jointtf.pyx) and through the numpy one."""
-    from zentf import wire
-    from zentf.node import Node
+    from zentf.transport.wire import codec as wire
+    from zentf.transport.node import Node
     from zentf.tools import robot_state_publisher as rsp_module
     from zentf.tools.robot_state_publisher import RobotStatePublisher
 
@@ -249,8 +249,8 @@ def test_rsp_plans_mimics_throttle_and_bad_values(node_options, monkeypatch, com
 def test_rsp_compiled_payload_equals_the_numpy_one(node_options, monkeypatch) -> None:
     """The compiled filler gives the numpy path's TFMessage (names, stamps, values within 1e-15) for random
     joint subsets with unknown names and mimics, on a 30-joint chain and on my_robot."""
-    from zentf import wire
-    from zentf.node import Node
+    from zentf.transport.wire import codec as wire
+    from zentf.transport.node import Node
     from zentf.tools import robot_state_publisher as rsp_module
     from zentf.tools.robot_state_publisher import RobotStatePublisher
     from zentf.urdf import parse_urdf
@@ -313,8 +313,8 @@ def test_robot_description_parameter_instead_of_a_file(spawn, zenoh_env) -> None
 
 def test_time_moving_backwards_republishes(isolated_router, test_namespace) -> None:
     """A bag played in a loop (sim time jumps back): the per-joint throttle starts over (ROS 2)."""
-    from zentf.node import Node
-    from zentf.options import NodeOptions, ZenohOptions
+    from zentf.transport.node import Node
+    from zentf.transport.options import NodeOptions, ZenohOptions
     from zentf.tools.robot_state_publisher import RobotStatePublisher
 
     opts = NodeOptions(namespace=test_namespace, zenoh=ZenohOptions(connect=[isolated_router], no_multicast=True,
@@ -332,7 +332,7 @@ def test_time_moving_backwards_republishes(isolated_router, test_namespace) -> N
 
 def test_joint_state_publisher_sweep_covers_each_range_and_publishes_mimics(spawn, node_options) -> None:
     from zentf.core.messages import JointState
-    from zentf.node import Node
+    from zentf.transport.node import Node
 
     seen: dict[str, list[float]] = {}
     mimic_ok: list[bool] = []
@@ -366,9 +366,9 @@ def test_rsp_reads_repeated_joint_states_in_c_as_the_general_path_would(node_opt
     keys, cut short) gives the general path's outcome."""
     import msgpack
 
-    from zentf import wire
+    from zentf.transport.wire import codec as wire
     from zentf.core.messages import JointState
-    from zentf.node import Node
+    from zentf.transport.node import Node
     from zentf.tools.robot_state_publisher import RobotStatePublisher
     from zentf.urdf import parse_urdf
 

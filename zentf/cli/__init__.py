@@ -66,6 +66,7 @@ _COMMANDS: dict[str, tuple[str, str]] = {
     "graph": ("zentf.cli.graph:graph", "The node <-> topic graph (rqt_graph) as DOT + image + text."),
     "static-transform-publisher": ("zentf.cli.static:static_transform_publisher",
                                    "Publish a static transform (tf2_ros static_transform_publisher)."),
+    "run": ("zentf.cli.run:run", "Start a program: zentf run NAME [ARGS] (--list names them)."),
     "launch": ("zentf.launch.cli:launch", "Start a node graph from a launch file."),
     "clock": ("zentf.launch.cli:clock", "Publish or inspect the /clock sim time."),
     "router": ("zentf.cli.extern:router", "Run a Zenoh router (multi-machine graphs)."),
@@ -152,7 +153,7 @@ def _report_crash(exc: Exception) -> int:
     from zentf.core.exceptions import TransformException
 
     try:
-        from zentf.options import OptionsError
+        from zentf.transport.options import OptionsError
     except ImportError:  # pragma: no cover - transport not installed
         OptionsError = ValueError  # type: ignore[misc,assignment]  # noqa: N806
     if isinstance(exc, TransformException):

@@ -208,8 +208,8 @@ def cli_node_name(tool: str) -> str:
 
 
 def node_options(opts: CliOptions, name: str) -> Any:
-    """Resolve flags > ZENTF_* env > defaults through the one shared options helper (zentf.options)."""
-    from zentf.options import NodeOptions, OptionsError, ZenohOptions
+    """Resolve flags > ZENTF_* env > defaults through the one shared options helper (zentf.transport.options)."""
+    from zentf.transport.options import NodeOptions, OptionsError, ZenohOptions
 
     try:
         base = NodeOptions.from_env()
@@ -229,7 +229,7 @@ def node_options(opts: CliOptions, name: str) -> Any:
 
 def open_node(opts: CliOptions, tool: str) -> Any:
     """A (hidden) Node for a CLI tool; an unreachable endpoint or bad config is one CliError line."""
-    from zentf.node import Node
+    from zentf.transport.node import Node
 
     node_opts = node_options(opts, cli_node_name(tool))
     try:
@@ -243,8 +243,8 @@ def open_node(opts: CliOptions, tool: str) -> Any:
 
 
 def wire_profile(opts: CliOptions) -> Any:
-    """The wire profile (zentf.profile) the options pick: zentf's own, or ros2 for a ROS 2 graph."""
-    from zentf.profile import make_profile
+    """The wire profile (zentf.transport.wire.profiles) the options pick: zentf's own, or ros2 for a ROS 2 graph."""
+    from zentf.transport.wire.profiles import make_profile
 
     node_opts = node_options(opts, "_zentf_cli")
     return make_profile(node_opts.wire, node_opts.domain_id)

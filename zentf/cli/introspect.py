@@ -25,8 +25,8 @@ def graph_namespace(opts: CliOptions) -> Optional[str]:
 
 
 def graph_snapshot(opts: CliOptions, wait: float, namespace: Optional[str] = None) -> tuple[dict, dict]:
-    """(nodes, topics) as zentf.graph.build_graph returns them, once token arrivals have settled."""
-    from zentf.graph import GraphWatcher, build_graph, list_tokens
+    """(nodes, topics) as zentf.transport.graph.build_graph returns them, once token arrivals have settled."""
+    from zentf.transport.graph import GraphWatcher, build_graph, list_tokens
 
     profile = wire_profile(opts)
     session, mode = open_graph_session(opts)

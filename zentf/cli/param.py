@@ -22,7 +22,7 @@ def param() -> None:
 
 
 def _fq(opts: CliOptions, name: str) -> str:
-    from zentf.names import fully_qualified_node_name, normalize_namespace
+    from zentf.transport.names import fully_qualified_node_name, normalize_namespace
 
     from .common import node_options
 
@@ -47,7 +47,7 @@ def _tool_node(opts: CliOptions) -> Iterator[Any]:
 
 def _reach(node: Any, fq: str, timeout: float) -> Any:
     """A ParameterClient of node ``fq``, once its services answer; a clear line if it is not there."""
-    from zentf.parameters import ParameterClient
+    from zentf.transport.parameters import ParameterClient
 
     client = ParameterClient(node, fq)
     if not client.wait(timeout):
@@ -65,7 +65,7 @@ def _client(opts: CliOptions, node_name: str, timeout: float) -> Iterator[Any]:
 
 
 def _call(fn: Any, *args: Any) -> Any:
-    from zentf.service import ServiceException
+    from zentf.transport.service import ServiceException
 
     try:
         return fn(*args)
@@ -133,7 +133,7 @@ def param_get(node_name: str, name: str, hide_type: bool, timeout: float, *, opt
 @with_options
 def param_set(node_name: str, name: str, value: str, timeout: float, *, opts: CliOptions) -> None:
     """Set parameter NAME of NODE to VALUE (read as YAML: 20, 2.5, true, text, [1, 2])."""
-    from zentf.options import parse_scalar
+    from zentf.transport.options import parse_scalar
 
     parsed = parse_scalar(value)
     from zentf.core.parameters import type_of

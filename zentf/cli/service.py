@@ -31,7 +31,7 @@ def _services(opts: CliOptions, wait: float) -> dict[str, set[str]]:
 
 
 def _full_name(opts: CliOptions, name: str) -> str:
-    from zentf.names import normalize_namespace, resolve_topic
+    from zentf.transport.names import normalize_namespace, resolve_topic
 
     from .common import node_options
 
@@ -84,7 +84,7 @@ def service_call(name: str, type_name: str, values: str, timeout: float, *, opts
     import yaml
 
     from zentf.core.services import service_type
-    from zentf.service import ServiceException
+    from zentf.transport.service import ServiceException
 
     from .common import open_node
 

@@ -20,8 +20,8 @@ def tf() -> None:
 
 def _listen(opts: CliOptions, tool: str) -> tuple[Any, Any, Any]:
     """Node + Buffer + TransformListener (tf and tf_static of the namespace)."""
-    from zentf.buffer import Buffer
-    from zentf.listener import TransformListener
+    from zentf.transport.buffer import Buffer
+    from zentf.transport.listener import TransformListener
 
     from .common import open_node
 
@@ -480,7 +480,7 @@ def monitor(frame_a: Optional[str], frame_b: Optional[str], duration: Optional[f
     try:
         buffer = None
         if pair:
-            from zentf.buffer import Buffer
+            from zentf.transport.buffer import Buffer
 
             buffer = Buffer()
         stats = MonitorStats(buffer, window)

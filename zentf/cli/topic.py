@@ -22,7 +22,7 @@ def topic() -> None:
 
 def _resolve(opts: CliOptions, name: str) -> tuple[str, str]:
     """(fully qualified topic, key expression of any type on it) of a topic name in the command's namespace."""
-    from zentf.names import resolve_topic
+    from zentf.transport.names import resolve_topic
 
     ns = node_options(opts, "_zentf_cli").namespace or ""
     try:
@@ -84,7 +84,7 @@ def topic_info(name: str, wait: float, *, opts: CliOptions) -> None:
 def render_sample(payload: bytes, encoding: str, as_json: bool, key: str = "", profile: Any = None) -> str:
     """One received sample as YAML (ros2 topic echo style) or one JSON line; raw bytes if unknown.
     The wire ``profile`` (zentf's by default) decodes it: by the carried encoding, or (ros2) the key's type."""
-    from zentf.profile import WireProfile
+    from zentf.transport.wire.profiles import WireProfile
 
     data: Any
     try:
@@ -343,7 +343,7 @@ def _wait_for_subscriber(node: Any, topic: str, timeout: float) -> bool:
     """Block until some live node subscribes `topic` (liveliness), at most `timeout` s."""
     if timeout <= 0:
         return False
-    from zentf.graph import GraphWatcher
+    from zentf.transport.graph import GraphWatcher
 
     watcher = GraphWatcher(node.session, profile=node.wire)
     try:

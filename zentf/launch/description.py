@@ -15,6 +15,7 @@ from typing import Any, Mapping, Sequence
 
 import yaml
 
+from ..tools.programs import PROGRAMS, module_of
 from .errors import LaunchError
 from .substitution import SubstitutionContext, SubstitutionError, has_substitution, substitute
 from .yaml_tree import Y, load_yaml_file
@@ -24,7 +25,7 @@ __all__ = ["NodeSpec", "ClockSpec", "ArgSpec", "LaunchDescription", "load_launch
            "CLOCK_KEYS"]
 
 TOP_KEYS = ("description", "args", "env", "clock", "nodes", "groups", "include")
-NODE_KEYS = ("name", "module", "cmd", "arguments", "namespace", "parameters", "params_file", "remappings",
+NODE_KEYS = ("name", "run", "module", "cmd", "arguments", "namespace", "parameters", "params_file", "remappings",
              "env", "respawn", "respawn_delay", "respawn_max", "required", "output", "if", "unless")
 GROUP_KEYS = ("namespace", "env", "nodes", "groups", "include", "if", "unless")
 INCLUDE_KEYS = ("file", "args", "namespace", "if", "unless")
@@ -105,7 +106,10 @@ class LaunchDescription:
 # ---------------------------------------------------------------- finding files and args
 
 def package_configs_dir() -> Path:
-    return Path(__file__).resolve().parent.parent.parent / "configs"
+    """The shipped launch files and Zenoh configs: ``zentf/configs`` in a wheel, ``configs/`` in a checkout."""
+    package = Path(__file__).resolve().parent.parent
+    installed = package / "configs"
+    return installed if installed.is_dir() else package.parent / "configs"
 
 
 def resolve_launch_file(name: str, cwd: str | None = None) -> str:
@@ -318,11 +322,18 @@ class _Loader:
         self._check_keys(y, NODE_KEYS, "node")
         v = y.value
         active = self._condition(y, scope)
-        has_module, has_cmd = "module" in v, "cmd" in v
-        if has_module == has_cmd:
-            raise y.error("a node needs exactly one program: module: (in nodes/) or cmd: [...]")
+        has_run, has_module, has_cmd = "run" in v, "module" in v, "cmd" in v
+        if has_run + has_module + has_cmd != 1:
+            raise y.error("a node needs exactly one program: run: NAME (zentf run --list), module: or cmd: [...]")
         module: str | None = None
-        if has_module:
+        if has_run:
+            program = self._str(v["run"], scope, "run")
+            try:
+                module = module_of(program)
+            except KeyError as e:
+                raise v["run"].error(str(e.args[0])) from None
+            cmd = [sys.executable, "-m", module]
+        elif has_module:
             module = self._str(v["module"], scope, "module")
             if not _MODULE.match(module):
                 raise v["module"].error(f"bad module name {module!r}")
@@ -350,7 +361,7 @@ class _Loader:
             if not _SEGMENT.match(name):
                 raise v["name"].error(f"bad node name {name!r} (letters, digits, _; no '/')")
         else:
-            base = module.rsplit(".", 1)[-1] if module else os.path.basename(cmd[0])
+            base = (program if has_run else module.rsplit(".", 1)[-1] if module else os.path.basename(cmd[0]))
             name = re.sub(r"\W", "_", base) or "node"
         namespace = scope.namespace
         if "namespace" in v:
@@ -397,7 +408,7 @@ class _Loader:
             node.output = out
         if not active:
             return
-        self._check_program(node, v["module"] if has_module else v["cmd"])
+        self._check_program(node, v["run"] if has_run else v["module"] if has_module else v["cmd"])
         full = node.full_name
         if full in self.names:
             raise y.error(f"node name {full!r} is already used by the node at {self.names[full]}")
@@ -411,14 +422,11 @@ class _Loader:
                 spec = importlib.util.find_spec(module)
             except (ImportError, ValueError):
                 spec = None
-            if spec is None and "." not in module:
-                try:
-                    spec = importlib.util.find_spec(f"nodes.{module}")
-                except (ImportError, ValueError):
-                    spec = None
-                if spec is not None:
-                    node.module = module = f"nodes.{module}"
-                    node.cmd[2] = module
+            program = module.removeprefix("nodes.")
+            if spec is None and program in PROGRAMS:  # `module: turtlesim` or `nodes.turtlesim` outside a checkout
+                node.module = module = module_of(program)
+                node.cmd[2] = module
+                spec = importlib.util.find_spec(module)
             if spec is None:
                 raise y.error(f"no module named {module!r}")
             node.python_path = _import_root(module)

@@ -15,11 +15,11 @@ import threading
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..broadcaster import StaticTransformBroadcaster
+from ..transport.broadcaster import StaticTransformBroadcaster
 from ..core.messages import TFMessage, message_type
-from ..node import Node, RateLimitedLog
-from ..profile import parse_ros2_attachment
-from ..entities import undeclare_all
+from ..transport.node import Node, RateLimitedLog
+from ..transport.wire.profiles import parse_ros2_attachment
+from ..transport.entities import undeclare_all
 
 __all__ = ["Ros2Bridge", "BridgeStats"]
 

@@ -14,7 +14,7 @@ from libc.stdint cimport int64_t, uint8_t, uint32_t, uint64_t
 from libc.stdlib cimport free, realloc
 from libc.string cimport memcmp, memcpy
 
-from ..msgpack_reader cimport Cur, _container, _float, _int, _is, _skip, _str
+from ..transport.ingest.msgpack_reader cimport Cur, _container, _float, _int, _is, _skip, _str
 
 __all__ = ["JointTfFiller"]
 

@@ -13,6 +13,17 @@ costs 5-15 us), or vectorized with numpy when the extension is not built. A Join
 is byte for byte the one last seen (publishers resend the same list) is read in C without decoding a
 name (``JointTfFiller.read``); anything else, or anything odd, takes the general decoder, which names
 what is wrong.
+
+The program (``zentf run robot_state_publisher``):
+
+    zentf run robot_state_publisher configs/robots/my_robot.urdf
+    zentf run robot_state_publisher robot.urdf.xacro --frame-prefix robot1/ --publish-frequency 50
+    zentf run robot_state_publisher -p robot_description:="$(cat robot.urdf)"
+
+Parameters (``-p NAME:=VALUE`` or launch ``parameters:``): ``publish_frequency`` (Hz, default 20),
+``frame_prefix`` (default ''), ``ignore_timestamp`` (default false), ``robot_description`` (URDF
+text, used when no file is given), ``package_path`` (os.pathsep-separated). The flags below
+override them. A malformed URDF is refused before anything starts (one line, exit 2).
 """
 from __future__ import annotations
 
@@ -24,15 +35,21 @@ from typing import Any
 import msgpack
 import numpy as np
 
-from .. import wire
-from ..broadcaster import StaticTransformBroadcaster
+from ..transport.wire import codec as wire
+from ..transport.broadcaster import StaticTransformBroadcaster
 from ..core.messages import (Header, JointState, Quaternion, String, TFMessage, Transform, TransformStamped,
                              Vector3)
-from ..names import topic_to_key
-from ..node import Node, RateLimitedLog
+from ..transport.names import topic_to_key
+from ..transport.node import Node, RateLimitedLog
 from ..urdf import Kinematics, Robot
 from ..urdf.kinematics import JointTransforms
-from ..entities import undeclare_all
+from ..transport.entities import undeclare_all
+import argparse
+import sys
+from typing import Sequence
+from .robot_model import START_ERRORS, Prepared, own_arguments, prepare
+from ..urdf import Robot
+from ..transport import program
 
 try:  # the compiled hot path (zentf/tools/jointtf.pyx); without build_ext, the numpy path below
     from .jointtf import JointTfFiller
@@ -346,3 +363,54 @@ class RobotStatePublisher:
 
     def close(self) -> None:
         undeclare_all((self._sub, self._token))
+
+
+# ---- the program (zentf run robot_state_publisher)
+
+PROG = "robot_state_publisher"
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog=PROG, description=__doc__, allow_abbrev=False,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    own_arguments(p)
+    p.add_argument("--frame-prefix", default=None, help="prepended to every frame id (e.g. robot1/)")
+    p.add_argument("--publish-frequency", type=float, default=None, metavar="HZ",
+                   help="most tf messages per second per joint (default 20)")
+    p.add_argument("--ignore-timestamp", action="store_true", default=None,
+                   help="publish every joint state, whatever its stamp")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Check everything, then run; a bad argument or model is one line and exit 2."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        p = prepare(PROG, _parser(), argv)
+    except START_ERRORS as e:
+        print(f"{PROG}: error: {e}", file=sys.stderr, flush=True)
+        return 2
+    return 0 if p is None else run(p)
+
+
+def run(p: Prepared) -> int:
+    return program.run(lambda: _run(p.opts, p.robot, p.args), PROG, p.debug)
+
+
+def _run(opts, robot: Robot, args: argparse.Namespace) -> None:
+    with program.make_node(opts, PROG) as node:
+        prefix = args.frame_prefix if args.frame_prefix is not None else str(program.param(node, "frame_prefix", ""))
+        freq = (args.publish_frequency if args.publish_frequency is not None
+                else program.param_positive(node, "publish_frequency", 20.0))
+        if not freq > 0 or freq != freq:
+            raise program.OptionsError(f"--publish-frequency must be > 0, got {freq}")
+        ignore = bool(args.ignore_timestamp) or program.param_bool(node, "ignore_timestamp", False)
+        rsp = RobotStatePublisher(node, robot, frame_prefix=prefix, publish_frequency=freq, ignore_timestamp=ignore)
+        movable = len(rsp._movable.names)
+        program.say(f"publishing robot '{robot.name}' ({len(robot.links)} links): {len(robot.joints) - movable} "
+                    f"fixed joints on tf_static, {movable} movable joints from joint_states on tf")
+        node.spin()
+
+
+if __name__ == "__main__":
+    program.finish(main())

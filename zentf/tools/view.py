@@ -15,9 +15,9 @@ import threading
 import time
 from typing import Any
 
-from .. import wire
+from ..transport.wire import codec as wire
 from ..core.messages import Marker, MarkerArray, PointStamped, PoseStamped
-from ..entities import undeclare_all
+from ..transport.entities import undeclare_all
 
 __all__ = ["Viewer", "frame_path", "VIEW_TYPES", "require_rerun"]
 
@@ -58,9 +58,9 @@ class Viewer:
                  robot_description: str | None = "robot_description", frame_prefix: str = "") -> None:
         import rerun as rr
 
-        from ..buffer import Buffer
-        from ..listener import TransformListener
-        from ..names import topic_to_key
+        from ..transport.buffer import Buffer
+        from ..transport.listener import TransformListener
+        from ..transport.names import topic_to_key
 
         self.rr = rr
         self.node = node
@@ -83,7 +83,7 @@ class Viewer:
         self.ticks = 0
         self.problems = 0
         self._warned_fixed = 0.0
-        from ..node import RateLimitedLog
+        from ..transport.node import RateLimitedLog
 
         self._complain = RateLimitedLog(log)
         self.rec.log("tf", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)

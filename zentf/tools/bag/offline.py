@@ -30,9 +30,9 @@ def load_buffer(path: str | os.PathLike, *, topics: Collection[str] | None = Non
     its readable part; ``on_problem`` (default: a logged warning) gets one line saying where it
     stopped. BagError if the file cannot be opened at all.
     """
-    from zentf.buffer import Buffer
+    from zentf.transport.buffer import Buffer
     from zentf.core.time import Duration
-    from zentf.wire import ingest_tf
+    from zentf.transport.wire.codec import ingest_tf
 
     bag = open_bag(path)
     buf = Buffer(cache_time=Duration(nanoseconds=_LOAD_CACHE_NS))

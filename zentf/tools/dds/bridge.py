@@ -25,10 +25,10 @@ from dataclasses import dataclass, field
 from typing import Any, Iterable, Sequence
 
 from ...core.messages import MESSAGE_TYPES, TFMessage, TransformStamped
-from ...entities import undeclare_all
-from ...names import encode_chunk, normalize_namespace, validate_node_name
-from ...node import Node, RateLimitedLog
-from ...profile import zentf_entity_token
+from ...transport.entities import undeclare_all
+from ...transport.names import encode_chunk, normalize_namespace, validate_node_name
+from ...transport.node import Node, RateLimitedLog
+from ...transport.wire.profiles import zentf_entity_token
 from ...ros import UnknownTypeError, encode_tf, ros_type_name, type_hash
 from ...ros.cdr import deserialize, serialize
 from ..bridge import _Side

@@ -19,8 +19,8 @@ from ...ros.tf import tf_samples
 
 __all__ = ["tf_cdr_to_msgpack", "cdr_to_message", "message_to_cdr", "check_cdr"]
 
-try:  # the compiled decoder (zentf/tfwire.pyx): None for anything doubtful, then the Python one decides
-    from ...tfwire import cdr_tf as _cdr_tf
+try:  # the compiled decoder (zentf/transport/ingest/tfwire.pyx): None for anything doubtful, then the Python one decides
+    from ...transport.ingest.tfwire import cdr_tf as _cdr_tf
 except ImportError:  # pragma: no cover - the compiled core is not built
     _cdr_tf = None
 try:  # CDR straight to msgpack in C (tfconvert.pyx): None for anything doubtful
