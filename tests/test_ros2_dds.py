@@ -355,15 +355,16 @@ def test_named_and_discovered_topics(world: World) -> None:
         assert got.get().to_dict() == point
 
 
-def _count_zentf(world: World, key: str, n: int, send, what: str) -> list:
-    """Samples on a zentf key while ``send()`` publishes n distinct messages, after a quiet spell."""
+def _count_zentf(world: World, key: str, n: int, send, what: str, marker: bytes = b"\xa3dup") -> list:
+    """Samples (holding ``marker``) on a zentf key while ``send()`` publishes n distinct messages, after a
+    quiet spell."""
     from zentf.transport.options import ZenohOptions
 
     session = ZenohOptions(connect=[world.router], no_multicast=True, mode="client").open_session()
     seen: list = []
     try:
         sub = session.declare_subscriber(key, lambda s: seen.append(s.payload.to_bytes())
-                                         if b"\xa3dup" in s.payload.to_bytes() else None)
+                                         if marker in s.payload.to_bytes() else None)
         send()
         deadline = time.monotonic() + 30
         while len(seen) < n:
@@ -413,11 +414,17 @@ def test_two_bridges_one_relays_no_duplicates(world: World) -> None:
             assert time.monotonic() < deadline, "rclpy got nothing from zentf"
             tb.send_transform(warm)
             time.sleep(0.1)
-        for i in range(n):
-            tb.send_transform(TransformStamped.from_dict(ts("z2r", f"c{i}", (i, 0, 0))))
-        deadline = time.monotonic() + 30
+
+        def send() -> None:
+            for i in range(n):
+                tb.send_transform(TransformStamped.from_dict(ts("z2r", f"c{i}", (i, 0, 0))))
+
+        # on the zentf side only the broadcaster's n: no bridge brings them back
+        seen = _count_zentf(world, f"{world.ns}/tf", n, send, "zentf broadcaster", marker=b"\xa3z2r")
+        assert len(seen) == n, f"{len(seen)} samples on the zentf side for {n} sent"
         got = lambda: [m for m in world.rclpy.received("/tf") if m["transforms"][0]["header"]["frame_id"] == "z2r"]  # noqa: E731
-        while len(got()) - before < n:
+        deadline = time.monotonic() + 30
+        while len(got()) - before < n * world.rclpy.subs["/tf"]:
             assert time.monotonic() < deadline, f"zentf -> rclpy: {len(got()) - before} of {n}"
             time.sleep(0.05)
         time.sleep(1.0)
@@ -465,12 +472,17 @@ def test_ros2_wire_bridge_beside_a_zentf_wire_one(world: World) -> None:
             tb.send_transform(TransformStamped.from_dict(ts("rw_z", "warm", (0, 0, 0))))
             time.sleep(0.1)
         before = len(mine())
+        crossed: list = []  # the zentf-wire bridge must not read the ros2-wire one's DDS writes into zentf
+        spy = node.session.declare_subscriber(f"{world.ns}/tf", lambda s: crossed.append(1)
+                                              if b"rw_z" in s.payload.to_bytes() else None)
         tb.send_transform(TransformStamped.from_dict(ts("rw_z", "once", (1, 2, 3))))
         deadline = time.monotonic() + 30
         while not any(m["transforms"][0]["child_frame_id"] == "once" for m in mine()):
             assert time.monotonic() < deadline, "rclpy did not get the ros2-wire transform"
             time.sleep(0.05)
         time.sleep(1.0)  # a copy through the zentf-wire bridge would arrive within this
+        spy.undeclare()
+        assert crossed == []
         once = [m for m in mine()[before:] if m["transforms"][0]["child_frame_id"] == "once"]
         assert len(once) == world.rclpy.subs["/tf"]  # once per rclpy subscription
         assert once[0]["transforms"][0]["transform"]["translation"] == {"x": 1.0, "y": 2.0, "z": 3.0}
