@@ -305,12 +305,18 @@ def test_clock_drives_sim_time_and_robot_state_publisher_feeds_rclpy(world: Worl
 
 
 def test_graphs_list_each_other(world: World) -> None:
-    """rclpy's graph API lists the bridge's node; zentf's graph lists the rclpy node and its topics."""
+    """rclpy's graph API lists the bridge's node and attributes its writers to it; zentf's graph lists the
+    rclpy node and its topics."""
     from zentf.transport import graph
 
     world.rclpy.call(cmd="pub", topic="/tf_static", type=TF, latched=True,
                      msg={"transforms": [ts("base", "laser", (0.5, -0.25, 0.2), (0.0, 0.0, 0.6, 0.8))]})
     world.rclpy.wait_nodes(["/", "zentf_bridge_dds"])
+    deadline = time.monotonic() + 30
+    while ["/", "zentf_bridge_dds"] not in world.rclpy.call(cmd="info", topic="/tf")["publishers"]:
+        assert time.monotonic() < deadline, f"rclpy does not attribute the bridge's /tf writer to its node: " \
+                                            f"{world.rclpy.call(cmd='info', topic='/tf')}"
+        time.sleep(0.2)
     from zentf.transport.options import ZenohOptions
 
     session = ZenohOptions(connect=[world.router], no_multicast=True, mode="client").open_session()

@@ -9,6 +9,7 @@ object a line on stdin; results go to stdout one JSON object a line ({"ok": ...}
     {"cmd": "nodes"}                      -> {"ok": "nodes", "nodes": [[namespace, name], ...]}
     {"cmd": "topics"}                     -> {"ok": "topics", "topics": [[name, [types]], ...]}
     {"cmd": "count", "topic": "/tf"}      -> {"ok": "count", "publishers": n, "subscribers": n}
+    {"cmd": "info", "topic": "/tf"}       -> {"ok": "info", "publishers": [[ns, node], ...], "subscribers": [...]}
     {"cmd": "quit"}
 """
 from __future__ import annotations
@@ -127,6 +128,11 @@ def main() -> int:
             say({"ok": "nodes", "nodes": [[ns, n] for n, ns in node.get_node_names_and_namespaces()]})
         elif what == "topics":
             say({"ok": "topics", "topics": [[n, t] for n, t in node.get_topic_names_and_types()]})
+        elif what == "info":
+            say({"ok": "info", "publishers": [[i.node_namespace, i.node_name] for i in
+                                              node.get_publishers_info_by_topic(cmd["topic"])],
+                 "subscribers": [[i.node_namespace, i.node_name] for i in
+                                 node.get_subscriptions_info_by_topic(cmd["topic"])]})
         elif what == "count":
             say({"ok": "count", "publishers": node.count_publishers(cmd["topic"]),
                  "subscribers": node.count_subscribers(cmd["topic"])})
