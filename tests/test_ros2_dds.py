@@ -335,8 +335,9 @@ def test_graphs_list_each_other(world: World) -> None:
 
 
 def test_named_and_discovered_topics(world: World) -> None:
-    """--topic cmd_vel:geometry_msgs/msg/Twist carries a zentf publisher's Twist to rclpy; --all finds an
-    rclpy PointStamped topic the bridge was not told of and carries it to a zentf subscriber."""
+    """--topic cmd_vel:geometry_msgs/msg/Twist carries a zentf publisher's Twist to rclpy; --all finds
+    rclpy PointStamped topics the bridge was not told of (reliable, and best effort) and carries them to
+    zentf subscribers."""
     from zentf import Node
     from zentf.core.messages import PointStamped, Twist
 
@@ -357,6 +358,15 @@ def test_named_and_discovered_topics(world: World) -> None:
         while got.empty():
             assert time.monotonic() < deadline, "the discovered /probe_point never reached zentf"
             world.rclpy.call(cmd="pub", topic="/probe_point", type="geometry_msgs/msg/PointStamped", msg=point)
+            time.sleep(0.1)
+        assert got.get().to_dict() == point
+        # a best-effort publisher (sensor data QoS) is matched too: the route takes the QoS it finds
+        node.create_subscription("probe_best_effort", PointStamped, got.put)
+        deadline = time.monotonic() + 30
+        while got.empty():
+            assert time.monotonic() < deadline, "the best-effort /probe_best_effort never reached zentf"
+            world.rclpy.call(cmd="pub", topic="/probe_best_effort", type="geometry_msgs/msg/PointStamped",
+                             best_effort=True, depth=5, msg=point)
             time.sleep(0.1)
         assert got.get().to_dict() == point
 

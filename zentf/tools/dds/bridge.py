@@ -118,7 +118,9 @@ class _Route:
         self.ztoken: Any = None
         #: tf_static from zentf, by child frame: written whole to DDS (what a StaticTransformBroadcaster sends)
         self.statics: dict[str, Any] = {}
-        #: the last latched value from zentf (written again when this bridge takes over)
+        #: tf_static from DDS, by child frame (published on the zentf side when this bridge takes over)
+        self.statics_from_dds: dict[str, Any] = {}
+        #: the last latched value from each side (written again when this bridge takes over)
         self.last_to_dds: bytes | None = None
         self.last_to_zentf: bytes | None = None
         self.lock = threading.Lock()
@@ -199,6 +201,14 @@ class DdsBridge:
             rel = rel[len(self._dds_ns) + 1:]
         return rel or None
 
+    @classmethod
+    def _qos_like(cls, e: Endpoint, type_name: str) -> TopicQos:
+        """The QoS of a route found by discovery: what matches the endpoint found (a best-effort
+        writer needs a best-effort reader; a transient-local reader a transient-local writer)."""
+        base = cls._qos_for(type_name)
+        return TopicQos(reliable=e.reliable if e.kind == "pub" else True, transient_local=e.transient_local,
+                        depth=1 if e.transient_local else base.depth)
+
     @staticmethod
     def _qos_for(type_name: str) -> TopicQos:
         return TopicQos(reliable=True, transient_local=False, depth=100 if type_name == _TF else 10)
@@ -273,7 +283,7 @@ class DdsBridge:
                     cdr = message_to_cdr(msg, r.type_name)
                 if r.latched:
                     r.last_to_dds = cdr
-                if not self._active:
+                if not self._active or self._closed:
                     return
                 r.writer.write(cdr)
                 counts[r.zentf_topic] += 1
@@ -303,7 +313,12 @@ class DdsBridge:
                     self.stats.echoes += 1
                     continue
                 if r.latched:
-                    r.last_to_zentf = cdr
+                    if r.type_name == _TF:  # every child frame the DDS side has sent, for a takeover
+                        with r.lock:
+                            for t in cdr_to_message(cdr, _TF).transforms:
+                                r.statics_from_dds[t.child_frame_id] = t
+                    else:
+                        r.last_to_zentf = cdr
                 if not self._active:
                     continue
                 self._to_zentf(r, cdr, wire)
@@ -399,7 +414,7 @@ class DdsBridge:
         if spec_name is not None:
             if bridgeable(type_name):
                 self._wanted.pop(fq, None)
-                self._add_route(spec_name, fq, type_name, self._qos_for(type_name))
+                self._add_route(spec_name, fq, type_name, self._qos_like(e, type_name))
             else:
                 self._complain(f"type:{fq}", f"cannot bridge {fq}: zentf has no ROS 2 message type {type_name}")
             return
@@ -411,7 +426,7 @@ class DdsBridge:
                 self._complain("routes", f"not bridging {fq}: --all already bridges "
                                          f"{MAX_DISCOVERED_ROUTES} discovered topics")
                 return
-            if self._add_route(name, fq, type_name, self._qos_for(type_name)) is not None:
+            if self._add_route(name, fq, type_name, self._qos_like(e, type_name)) is not None:
                 self._discovered_routes += 1
 
     def _read_discovery_info(self) -> None:
@@ -572,6 +587,10 @@ class DdsBridge:
                     r.writer.write(r.last_to_dds)
                 if r.last_to_zentf is not None:
                     self._to_zentf(r, r.last_to_zentf, self.node.wire)
+                with r.lock:
+                    statics = list(r.statics_from_dds.values())
+                if statics:
+                    self._z.static(r.zentf_topic).send_transform(statics)
             except Exception as e:  # noqa: BLE001
                 self._complain(f"latched:{r.dds_name}", f"cannot republish {r.dds_name}: {e}")
 

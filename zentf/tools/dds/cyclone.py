@@ -88,6 +88,8 @@ def _c() -> Any:
             ("dds_take", i32, [ent, ct.POINTER(ct.c_void_p), ct.POINTER(_SampleInfo), ct.c_size_t, ct.c_uint32]),
             ("dds_return_loan", i32, [ent, ct.POINTER(ct.c_void_p), i32]),
             ("dds_qget_userdata", ct.c_bool, [ct.c_void_p, ct.POINTER(ct.c_void_p), ct.POINTER(ct.c_size_t)]),
+            ("dds_qget_reliability", ct.c_bool, [ct.c_void_p, ct.POINTER(ct.c_int), ct.POINTER(ct.c_int64)]),
+            ("dds_qget_durability", ct.c_bool, [ct.c_void_p, ct.POINTER(ct.c_int)]),
             ("dds_free", None, [ct.c_void_p]),
             ("dds_get_matched_publication_data", ct.c_void_p, [ent, ct.c_uint64]),
             ("dds_builtintopic_free_endpoint", None, [ct.c_void_p]),
@@ -118,6 +120,20 @@ def _userdata(qos: int | None) -> bytes:
         return ct.string_at(value.value, size.value)
     finally:
         lib.dds_free(value)
+
+
+def _qos_kinds(qos: int | None) -> tuple[bool, bool]:
+    """(reliable, transient local or more durable) of a discovered endpoint's QoS (DDS's defaults when
+    absent: a writer reliable, a reader best effort; both volatile)."""
+    if not qos:
+        return False, False
+    lib = _c()
+    rel = ct.c_int(0)
+    blocking = ct.c_int64(0)
+    dur = ct.c_int(0)
+    reliable = bool(lib.dds_qget_reliability(qos, ct.byref(rel), ct.byref(blocking))) and rel.value == 1
+    durable = bool(lib.dds_qget_durability(qos, ct.byref(dur))) and dur.value >= 1
+    return reliable, durable
 
 
 def config_xml(*, lan: bool = False, peers: Iterable[str] = ()) -> str:
@@ -162,6 +178,8 @@ class Endpoint:
     topic: str
     type_name: str
     user_data: bytes
+    reliable: bool = True
+    transient_local: bool = False
 
 
 class RawReader:
@@ -367,7 +385,8 @@ class DdsDomain:
                 elif info.valid_data:
                     seen.append(Endpoint(kind, guid, bytes(e.participant_key.v),
                                          (e.topic_name or b"").decode("utf-8", "replace"),
-                                         (e.type_name or b"").decode("utf-8", "replace"), _userdata(e.qos)))
+                                         (e.type_name or b"").decode("utf-8", "replace"), _userdata(e.qos),
+                                         *_qos_kinds(e.qos)))
 
             self._take_builtin(pseudo, one)
         return seen, gone
