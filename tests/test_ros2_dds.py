@@ -14,7 +14,6 @@ import os
 import queue
 import subprocess
 import sys
-import threading
 import time
 import uuid
 from collections.abc import Iterator

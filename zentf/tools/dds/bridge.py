@@ -24,7 +24,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Sequence
 
-from ...core.messages import MESSAGE_TYPES, TFMessage, TransformStamped
+from ...core.messages import MESSAGE_TYPES, TFMessage
 from ...transport.entities import undeclare_all
 from ...transport.names import encode_chunk, normalize_namespace, validate_node_name
 from ...transport.node import Node, RateLimitedLog

@@ -11,7 +11,6 @@ default the environment's ROS_DOMAIN_ID or 0), ``topics`` (a list, or a comma-se
 from __future__ import annotations
 
 import os
-import sys
 from typing import Any, Sequence
 
 from ...transport import program as _common
