@@ -276,8 +276,8 @@ def test_zentf_broadcasters_reach_rclpy_subscribers(world: World) -> None:
 
 
 def test_clock_drives_sim_time_and_robot_state_publisher_feeds_rclpy(world: World) -> None:
-    """/clock from rclpy drives a zentf node's sim time; a zentf robot_state_publisher's tf_static and
-    robot_description reach rclpy subscribers."""
+    """/clock from rclpy drives a zentf node's sim time and rclpy's joint_states reach it; a zentf
+    robot_state_publisher's tf_static and robot_description reach rclpy subscribers."""
     from zentf import Node
 
     with Node("sim_node", params={"use_sim_time": True}, options=world.node_options()) as node:
@@ -287,6 +287,18 @@ def test_clock_drives_sim_time_and_robot_state_publisher_feeds_rclpy(world: Worl
             world.rclpy.call(cmd="pub", topic="/clock", type="rosgraph_msgs/msg/Clock", best_effort=True,
                              msg={"clock": {"sec": 1234, "nanosec": 5}})
             time.sleep(0.05)
+        from zentf.core.messages import JointState
+
+        states: "queue.Queue" = queue.Queue()
+        node.create_subscription("joint_states", JointState, states.put)
+        js = {"header": {"stamp": {"sec": 9, "nanosec": 10}, "frame_id": ""}, "name": ["wheel_l", "wheel_r"],
+              "position": [0.5, -1.25], "velocity": [1.0, 2.0], "effort": []}
+        deadline = time.monotonic() + 30
+        while states.empty():
+            assert time.monotonic() < deadline, "rclpy's joint_states never reached zentf"
+            world.rclpy.call(cmd="pub", topic="/joint_states", type="sensor_msgs/msg/JointState", depth=10, msg=js)
+            time.sleep(0.1)
+        assert states.get().to_dict() == js
     urdf = REPO / "tests" / "data" / "urdf" / "urdf_tutorial" / "urdf" / "03-origins.urdf"
     world.rclpy.call(cmd="sub", topic="/robot_description", type="std_msgs/msg/String", latched=True)
     world.rclpy.call(cmd="sub", topic="/tf_static", type=TF, latched=True)

