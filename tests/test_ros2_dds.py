@@ -612,7 +612,8 @@ def test_bad_input_is_dropped_with_one_line(world: World) -> None:
     world.bridge.wait_for_line(r"not relayed to DDS from '/t_\w+/tf': not valid msgpack", timeout=10, from_start=True)
     for args, text in ((["--topic", "x:nope/msg/Nothing"], "no ROS 2 message type 'nope/msg/Nothing'"),
                        (["--topic", "bad name:std_msgs/msg/String"], "bad topic name"),
-                       (["--domain", "300"], "300")):
+                       (["--domain", "300"], "300"),
+                       (["--dds-peer", "192.0.2.7"], "add --lan")):
         r = subprocess.run([sys.executable, "-m", "zentf.cli", "bridge", "dds", *args], env=world.env,
                            capture_output=True, text=True, timeout=60)
         assert r.returncode == 2, (args, r.stderr)

@@ -120,6 +120,10 @@ def bridge_dds(topics: tuple[str, ...], all_topics: bool, domain: Optional[int],
             raise CliError(str(exc), code=2) from exc
     dds_lan = opts.lan
     opts.lan = False  # --lan is the DDS side's here
+    remote = [p for p in dds_peers if not (p.startswith("127.") or p in ("localhost", "::1"))]
+    if remote and not dds_lan:
+        raise CliError(f"--dds-peer {remote[0]} is another machine: add --lan (without it the DDS side is this "
+                       "machine only)", code=2)
     zopts = node_options(opts, name)
     if domain is None:
         domain = zopts.domain_id
