@@ -94,6 +94,8 @@ def bridge_ros2(topics: tuple[str, ...], ros2_connect: tuple[str, ...], ros2_mod
 @click.option("--dds-peer", "dds_peers", multiple=True, metavar="ADDR",
               help="Address of a DDS machine to discover by unicast (repeat), e.g. the robot's when "
                    "multicast does not reach it.")
+@click.option("--dds-interface", "dds_interfaces", multiple=True, metavar="NAME",
+              help="With --lan: the network interface(s) of the DDS side (e.g. eth0; default: Cyclone DDS picks one).")
 @click.option("--no-clock", is_flag=True, help="Do not relay /clock.")
 @click.option("--name", default="zentf_bridge_dds", show_default=True,
               help="Node name of the bridge (on both sides).")
@@ -101,7 +103,8 @@ def bridge_ros2(topics: tuple[str, ...], ros2_connect: tuple[str, ...], ros2_mod
               help="Stop after this many seconds (default: until Ctrl-C).")
 @with_options
 def bridge_dds(topics: tuple[str, ...], all_topics: bool, domain: Optional[int], dds_namespace: Optional[str],
-               dds_peers: tuple[str, ...], no_clock: bool, name: str, duration: Optional[float], *,
+               dds_peers: tuple[str, ...], dds_interfaces: tuple[str, ...], no_clock: bool, name: str,
+               duration: Optional[float], *,
                opts: CliOptions) -> None:
     """Relay tf, tf_static, /clock, joint_states, robot_description (and --topic, --all) both ways between
     a DDS ROS 2 domain (Fast DDS or Cyclone DDS robots) and this zentf graph (either --wire), without echo
@@ -121,6 +124,8 @@ def bridge_dds(topics: tuple[str, ...], all_topics: bool, domain: Optional[int],
     dds_lan = opts.lan
     opts.lan = False  # --lan is the DDS side's here
     remote = [p for p in dds_peers if not (p.startswith("127.") or p in ("localhost", "::1"))]
+    if dds_interfaces and not dds_lan:
+        raise CliError("--dds-interface needs --lan (without it the DDS side is this machine's loopback only)", code=2)
     if remote and not dds_lan:
         raise CliError(f"--dds-peer {remote[0]} is another machine: add --lan (without it the DDS side is this "
                        "machine only)", code=2)
@@ -147,7 +152,8 @@ def bridge_dds(topics: tuple[str, ...], all_topics: bool, domain: Optional[int],
                          f"and DDS domain {domain} ({'LAN' if dds_lan else 'this machine only'}); Ctrl-C stops\n")
         sys.stderr.flush()
         relay = DdsBridge(node, domain_id=domain, topics=topics, all_topics=all_topics, clock=not no_clock,
-                          dds_namespace=dds_namespace, lan=dds_lan, peers=dds_peers, on_state=on_state)
+                          dds_namespace=dds_namespace, lan=dds_lan, peers=dds_peers,
+                          interfaces=dds_interfaces, on_state=on_state)
         deadline = None if duration is None else time.monotonic() + duration
         while node.ok():
             left = 0.2 if deadline is None else min(0.2, deadline - time.monotonic())

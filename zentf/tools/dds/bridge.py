@@ -132,7 +132,7 @@ class DdsBridge:
 
     def __init__(self, node: Node, *, domain_id: int = 0, topics: Iterable[str] = (), all_topics: bool = False,
                  defaults: bool = True, clock: bool = True, dds_namespace: str | None = None, lan: bool = False,
-                 peers: Sequence[str] = (), on_state: Any = None) -> None:
+                 peers: Sequence[str] = (), interfaces: Sequence[str] = (), on_state: Any = None) -> None:
         self.node = node
         self.stats = DdsBridgeStats()
         self._z = _Side(node)
@@ -158,7 +158,7 @@ class DdsBridge:
         self._next_attach = 0
         self._discovered_routes = 0
         self._info_dirty = True
-        self.domain = DdsDomain(domain_id, lan=lan, peers=peers)
+        self.domain = DdsDomain(domain_id, lan=lan, peers=peers, interfaces=interfaces)
         try:
             self.guid = self.domain.guid
             self._info_writer = self.domain.writer(_ROS_DISCOVERY_INFO, DISCOVERY_INFO, _DISCOVERY_QOS)

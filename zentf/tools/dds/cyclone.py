@@ -136,12 +136,15 @@ def _qos_kinds(qos: int | None) -> tuple[bool, bool]:
     return reliable, durable
 
 
-def config_xml(*, lan: bool = False, peers: Iterable[str] = ()) -> str:
+def config_xml(*, lan: bool = False, peers: Iterable[str] = (), interfaces: Iterable[str] = ()) -> str:
     """Cyclone's configuration: loopback only (127.0.0.1, no multicast, unicast discovery of this
-    machine's participants) unless ``lan``; ``peers`` adds unicast discovery addresses either way."""
+    machine's participants) unless ``lan``: then the named ``interfaces`` (Cyclone picks one when none is
+    named); ``peers`` adds unicast discovery addresses either way."""
     peer_list = list(peers)
+    names = list(interfaces)
     if lan:
-        general = ""
+        general = ("<General><Interfaces>" + "".join(f"<NetworkInterface name={quoteattr(n)}/>" for n in names)
+                   + "</Interfaces></General>") if names else ""
     else:
         general = ('<General><Interfaces><NetworkInterface address="127.0.0.1"/></Interfaces>'
                    "<AllowMulticast>false</AllowMulticast></General>")
@@ -292,14 +295,14 @@ class DdsDomain:
     """A participant on one DDS domain; ``wait()`` blocks until readers have data (their attach values)."""
 
     def __init__(self, domain_id: int, *, lan: bool = False, peers: Iterable[str] = (),
-                 user_data: bytes = b"enclave=/;", mark: bool = True) -> None:
+                 interfaces: Iterable[str] = (), user_data: bytes = b"enclave=/;", mark: bool = True) -> None:
         from cyclonedds.core import Policy, Qos
         from cyclonedds.domain import DomainParticipant
 
         if not 0 <= domain_id <= 232:
             raise ValueError(f"ROS_DOMAIN_ID must be an integer 0-232, got {domain_id}")
         self.domain_id = domain_id
-        self.config = config_xml(lan=lan, peers=peers)
+        self.config = config_xml(lan=lan, peers=peers, interfaces=interfaces)
         lib = _c()
         self._domain = _domain(domain_id, self.config)
         self.participant = DomainParticipant(domain_id, qos=Qos(Policy.Userdata(user_data + (BRIDGE_MARK if mark else b""))))

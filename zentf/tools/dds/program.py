@@ -5,7 +5,7 @@ Parameters (``-p NAME:=VALUE`` or launch ``parameters:``): ``domain`` (ROS_DOMAI
 default the environment's ROS_DOMAIN_ID or 0), ``topics`` (a list, or a comma-separated string, of
 ``NAME[:TYPE]``), ``all`` (bridge every DDS topic of a type zentf knows, default false), ``dds_namespace``
 (default ''), ``lan`` (the DDS side reaches the robot's network, default false: this machine only),
-``dds_peers`` (addresses to discover by unicast), ``clock`` (relay /clock, default true). Prints
+``dds_peers`` (addresses to discover by unicast), ``dds_interfaces`` (with ``lan``: network interfaces), ``clock`` (relay /clock, default true). Prints
 ``dds bridge: active`` / ``standby`` as it starts relaying or another bridge does (docs/ros2.md).
 """
 from __future__ import annotations
@@ -55,7 +55,9 @@ def _run(opts: NodeOptions) -> None:
                            all_topics=_common.param_bool(node, "all", False),
                            clock=_common.param_bool(node, "clock", True), dds_namespace=dds_ns or None,
                            lan=_common.param_bool(node, "lan", False),
-                           peers=_names(_common.param(node, "dds_peers", []), "dds_peers"), on_state=on_state)
+                           peers=_names(_common.param(node, "dds_peers", []), "dds_peers"),
+                           interfaces=_names(_common.param(node, "dds_interfaces", []), "dds_interfaces"),
+                           on_state=on_state)
         try:
             node.spin()
         finally:
