@@ -61,6 +61,9 @@ _INFO_ATTACH = -3
 #: and nodes): routes made by --all, nodes kept per participant, endpoints and participants tracked.
 MAX_DISCOVERED_ROUTES = 256
 MAX_NODES_PER_PARTICIPANT = 256
+MAX_ENDPOINTS_PER_NODE = 4096
+#: static child frames kept per direction (what a takeover republishes, what zentf's tf_static writes whole)
+MAX_STATIC_FRAMES = 10_000
 MAX_TRACKED = 20_000
 
 
@@ -277,7 +280,8 @@ class DdsBridge:
                         msg = cdr_to_message(cdr, _TF)
                     with r.lock:
                         for t in msg.transforms:
-                            r.statics[t.child_frame_id] = t
+                            if len(r.statics) < MAX_STATIC_FRAMES or t.child_frame_id in r.statics:
+                                r.statics[t.child_frame_id] = t
                         cdr = encode_tf(list(r.statics.values()))
                 elif cdr is None:
                     cdr = message_to_cdr(msg, r.type_name)
@@ -316,7 +320,8 @@ class DdsBridge:
                     if r.type_name == _TF:  # every child frame the DDS side has sent, for a takeover
                         with r.lock:
                             for t in cdr_to_message(cdr, _TF).transforms:
-                                r.statics_from_dds[t.child_frame_id] = t
+                                if len(r.statics_from_dds) < MAX_STATIC_FRAMES or t.child_frame_id in r.statics_from_dds:
+                                    r.statics_from_dds[t.child_frame_id] = t
                     else:
                         r.last_to_zentf = cdr
                 if not self._active:
@@ -434,14 +439,16 @@ class DdsBridge:
             try:
                 msg = deserialize(cdr, DISCOVERY_INFO, discovery_definition)
                 gid = bytes(msg["gid"]["data"])
-                nodes = [(n["node_namespace"], n["node_name"], [bytes(x["data"]) for x in n["reader_gid_seq"]],
-                          [bytes(x["data"]) for x in n["writer_gid_seq"]]) for n in msg["node_entities_info_seq"]]
+                nodes = [(n["node_namespace"], n["node_name"],
+                          [bytes(x["data"]) for x in n["reader_gid_seq"][:MAX_ENDPOINTS_PER_NODE]],
+                          [bytes(x["data"]) for x in n["writer_gid_seq"][:MAX_ENDPOINTS_PER_NODE]])
+                         for n in msg["node_entities_info_seq"][:MAX_NODES_PER_PARTICIPANT]]
             except Exception as e:  # noqa: BLE001
                 self._complain("info", f"bad ros_discovery_info sample: {e}")
                 continue
             if gid == self.guid or (len(self._ros_nodes) >= MAX_TRACKED and gid not in self._ros_nodes):
                 continue
-            self._ros_nodes[gid] = nodes[:MAX_NODES_PER_PARTICIPANT]
+            self._ros_nodes[gid] = nodes
         self._sync_proxies()
 
     def _publish_discovery_info(self) -> None:
