@@ -3,7 +3,8 @@ measured in the same run (real ROS 2: the test venv of tests/ros2/make_env.sh; l
 
     python bench/bridge_dds.py [--seconds 5] [--n-lat 500] [--wire zentf|ros2]
 
-Throughput (10 transforms per /tf message): a DDS writer floods pre-serialized TFMessages for --seconds;
+Throughput (10 transforms per /tf message): a DDS writer offers pre-serialized TFMessages at --rate
+(25k/s by default; 0: as fast as it can) for --seconds;
 the rate is messages per second arriving on the zentf side (a bare Zenoh subscriber on the bridge's key),
 against the same writer -> an rclpy subscriber (rclpy's own receive path), and rclpy's publisher -> both.
 Each receiver is measured alone (the rclpy subscriber before the bridge starts, the bridge after the
@@ -13,6 +14,8 @@ Latency: rclpy publishes one /tf message every 10 ms (rclpy's subscriber keeps u
 time (CLOCK_REALTIME); a Cyclone DDS reader process (the DDS hop alone: raw CDR, no conversion), an rclpy
 subscriber (rclpy -> rclpy, its Python message conversion included) and the zentf side (DDS hop + bridge +
 Zenoh hop) take receive time - stamp of the same messages. The added latency is p50(zentf) - p50(DDS hop).
+The bridge process's CPU time per relayed message is printed too: on a shared 2-core machine the received
+rate says as much about the other processes as about the bridge.
 Targets: DDS -> zentf >= 20k messages/s sustained; added latency p50 <= 1 ms.
 """
 from __future__ import annotations
@@ -112,12 +115,17 @@ cdr = encode_tf([{"header": {"stamp": {"sec": 1, "nanosec": 0}, "frame_id": "odo
 print("ready", flush=True)
 for line in sys.stdin:
     cmd = line.split()
-    if cmd[0] == "flood":
-        end = time.monotonic() + float(cmd[1]); n = 0
+    if cmd[0] == "flood":  # flood SECONDS RATE: RATE messages/s (0: as fast as it can), in bursts of 50
+        secs, rate = float(cmd[1]), float(cmd[2])
+        t0 = time.monotonic(); end = t0 + secs; n = 0
         while time.monotonic() < end:
-            for _ in range(100):
+            for _ in range(50):
                 w.write(cdr)
-            n += 100
+            n += 50
+            if rate > 0:
+                ahead = t0 + n / rate - time.monotonic()
+                if ahead > 0:
+                    time.sleep(ahead)
         print("sent", n, flush=True)
     elif cmd[0] == "quit":
         break
@@ -184,6 +192,8 @@ class Child:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seconds", type=float, default=5.0)
+    ap.add_argument("--rate", type=float, default=25_000.0,
+                    help="messages/s the Cyclone DDS writer offers (0: as fast as it can)")
     ap.add_argument("--n-lat", type=int, default=500)
     ap.add_argument("--wire", choices=["zentf", "ros2"], default="zentf")
     args = ap.parse_args()
@@ -257,7 +267,7 @@ def main() -> int:
         def rate(source: Child, received) -> tuple[float, float]:
             r0 = received()
             t0 = time.monotonic()
-            source.send(f"flood {args.seconds}")
+            source.send(f"flood {args.seconds} {args.rate}" if source is flood else f"flood {args.seconds}")
             sent = int(source.expect("sent")[1])
             time.sleep(0.5)  # what is still in flight
             return sent / args.seconds, (received() - r0) / (time.monotonic() - t0)
@@ -275,7 +285,10 @@ def main() -> int:
             pass
         zcount = lambda: count[0]  # noqa: E731
         warm(lambda: count[0] > 0)
+        cpu0 = _cpu(bridge.pid)
+        z0 = count[0]
         c_sent, c_zentf = rate(flood, zcount)
+        cpu_us = (_cpu(bridge.pid) - cpu0) / max(1, count[0] - z0) * 1e6
         r_sent, r_zentf = rate(rpub, zcount)
         # latency: all three receivers of the same messages, at a rate each keeps up with
         rsub.send("sub")
@@ -314,6 +327,9 @@ def main() -> int:
         print(f"| rclpy publisher flood | {r_sent:,.0f} | {r_zentf:,.0f} | {r_sent_r:,.0f} | {r_rclpy:,.0f} "
               "(rclpy -> rclpy) |")
         print()
+        print(f"bridge process CPU per relayed message (Cyclone writer run): {cpu_us:.1f} us "
+              f"(= {1e6 / cpu_us:,.0f} messages/s on one free core)")
+        print()
         print(f"| one-way latency from an rclpy publisher (us), {len(lat)} messages | p50 | p90 |")
         print("|---|---|---|")
         print(f"| -> Cyclone DDS reader (the DDS hop alone, raw CDR) | {cl:.0f} | {c90:.0f} |")
@@ -337,6 +353,12 @@ def main() -> int:
         router_proc.stop()
         lock.release()
     return 0
+
+
+def _cpu(pid: int) -> float:
+    """CPU seconds (user + system, all threads) of a process so far."""
+    fields = open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def _count(child: Child) -> str:
