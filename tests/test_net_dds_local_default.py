@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 import re
 import sys
-import time
 
 import pytest
 
@@ -26,18 +25,19 @@ DOMAIN = "7"
 
 def _bridge(run_in, *flags: str):
     env = {**net_env(), "ROS_DOMAIN_ID": DOMAIN}
-    b = run_in("a", sys.executable, "-m", "zentf.cli", "bridge", "dds", "--duration", "8", *flags, env=env)
+    b = run_in("a", sys.executable, "-m", "zentf.cli", "bridge", "dds", *flags, env=env)
     b.wait_for_line("dds bridge: active", 30)
     return b
 
 
-def _watch(run_in, seconds: float) -> dict:
+def _watch(run_in, writes: int) -> tuple[dict, object]:
+    """The intruder's state once it saw the bridge, or after ``writes`` forged writes (as many periods of
+    looking for it) without seeing it."""
     intruder = run_in("b", sys.executable, str(REPO / "tests/dds_intruder.py"), DOMAIN, "10.78.0.1")
-    deadline = time.monotonic() + seconds
     state: dict = {}
-    while time.monotonic() < deadline and not state.get("bridge_seen"):
+    while not state.get("bridge_seen") and state.get("writes", 0) < writes:
         state = json.loads(intruder.wait_for_line(r"^\{.*\}$", 30).group(0))
-    return state
+    return state, intruder
 
 
 def _relayed(bridge) -> int:
@@ -48,16 +48,20 @@ def _relayed(bridge) -> int:
 
 @pytest.mark.parametrize("net", LAN, indirect=True)
 def test_default_bridge_is_invisible_and_unfed_from_the_lan(net: Topology, run_in) -> None:
-    bridge = _bridge(run_in)
-    state = _watch(run_in, 6.0)  # the --lan test below sees the bridge well within this
-    assert state["writes"] > 10 and not state["bridge_seen"], state
+    bridge = _bridge(run_in, "--duration", "30")
+    state, _ = _watch(run_in, 25)  # 5 s of looking: the --lan test below sees the bridge well within this
+    assert not state["bridge_seen"], state
+    bridge.signal(2)
     assert _relayed(bridge) == 0
 
 
 @pytest.mark.parametrize("net", LAN, indirect=True)
 def test_lan_bridge_reaches_the_robot_network(net: Topology, run_in) -> None:
-    bridge = _bridge(run_in, "--lan", "--dds-interface", "lan0")
-    state = _watch(run_in, 6.0)
+    bridge = _bridge(run_in, "--duration", "30", "--lan", "--dds-interface", "lan0")
+    state, intruder = _watch(run_in, 150)
     assert state["bridge_seen"], state
+    for _ in range(10):  # ten more forged writes now that the two have met
+        intruder.wait_for_line(r"^\{.*\}$", 30)
+    bridge.signal(2)
     assert _relayed(bridge) > 0
     assert re.search(r"DDS domain 7 \(LAN\)", bridge.output())
