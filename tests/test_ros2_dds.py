@@ -556,7 +556,7 @@ def test_launch_demo_with_dds() -> None:
     launch = rclpy = None
     try:
         launch = Proc([sys.executable, "-m", "zentf.cli", "launch", "laser", "dds:=true"], env=env)
-        launch.wait_for_line("dds bridge: active", timeout=60)
+        launch.wait_for_line("dds bridge: active", timeout=120)  # a whole demo starts first
         rclpy = Rclpy(python, lock.id)
         rclpy.call(cmd="sub", topic="/tf_static", type=TF, latched=True)
         got = rclpy.wait_msg("/tf_static", lambda v: {"laser", "camera"} <= {t["child_frame_id"] for t in v["transforms"]})
