@@ -46,7 +46,7 @@ def free_port() -> int:
 
 
 def zopts(endpoint: str, config: str | None = None):
-    from zentf.options import ZenohOptions
+    from zentf.transport.options import ZenohOptions
 
     return ZenohOptions(config_file=config, connect=[endpoint], mode="client", no_multicast=True)
 
@@ -69,15 +69,15 @@ def role_listener(args: argparse.Namespace) -> None:
     import logging
 
     logging.basicConfig(level=logging.WARNING, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    from zentf.buffer import Buffer
-    from zentf.listener import TransformListener
-    from zentf.node import Node
-    from zentf.options import NodeOptions
+    from zentf.transport.buffer import Buffer
+    from zentf.transport.listener import TransformListener
+    from zentf.transport.node import Node
+    from zentf.transport.options import NodeOptions
 
     if args.no_release:  # the reference: freed memory stays with the allocator after a burst
-        import zentf.listener
+        import zentf.transport.listener
 
-        zentf.listener.RELEASE_AFTER = 1 << 62
+        zentf.transport.listener.RELEASE_AFTER = 1 << 62
     node = Node("abuse_listener", options=NodeOptions(namespace=NAMESPACE, zenoh=zopts(args.endpoint, args.zenoh_config)),
                 check_unique=False)
     kw = {} if args.max_frames == "default" else {"max_frames": None if args.max_frames == "none" else int(args.max_frames)}
@@ -121,11 +121,11 @@ def role_listener(args: argparse.Namespace) -> None:
 
 
 def role_legit(args: argparse.Namespace) -> None:
-    from zentf.broadcaster import TransformBroadcaster
+    from zentf.transport.broadcaster import TransformBroadcaster
     from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
     from zentf.core.time import Time
-    from zentf.node import Node
-    from zentf.options import NodeOptions
+    from zentf.transport.node import Node
+    from zentf.transport.options import NodeOptions
 
     node = Node("legit_broadcaster", options=NodeOptions(namespace=NAMESPACE, zenoh=zopts(args.endpoint)),
                 check_unique=False)
@@ -172,7 +172,7 @@ def flood_payloads(kind: str, n_msgs: int, per_msg: int, base: int):
 def role_flood(args: argparse.Namespace) -> None:
     import zenoh
 
-    from zentf import wire
+    from zentf.transport.wire import codec as wire
     from zentf.core.messages import TFMessage
 
     session = zopts(args.endpoint, args.zenoh_config).open_session()
@@ -252,7 +252,7 @@ class Child:
 
 def start_router(config: str | None = None) -> tuple[subprocess.Popen, str]:
     ep = f"tcp/127.0.0.1:{free_port()}"
-    p = subprocess.Popen([sys.executable, "-m", "zentf.router", "--listen", ep, "--no-multicast",
+    p = subprocess.Popen([sys.executable, "-m", "zentf.transport.router", "--listen", ep, "--no-multicast",
                           *(["--config", config] if config else [])], stdout=subprocess.PIPE, text=True)
     assert p.stdout is not None
     line = p.stdout.readline()

@@ -54,7 +54,7 @@ def cpu_seconds(pid: int) -> float:
 
 
 def node_options(endpoint: str, name: str):
-    from zentf.options import NodeOptions, ZenohOptions
+    from zentf.transport.options import NodeOptions, ZenohOptions
 
     return NodeOptions(name=name, namespace="bench_bs",
                        zenoh=ZenohOptions(connect=[endpoint], mode="client", no_multicast=True))
@@ -63,10 +63,10 @@ def node_options(endpoint: str, name: str):
 # ------------------------------------------------------------------ children
 
 def run_publisher(a: argparse.Namespace) -> None:
-    from zentf.broadcaster import TransformBroadcaster
+    from zentf.transport.broadcaster import TransformBroadcaster
     from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
     from zentf.core.time import Time
-    from zentf.node import Node
+    from zentf.transport.node import Node
 
     node = Node(options=node_options(a.endpoint, "bench_tf_pub"))
     br = TransformBroadcaster(node)
@@ -123,9 +123,9 @@ def _lookups(a: argparse.Namespace, lookup, received=lambda: 0) -> None:
 
 
 def run_client(a: argparse.Namespace) -> None:
-    from zentf.buffer_server import BufferClient
+    from zentf.transport.buffer_server import BufferClient
     from zentf.core.time import Time
-    from zentf.node import Node
+    from zentf.transport.node import Node
 
     node = Node(options=node_options(a.endpoint, f"bench_client_{os.getpid()}"), start_parameter_services=False)
     client = BufferClient(node)
@@ -135,10 +135,10 @@ def run_client(a: argparse.Namespace) -> None:
 
 
 def run_listener(a: argparse.Namespace) -> None:
-    from zentf.buffer import Buffer
+    from zentf.transport.buffer import Buffer
     from zentf.core.time import Time
-    from zentf.listener import TransformListener
-    from zentf.node import Node
+    from zentf.transport.listener import TransformListener
+    from zentf.transport.node import Node
 
     node = Node(options=node_options(a.endpoint, f"bench_listener_{os.getpid()}"), start_parameter_services=False)
     buffer = Buffer()
@@ -148,10 +148,10 @@ def run_listener(a: argparse.Namespace) -> None:
 
 
 def run_server(a: argparse.Namespace) -> None:
-    from zentf.buffer import Buffer
-    from zentf.buffer_server import BufferServer
-    from zentf.listener import TransformListener
-    from zentf.node import Node
+    from zentf.transport.buffer import Buffer
+    from zentf.transport.buffer_server import BufferServer
+    from zentf.transport.listener import TransformListener
+    from zentf.transport.node import Node
 
     node = Node(options=node_options(a.endpoint, "tf2_buffer_server"), start_parameter_services=False)
     buffer = Buffer(node=node)
@@ -270,7 +270,7 @@ def main() -> None:
          "listener": run_listener}[a.role](a)
         return
     a.endpoint = f"tcp/127.0.0.1:{free_port()}"
-    router = subprocess.Popen([sys.executable, "-m", "zentf.router", "--listen", a.endpoint, "--no-multicast"],
+    router = subprocess.Popen([sys.executable, "-m", "zentf.transport.router", "--listen", a.endpoint, "--no-multicast"],
                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                               env={**os.environ, "PYTHONPATH": str(REPO), "PYTHONUNBUFFERED": "1"})
     try:

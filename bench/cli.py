@@ -126,7 +126,7 @@ def main() -> int:
     procs: list[subprocess.Popen] = []
     try:
         if not args.startup:  # the echo and listing rows need a router and two static publishers
-            router = subprocess.Popen([PY, "-m", "zentf.router", "--listen", ep, "--no-multicast"], env=env, cwd=REPO,
+            router = subprocess.Popen([PY, "-m", "zentf.transport.router", "--listen", ep, "--no-multicast"], env=env, cwd=REPO,
                                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
             procs.append(router)
             wait_line(router, r"listening on")

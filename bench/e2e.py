@@ -64,7 +64,7 @@ def free_port() -> int:
 
 
 def zopts(listen: str | None = None, connect: str | None = None):
-    from zentf.options import ZenohOptions
+    from zentf.transport.options import ZenohOptions
 
     return ZenohOptions(listen=[listen] if listen else [], connect=[connect] if connect else [],
                         mode="peer", no_multicast=True)
@@ -77,7 +77,7 @@ def tf_dict(parent: str, child: str, stamp_ns: int, x: float = 1.0) -> dict:
                           "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}
 
 
-WIRE = "zentf"  # --wire: the wire profile of zentf's side (zentf.profile)
+WIRE = "zentf"  # --wire: the wire profile of zentf's side (zentf.transport.wire.profiles)
 # per wire profile: p50 latency ratio ceiling, and ingest floors (transforms/s) by transforms per message
 TARGETS = {"zentf": {"p50": 1.15, 1: 500_000, 100: 1_500_000},   # issue 15
            "ros2": {"p50": 1.5, 100: 300_000}}                    # issue 14
@@ -151,10 +151,10 @@ def receiver(args: argparse.Namespace) -> None:
         ring_floor(args)
         return
 
-    from zentf.buffer import Buffer
-    from zentf.listener import TransformListener
-    from zentf.node import Node
-    from zentf.options import NodeOptions
+    from zentf.transport.buffer import Buffer
+    from zentf.transport.listener import TransformListener
+    from zentf.transport.node import Node
+    from zentf.transport.options import NodeOptions
     from zentf.core.time import Time
 
     node = Node("bench_listener", options=NodeOptions(namespace="bench", zenoh=zopts(listen=args.endpoint),
@@ -288,10 +288,10 @@ def run_case(impl: str, kind: str, count: int, per_msg: int) -> dict:
                 pub.put, attachment=zenoh.ZBytes(b"/bench/bench_sender"))
             node = None
         else:
-            from zentf.broadcaster import TransformBroadcaster
+            from zentf.transport.broadcaster import TransformBroadcaster
             from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
-            from zentf.node import Node
-            from zentf.options import NodeOptions
+            from zentf.transport.node import Node
+            from zentf.transport.options import NodeOptions
             from zentf.core.time import Time
 
             node = Node("bench_sender", options=NodeOptions(namespace="bench", zenoh=zopts(connect=ep), wire=WIRE),
@@ -360,8 +360,8 @@ def run_case(impl: str, kind: str, count: int, per_msg: int) -> dict:
 
 
 def inprocess_ceiling(per_msg: int, n: int) -> float:
-    from zentf.buffer import Buffer
-    from zentf.profile import make_profile
+    from zentf.transport.buffer import Buffer
+    from zentf.transport.wire.profiles import make_profile
 
     ingest = make_profile(WIRE).ingest_tf
     data = payloads(n, per_msg, time.time_ns())

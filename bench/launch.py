@@ -50,7 +50,7 @@ class Observer:
     """Liveliness watcher + first-tf detector for one namespace, on its own Zenoh session."""
 
     def __init__(self, session, namespace: str, names: set[str]) -> None:
-        from zentf.graph import GraphWatcher
+        from zentf.transport.graph import GraphWatcher
 
         self.names = names
         self.live_at: float | None = None
@@ -140,10 +140,10 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--runs", type=int, default=3)
     args = parser.parse_args()
-    from zentf.options import ZenohOptions
+    from zentf.transport.options import ZenohOptions
 
     router_ep = f"tcp/127.0.0.1:{free_port()}"
-    router = subprocess.Popen([sys.executable, "-m", "zentf.router", "--listen", router_ep, "--no-multicast"],
+    router = subprocess.Popen([sys.executable, "-m", "zentf.transport.router", "--listen", router_ep, "--no-multicast"],
                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         assert router.stdout is not None

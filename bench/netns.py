@@ -39,8 +39,8 @@ def tf_dict(child: str, stamp_ns: int, x: float = 1.0) -> dict:
 
 
 def _node(name: str, endpoint: str):
-    from zentf.node import Node
-    from zentf.options import NodeOptions, ZenohOptions
+    from zentf.transport.node import Node
+    from zentf.transport.options import NodeOptions, ZenohOptions
 
     zopts = ZenohOptions(config_file=CLIENT, connect=[endpoint], mode="client", no_multicast=True)
     return Node(name, options=NodeOptions(namespace=NS, zenoh=zopts), check_unique=False)
@@ -48,8 +48,8 @@ def _node(name: str, endpoint: str):
 
 def receiver(args: argparse.Namespace) -> None:
     """Print 'ready', then one JSON result line when the sender's 'done' marker (child 'end') arrives."""
-    from zentf.buffer import Buffer
-    from zentf.listener import TransformListener
+    from zentf.transport.buffer import Buffer
+    from zentf.transport.listener import TransformListener
     from zentf.core.time import Time
 
     node = _node("bench_recv", args.endpoint)
@@ -95,8 +95,8 @@ def receiver(args: argparse.Namespace) -> None:
 
 
 def sender(args: argparse.Namespace) -> None:
-    from zentf.broadcaster import TransformBroadcaster
-    from zentf import wire
+    from zentf.transport.broadcaster import TransformBroadcaster
+    from zentf.transport.wire import codec as wire
 
     node = _node("bench_send", args.endpoint)
     pub = TransformBroadcaster(node)._pub

@@ -61,7 +61,7 @@ def chain_urdf(n: int) -> str:
 
 
 def zopts(listen: str | None = None, connect: str | None = None):
-    from zentf.options import ZenohOptions
+    from zentf.transport.options import ZenohOptions
 
     return ZenohOptions(listen=[listen] if listen else [], connect=[connect] if connect else [],
                         mode="peer", no_multicast=True)
@@ -91,8 +91,8 @@ def joint_state_sender(ep: str, joints: int):
     i-th, stamped with the send time (ns, returned), its message built before the clock is read."""
     from zentf.core.messages import Header, JointState
     from zentf.core.time import Time
-    from zentf.node import Node
-    from zentf.options import NodeOptions
+    from zentf.transport.node import Node
+    from zentf.transport.options import NodeOptions
 
     node = Node("bench_joint_states", options=NodeOptions(namespace="bench", zenoh=zopts(connect=ep)),
                 check_unique=False)
@@ -142,11 +142,11 @@ def cpu_seconds(pid: int) -> float:
 
 def role_listen(args: argparse.Namespace) -> None:
     """zentf listener: time from the JointState stamp to the insert of its transforms."""
-    from zentf.buffer import Buffer
+    from zentf.transport.buffer import Buffer
     from zentf.core.time import Time
-    from zentf.listener import TransformListener
-    from zentf.node import Node
-    from zentf.options import NodeOptions
+    from zentf.transport.listener import TransformListener
+    from zentf.transport.node import Node
+    from zentf.transport.options import NodeOptions
 
     node = Node("bench_listener", options=NodeOptions(namespace="bench", zenoh=zopts(connect=args.endpoint)),
                 check_unique=False)
@@ -175,8 +175,8 @@ def role_listen(args: argparse.Namespace) -> None:
 
 def role_rsp_timed(args: argparse.Namespace) -> None:
     """robot_state_publisher in this process, its joint_states callback timed (entry, exit) per message."""
-    from zentf.node import Node
-    from zentf.options import NodeOptions
+    from zentf.transport.node import Node
+    from zentf.transport.options import NodeOptions
     from zentf.tools.robot_state_publisher import RobotStatePublisher
     from zentf.urdf import parse_urdf
 
@@ -199,10 +199,10 @@ def role_rsp_timed(args: argparse.Namespace) -> None:
 
 def role_listen_timed(args: argparse.Namespace) -> None:
     """zentf listener with a bare subscriber beside it: arrival on tf and insert time per message."""
-    from zentf.buffer import Buffer
-    from zentf.listener import TransformListener
-    from zentf.node import Node
-    from zentf.options import NodeOptions
+    from zentf.transport.buffer import Buffer
+    from zentf.transport.listener import TransformListener
+    from zentf.transport.node import Node
+    from zentf.transport.options import NodeOptions
 
     node = Node("bench_listener", options=NodeOptions(namespace="bench", zenoh=zopts(connect=args.endpoint)),
                 check_unique=False)
@@ -322,7 +322,7 @@ def run_publisher_case(impl: str, urdf: Path, joints: int, rate: float, seconds:
         else:
             import zenoh
 
-            from zentf import wire
+            from zentf.transport.wire import codec as wire
             from zentf.core.messages import Header, JointState
 
             session = zopts(connect=ep).open_session()
@@ -354,12 +354,12 @@ def in_process_costs(joints: int, rate: float, n: int = 2000, n_paced: int = 200
     inserting the result; back to back (warm caches) and paced at ``rate`` (a sleep of 1/rate before each, as
     in the run: the caches are cold again, which makes each stage several times slower). Also the size of
     the TFMessage."""
-    from zentf import wire
-    from zentf.buffer import Buffer
+    from zentf.transport.wire import codec as wire
+    from zentf.transport.buffer import Buffer
     from zentf.core.messages import Header, JointState
     from zentf.core.time import Time
-    from zentf.node import Node
-    from zentf.options import NodeOptions
+    from zentf.transport.node import Node
+    from zentf.transport.options import NodeOptions
     from zentf.tools.robot_state_publisher import RobotStatePublisher
     from zentf.urdf import parse_urdf
 
@@ -376,7 +376,7 @@ def in_process_costs(joints: int, rate: float, n: int = 2000, n_paced: int = 200
         for p in payloads[:n]:
             rsp.on_payload(p)  # the subscriber's own path (the names read in C after the first)
         t_rsp = (time.perf_counter() - t0) / n
-        from zentf.tfwire import TfIngest  # the listener's own path: compiled decode, insert from C
+        from zentf.transport.ingest.tfwire import TfIngest  # the listener's own path: compiled decode, insert from C
 
         def ingester(buf: Buffer):
             return TfIngest(False, lambda p, t, a, s: wire.ingest_tf(p, t, a, s), wire._insert, buf, buf,

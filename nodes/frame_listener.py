@@ -1,55 +1,6 @@
-"""Every second, look up where the laser is as seen from the camera, and print it.
-
-Parameters: `target_frame` (default `camera`), `source_frame` (default `laser`), `period`
-(seconds, default 1.0), `tf_topic` / `tf_static_topic` (default `tf` / `tf_static`; `/*/tf` and
-`/*/tf_static` watch every robot namespace). Prints
-`laser in camera: translation (x, y, z) rotation (qx, qy, qz, qw)` per successful lookup, and
-logs why a lookup failed otherwise.
-"""
-from __future__ import annotations
-
-import logging
-from typing import Sequence
-
-from nodes import _common
-from zentf.buffer import Buffer
-from zentf.core.exceptions import TransformException
-from zentf.listener import TransformListener
-from zentf.options import NodeOptions
-from zentf.core.time import Time
-
-log = logging.getLogger("frame_listener")
-
-PROG = "frame_listener"
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    return _common.main(PROG, argv, _run, __doc__)
-
-
-def _run(opts: NodeOptions) -> None:
-    with _common.make_node(opts, PROG) as node:
-        target = str(_common.param(node, "target_frame", "camera"))
-        source = str(_common.param(node, "source_frame", "laser"))
-        period = _common.param_positive(node, "period", 1.0)
-        buffer = Buffer()
-        listener = TransformListener(  # noqa: F841  (kept alive by this frame)
-            buffer, node, tf_topic=str(_common.param(node, "tf_topic", "tf")),
-            tf_static_topic=str(_common.param(node, "tf_static_topic", "tf_static")))
-
-        def tick() -> None:
-            try:
-                ts = buffer.lookup_transform(target, source, Time())
-            except TransformException as e:
-                log.info("could not transform %s to %s: %s", source, target, e)
-                return
-            t, q = ts.transform.translation, ts.transform.rotation
-            _common.say(f"{source} in {target}: translation ({t.x:.3f}, {t.y:.3f}, {t.z:.3f}) "
-                        f"rotation ({q.x:.3f}, {q.y:.3f}, {q.z:.3f}, {q.w:.3f})")
-
-        node.create_timer(period, tick)
-        node.spin()
-
+"""`python -m nodes.frame_listener` from a checkout: every second, where the laser is as seen from the camera (installed: `zentf run frame_listener`)."""
+from zentf.demos.frame_listener import main
+from zentf.transport.program import finish
 
 if __name__ == "__main__":
-    _common.finish(main())
+    finish(main())

@@ -1,53 +1,6 @@
-"""Print each obstacle point in `base_link`, delivered by a MessageFilter once it is transformable.
-
-Subscribes `laser_point` (PointStamped), waits through a MessageFilter (target `base_link`, queue
-10) and prints `obstacle in base_link: (x, y, z)` for every point. Parameters: `topic` (default
-`laser_point`), `target_frame` (default `base_link`), `queue_size` (default 10), `timeout`
-(seconds a message may wait for its transform, default 1.0).
-"""
-from __future__ import annotations
-
-import logging
-from typing import Sequence
-
-from nodes import _common
-from zentf.buffer import Buffer
-from zentf.core.exceptions import TransformException
-from zentf.listener import TransformListener
-from zentf.message_filter import MessageFilter
-from zentf.core.messages import PointStamped
-from zentf.options import NodeOptions
-
-log = logging.getLogger("point_listener")
-
-PROG = "point_listener"
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    return _common.main(PROG, argv, _run, __doc__)
-
-
-def _run(opts: NodeOptions) -> None:
-    with _common.make_node(opts, PROG) as node:
-        topic = str(_common.param(node, "topic", "laser_point"))
-        target = str(_common.param(node, "target_frame", "base_link"))
-        queue_size = int(_common.param_positive(node, "queue_size", 10))
-        timeout = _common.param_positive(node, "timeout", 1.0)
-        buffer = Buffer()
-        listener = TransformListener(buffer, node)  # noqa: F841  (kept alive by this frame)
-
-        def on_point(msg: PointStamped) -> None:
-            try:
-                p = buffer.transform(msg, target)
-            except TransformException as e:
-                log.warning("could not transform the obstacle: %s", e)
-                return
-            _common.say(f"obstacle in {target}: ({p.point.x:.3f}, {p.point.y:.3f}, {p.point.z:.3f})")
-
-        flt = MessageFilter(topic, buffer, target, queue_size, timeout, node=node, msg_type=PointStamped)
-        flt.register_callback(on_point)  # drops are logged by the filter with their reason
-        node.spin()
-
+"""`python -m nodes.point_listener` from a checkout: each obstacle point in base_link, through a MessageFilter (installed: `zentf run point_listener`)."""
+from zentf.demos.point_listener import main
+from zentf.transport.program import finish
 
 if __name__ == "__main__":
-    _common.finish(main())
+    finish(main())

@@ -1,55 +1,6 @@
-"""An obstacle seen by the laser: a PointStamped in `laser` on `laser_point`, moving away along x.
-
-Every `period` seconds (default 0.1) x grows by `step` (default 0.004) from `start_x` (default
-0.3); y = 0, z = 0.1. Prints `obstacle in laser: (x, y, z)` every `print_every` messages
-(default 10; 0 = never).
-"""
-from __future__ import annotations
-
-import logging
-from typing import Sequence
-
-from nodes import _common
-from zentf.core.messages import Header, Point, PointStamped
-from zentf.options import NodeOptions
-
-log = logging.getLogger("point_publisher")
-
-PROG = "point_publisher"
-
-
-def obstacle_position(k: int, start_x: float = 0.3, step: float = 0.004) -> tuple[float, float, float]:
-    """Position of the k-th published obstacle, in `laser`."""
-    return (start_x + step * k, 0.0, 0.1)
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    return _common.main(PROG, argv, _run, __doc__)
-
-
-def _run(opts: NodeOptions) -> None:
-    with _common.make_node(opts, PROG) as node:
-        period = _common.param_positive(node, "period", 0.1)
-        start_x = _common.param_float(node, "start_x", 0.3)
-        step = _common.param_float(node, "step", 0.004)
-        frame = str(_common.param(node, "frame_id", "laser"))
-        topic = str(_common.param(node, "topic", "laser_point"))
-        every = int(_common.param_float(node, "print_every", 10))
-        pub = node.create_publisher(topic, PointStamped)
-        count = [0]
-
-        def tick() -> None:
-            k = count[0]
-            count[0] += 1
-            x, y, z = obstacle_position(k, start_x, step)
-            pub.publish(PointStamped(header=Header(stamp=node.get_clock().now(), frame_id=frame),
-                                     point=Point(x, y, z)))
-            if every > 0 and k % every == 0:
-                _common.say(f"obstacle in {frame}: ({x:.3f}, {y:.3f}, {z:.3f})")
-
-        node.create_timer(period, tick)
-        node.spin()
-
+"""`python -m nodes.point_publisher` from a checkout: an obstacle seen by the laser, on laser_point (installed: `zentf run point_publisher`)."""
+from zentf.demos.point_publisher import main
+from zentf.transport.program import finish
 
 if __name__ == "__main__":
-    _common.finish(main())
+    finish(main())

@@ -1,55 +1,6 @@
-"""Broadcast world -> <turtlename> from the turtle's pose, like the tf2 turtle tutorial.
-
-Parameters `turtlename` (default `turtle1`) and `world_frame` (default `world`). Subscribes
-`<turtlename>/pose` (relative: the node's namespace applies) and sends one transform per pose with
-translation (x, y, 0) and yaw theta, stamped with the node's clock. Prints
-`broadcasting world -> <turtlename>` once at start.
-"""
-from __future__ import annotations
-
-import logging
-import math
-from typing import Sequence
-
-from nodes import _common
-from zentf.broadcaster import TransformBroadcaster
-from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, TurtlePose, Vector3
-from zentf.options import NodeOptions
-
-log = logging.getLogger("turtle_tf_broadcaster")
-
-PROG = "turtle_tf_broadcaster"
-
-
-def pose_to_transform(x: float, y: float, theta: float) -> tuple[tuple[float, float, float],
-                                                                   tuple[float, float, float, float]]:
-    """Planar pose as a 3D translation and a yaw-only quaternion (xyzw)."""
-    return (x, y, 0.0), (0.0, 0.0, math.sin(theta / 2.0), math.cos(theta / 2.0))
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    return _common.main(PROG, argv, _run, __doc__)
-
-
-def _run(opts: NodeOptions) -> None:
-    with _common.make_node(opts, PROG) as node:
-        name = str(_common.param(node, "turtlename", "turtle1"))
-        parent = str(_common.param(node, "world_frame", "world"))
-        broadcaster = TransformBroadcaster(node)
-
-        def on_pose(msg: TurtlePose) -> None:
-            if not all(map(math.isfinite, (msg.x, msg.y, msg.theta))):
-                log.warning("ignoring a non-finite pose of %s", name)
-                return
-            tr, q = pose_to_transform(msg.x, msg.y, msg.theta)
-            broadcaster.send_transform(TransformStamped(
-                header=Header(stamp=node.get_clock().now(), frame_id=parent), child_frame_id=name,
-                transform=Transform(Vector3(*tr), Quaternion(*q))))
-
-        node.create_subscription(f"{name}/pose", TurtlePose, on_pose)
-        _common.say(f"broadcasting {parent} -> {name}")
-        node.spin()
-
+"""`python -m nodes.turtle_tf_broadcaster` from a checkout: world -> <turtlename> from a turtle's pose (installed: `zentf run turtle_tf_broadcaster`)."""
+from zentf.demos.turtle_tf_broadcaster import main
+from zentf.transport.program import finish
 
 if __name__ == "__main__":
-    _common.finish(main())
+    finish(main())

@@ -59,7 +59,7 @@ def record(rrd: Path, procs: list[subprocess.Popen]) -> None:
         procs.append(p)
         return p
 
-    router = start("-m", "zentf.router", "--listen", endpoint, "--no-multicast")
+    router = start("-m", "zentf.transport.router", "--listen", endpoint, "--no-multicast")
     wait_for(router, "listening on")
     wait_for(start("-m", "nodes.robot_state_publisher", str(R2D2)), "publishing robot")
     wait_for(start("-m", "nodes.joint_state_publisher", str(R2D2),

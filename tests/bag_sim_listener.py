@@ -15,12 +15,12 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from zentf.buffer import Buffer  # noqa: E402
+from zentf.transport.buffer import Buffer  # noqa: E402
 from zentf.core.exceptions import TransformException  # noqa: E402
 from zentf.core.time import Duration, Time  # noqa: E402
-from zentf.listener import TransformListener  # noqa: E402
-from zentf.node import Node  # noqa: E402
-from zentf.options import NodeOptions, add_node_arguments  # noqa: E402
+from zentf.transport.listener import TransformListener  # noqa: E402
+from zentf.transport.node import Node  # noqa: E402
+from zentf.transport.options import NodeOptions, add_node_arguments  # noqa: E402
 
 
 def main() -> int:

@@ -127,11 +127,11 @@ class Proc:
 
 
 def start_router(endpoint: str | None = None) -> tuple[Proc, str]:
-    """Start ``python -m zentf.router`` on a free loopback port; returns (process, endpoint)."""
+    """Start ``python -m zentf.transport.router`` on a free loopback port; returns (process, endpoint)."""
     for _ in range(5):
         ep = endpoint or f"tcp/127.0.0.1:{free_port()}"
         env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-        proc = Proc([sys.executable, "-m", "zentf.router", "--listen", ep, "--no-multicast"], env=env)
+        proc = Proc([sys.executable, "-m", "zentf.transport.router", "--listen", ep, "--no-multicast"], env=env)
         try:
             proc.wait_for_line(r"listening on", timeout=20)
             return proc, ep
@@ -175,7 +175,7 @@ def zenoh_options(zenoh_router: str):
     Client mode, not peer: a fresh peer only talks to other peers once gossip has built a direct
     link (its first puts are lost even though matching says yes); a client routes via the router at once.
     """
-    from zentf.options import ZenohOptions
+    from zentf.transport.options import ZenohOptions
 
     return ZenohOptions(connect=[zenoh_router], no_multicast=True, mode="client")
 
@@ -183,7 +183,7 @@ def zenoh_options(zenoh_router: str):
 @pytest.fixture
 def node_options(zenoh_options, test_namespace: str):
     """NodeOptions for an in-process Node in this test's namespace: ``Node('x', options=node_options)``."""
-    from zentf.options import NodeOptions
+    from zentf.transport.options import NodeOptions
 
     return NodeOptions(namespace=test_namespace, zenoh=zenoh_options)
 
@@ -193,8 +193,8 @@ def matched_tf_publisher(session: object, node: object, type_name: str) -> objec
     listener is matched (event-driven)."""
     import zenoh
 
-    from zentf import wire
-    from zentf.listener import wire_key
+    from zentf.transport.wire import codec as wire
+    from zentf.transport.listener import wire_key
 
     pub = session.declare_publisher(wire_key(node, "tf"), encoding=wire.encoding_for(type_name),
                                     congestion_control=zenoh.CongestionControl.BLOCK)

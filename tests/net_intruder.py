@@ -21,7 +21,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import zenoh  # noqa: E402
 
-from zentf import wire  # noqa: E402
+from zentf.transport.wire import codec as wire  # noqa: E402
 from zentf.core.messages import TFMessage  # noqa: E402
 
 

@@ -21,12 +21,12 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from nodes.frames_publisher import av2_in_av1  # noqa: E402
-from zentf.buffer import Buffer  # noqa: E402
+from zentf.demos.frames_publisher import av2_in_av1  # noqa: E402
+from zentf.transport.buffer import Buffer  # noqa: E402
 from zentf.core.exceptions import TransformException  # noqa: E402
-from zentf.listener import TransformListener, wire_key  # noqa: E402
-from zentf.node import Node  # noqa: E402
-from zentf.options import NodeOptions, add_node_arguments  # noqa: E402
+from zentf.transport.listener import TransformListener, wire_key  # noqa: E402
+from zentf.transport.node import Node  # noqa: E402
+from zentf.transport.options import NodeOptions, add_node_arguments  # noqa: E402
 from zentf.core.time import Time  # noqa: E402
 
 

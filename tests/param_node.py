@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 
 from zentf.core.parameters import SetParametersResult
-from zentf.node import Node
+from zentf.transport.node import Node
 
 
 def main() -> int:

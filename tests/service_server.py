@@ -9,7 +9,7 @@ import sys
 import threading
 
 from zentf.core.services import SetBool, Trigger
-from zentf.node import Node
+from zentf.transport.node import Node
 
 
 def main() -> int:

@@ -111,11 +111,11 @@ def test_zentf_bag_load_buffer_is_reachable_by_its_documented_name():
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
-        import zentf.bag
+        import zentf.tools.bag
     from zentf.tools.bag import load_buffer
 
-    assert zentf.bag.load_buffer is load_buffer
-    buf = zentf.bag.load_buffer(DRONES)  # zentf's own MCAP too
+    assert zentf.tools.bag.load_buffer is load_buffer
+    buf = zentf.tools.bag.load_buffer(DRONES)  # zentf's own MCAP too
     ts = buf.lookup_transform("world", "ground", 0)
     assert (ts.transform.translation.z, len(buf.get_frames())) == (-0.5, 4)
 
@@ -198,7 +198,7 @@ def test_convert_ros_to_zentf_keeps_every_message(tmp_path, name):
     from rosbags.typesys import Stores, get_typestore
 
     from zentf.tools.bag import BagReader
-    from zentf.wire import unpack
+    from zentf.transport.wire.codec import unpack
 
     out = tmp_path / "out.mcap"
     r = run("bag", "convert", str(FIXTURES[name]), str(out))
@@ -232,7 +232,7 @@ def test_round_trip_drones_to_ros2_mcap_read_back_by_rosbags_and_mcap_ros2(tmp_p
     from rosbags.typesys import Stores, get_typestore
 
     from zentf.tools.bag import BagReader
-    from zentf.wire import unpack
+    from zentf.transport.wire.codec import unpack
 
     original = [(("/" + m.key), m.log_time, unpack(m.payload), m.type_name) for m in BagReader(DRONES)]
     assert len(original) == 553

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import pytest
 
-from zentf.buffer import Buffer
+from zentf.transport.buffer import Buffer
 from zentf.core.geometry import (do_transform_point, do_transform_pose, do_transform_pose_with_covariance,
                                  do_transform_quaternion, do_transform_transform, do_transform_twist,
                                  do_transform_vector3, do_transform_wrench, registered_types)

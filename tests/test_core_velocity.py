@@ -3,7 +3,7 @@
 Expected values come from geometry2 (ROS 2) tests ported here — tf2_py/test/test_buffer_core.py
 ``test_velocity``, tf2_ros/test/test_buffer.cpp ``test_twist`` and tf2_ros/test/velocity_test.cpp
 (the square paths) — and from central finite differences of the drones' analytic motion
-(nodes/frames_publisher.py) put through ROS 2's convention (see zentf/core/velocity.py).
+(zentf/demos/frames_publisher.py) put through ROS 2's convention (see zentf/core/velocity.py).
 """
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import math
 
 import pytest
 
-from nodes.frames_publisher import av2_in_av1, drone_poses
+from zentf.demos.frames_publisher import av2_in_av1, drone_poses
 from zentf.core.buffer_core import BufferCore
 from zentf.core.exceptions import ExtrapolationException, InvalidArgumentException, LookupException
 from zentf.core.math3d import quaternion_from_rpy, quaternion_normalize

@@ -15,8 +15,8 @@ from typing import Iterator
 import pytest
 
 from conftest import REPO, Proc, child_env, free_port
-from zentf import wire
-from zentf.options import ZenohOptions
+from zentf.transport.wire import codec as wire
+from zentf.transport.options import ZenohOptions
 
 
 @pytest.fixture

@@ -11,11 +11,11 @@ from typing import Iterator
 import pytest
 
 from conftest import REPO, Proc
-from zentf.buffer import Buffer
-from zentf.graph import GraphWatcher
-from zentf.listener import TransformListener
-from zentf.node import Node
-from zentf.options import NodeOptions
+from zentf.transport.buffer import Buffer
+from zentf.transport.graph import GraphWatcher
+from zentf.transport.listener import TransformListener
+from zentf.transport.node import Node
+from zentf.transport.options import NodeOptions
 from zentf.core.time import Time
 
 NUM = r"(-?\d+\.\d+)"

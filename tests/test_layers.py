@@ -1,7 +1,8 @@
 """The architecture holds: zentf/core is self-contained and Zenoh-free, imports point downward, no cycles.
 
-Layers, lowest first: 0 ``zentf/core/`` (tf2), 1 formats (``zentf/ros/``, ``zentf/urdf/``: pure, no
-Zenoh), 2 transport (``zentf/*.py``), 3 ``zentf/tools/``, 4 ``zentf/launch/`` and ``zentf/cli/``.
+Rooms, lowest first: 0 ``zentf/core/`` (tf2), 1 formats (``zentf/ros/``, ``zentf/urdf/``: pure, no
+Zenoh), 2 ``zentf/transport/`` (Zenoh), 3 the programs (``zentf/tools/``, ``zentf/demos/``), 4
+``zentf/launch/`` and ``zentf/cli/``. The top of ``zentf/`` holds ``__init__.py`` and rooms only.
 Every import counts, lazy ones (inside functions) included.
 """
 from __future__ import annotations
@@ -16,13 +17,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PKG = ROOT / "zentf"
-SUBPACKAGES = {"core": 0, "ros": 1, "urdf": 1, "tools": 3, "launch": 4, "cli": 4}
-TRANSPORT = {"options", "names", "wire", "entities", "heap", "node", "clock", "buffer", "listener", "broadcaster", "profile",
-             "message_filter", "graph", "router", "service", "parameters", "buffer_server", "tfwire",
-             "msgpack_reader"}
-#: Old module paths kept for one release; each only forwards to its new home (zentf/_moved.py).
-MOVED = {"time", "messages", "math3d", "exceptions", "buffer_core", "geometry", "_chain_kernel", "bag", "view",
-         "_moved"}
+ROOMS = {"core": 0, "ros": 1, "urdf": 1, "transport": 2, "tools": 3, "demos": 3, "launch": 4, "cli": 4}
 ZENOH_FREE = {0, 1}
 
 
@@ -47,12 +42,22 @@ def _import_statements(path: Path) -> list[tuple[int, str, list[str]]]:
                 names = [n.split()[0] for n in names.strip("()").replace("\n", " ").split(",") if n.strip()]
                 out.append((len(dots), mod, names))
         return out
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+    tree = ast.parse(path.read_text(), str(path))
+    typing_only = {id(n) for block in ast.walk(tree) if isinstance(block, ast.If) and _is_type_checking(block.test)
+                   for stmt in block.body for n in ast.walk(stmt)}
+    for node in ast.walk(tree):
+        if id(node) in typing_only:  # `if TYPE_CHECKING:` imports never run
+            continue
         if isinstance(node, ast.Import):
             out.extend((0, a.name, []) for a in node.names)
         elif isinstance(node, ast.ImportFrom):
             out.append((node.level, node.module or "", [a.name for a in node.names]))
     return out
+
+
+def _is_type_checking(test: ast.expr) -> bool:
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
 
 
 def _imports(path: Path) -> set[str]:
@@ -70,6 +75,8 @@ def _imports(path: Path) -> set[str]:
         for name in names:
             if name.split(".")[0] in ("zenoh", "zenoh_ext"):
                 found.add("zenoh")
+            elif name.split(".")[0] == "nodes":
+                found.add("nodes")
             elif name.startswith("zentf"):
                 resolved = _resolve(name)
                 if resolved:
@@ -89,17 +96,13 @@ def _resolve(name: str) -> str | None:
 
 
 def _layer(module: str) -> int | None:
-    """The layer of a zentf module, or None for the package root and the moved-module aliases."""
+    """The layer of a zentf module, or None for the package root."""
     parts = module.split(".")
     if len(parts) == 1:
         return None
-    if parts[1] in SUBPACKAGES:
-        return SUBPACKAGES[parts[1]]
-    if parts[1] in MOVED:
-        return None
-    if parts[1] in TRANSPORT:
-        return 2
-    raise AssertionError(f"{module} is in no layer: add it to tests/test_layers.py")
+    if parts[1] in ROOMS:
+        return ROOMS[parts[1]]
+    raise AssertionError(f"{module} is in no room: the top of zentf/ holds __init__.py and rooms only")
 
 
 FILES = sorted([*PKG.rglob("*.py"), *PKG.rglob("*.pyx"),
@@ -112,6 +115,18 @@ def test_every_module_is_placed_in_a_layer() -> None:
         _layer(module)
 
 
+def test_the_top_of_the_package_holds_only_rooms() -> None:
+    top = {p.name for p in PKG.iterdir() if not p.name.startswith((".", "__pycache__"))}
+    loose = sorted(n for n in top if n != "__init__.py" and n.split(".")[0] not in ROOMS)
+    assert not loose, f"files or folders at the top of zentf/ outside the rooms: {loose}"
+
+
+def test_nothing_in_the_library_imports_the_checkout_programs() -> None:
+    """nodes/ is the checkout's thin runners; the library (and so the wheel) never needs it."""
+    users = sorted(m for m, deps in GRAPH.items() if "nodes" in deps)
+    assert not users, f"modules importing the nodes package: {users}"
+
+
 def test_compiled_core_imports_are_read() -> None:
     """The .pyx reader sees cimports and imports (a reader that found nothing would pass every check)."""
     assert {"zentf.core.cache", "zentf.core.exceptions", "zentf.core.time"} <= GRAPH["zentf.core.buffer_core"]
@@ -122,9 +137,8 @@ def test_imports_point_downward(module: str) -> None:
     level = _layer(module)
     if level is None:
         return
-    bad = sorted(dep for dep in GRAPH[module] - {"zenoh", "zentf"}
-                 if (_layer(dep) is None and dep.split(".")[1] in MOVED) or (_layer(dep) or 0) > level)
-    assert not bad, f"{module} (layer {level}) imports upward or through a moved alias: {bad}"
+    bad = sorted(dep for dep in GRAPH[module] - {"zenoh", "zentf", "nodes"} if (_layer(dep) or 0) > level)
+    assert not bad, f"{module} (layer {level}) imports upward: {bad}"
     if level in ZENOH_FREE:
         assert "zenoh" not in GRAPH[module], f"{module} (layer {level}) imports Zenoh"
 
@@ -169,16 +183,10 @@ def test_core_import_loads_no_zenoh() -> None:
     assert out.stdout.strip() == "False"
 
 
-@pytest.mark.parametrize("old,new", [(f"zentf.{m}", f"zentf.core.{m}") for m in
-                                     ("time", "messages", "math3d", "exceptions", "buffer_core", "geometry")]
-                         + [("zentf.bag", "zentf.tools.bag"), ("zentf.view", "zentf.tools.view")])
-def test_old_module_paths_warn_and_alias(old: str, new: str) -> None:
-    code = (f"import warnings, importlib\n"
-            f"with warnings.catch_warnings(record=True) as w:\n"
-            f"    warnings.simplefilter('always')\n"
-            f"    old = importlib.import_module('{old}')\n"
-            f"new = importlib.import_module('{new}')\n"
-            f"print(old is new, [str(x.category.__name__) for x in w], '{new}' in str(w[0].message))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
-    assert out.returncode == 0, out.stderr
-    assert out.stdout.split() == ["True", "['DeprecationWarning']", "True"]
+@pytest.mark.parametrize("old", ["zentf.node", "zentf.listener", "zentf.wire", "zentf.profile", "zentf.tfwire",
+                                 "zentf.time", "zentf.messages", "zentf.buffer_core", "zentf.bag", "zentf.view",
+                                 "zentf._moved"])
+def test_the_old_module_paths_are_gone(old: str) -> None:
+    """Removed in this release (CHANGELOG.md names each new path); nothing forwards them any more."""
+    out = subprocess.run([sys.executable, "-c", f"import {old}"], capture_output=True, text=True, cwd=ROOT)
+    assert out.returncode == 1 and "ModuleNotFoundError" in out.stderr, out.stderr

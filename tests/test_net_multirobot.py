@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from zentf.buffer import Buffer
-from zentf.listener import TransformListener
-from zentf.node import Node
+from zentf.transport.buffer import Buffer
+from zentf.transport.listener import TransformListener
+from zentf.transport.node import Node
 from zentf.core.time import Time
 
 pytestmark = pytest.mark.timeout(90)

@@ -25,7 +25,7 @@ def _zentf(*args: str, cwd: Path = REPO) -> subprocess.CompletedProcess:
 def test_shipped_zenoh_configs_parse(name: str) -> None:
     import zenoh
 
-    from zentf.options import ZenohOptions
+    from zentf.transport.options import ZenohOptions
 
     path = REPO / "configs/zenoh" / f"{name}.json5"
     cfg = zenoh.Config.from_file(str(path))
@@ -71,7 +71,7 @@ def test_config_file_endpoints_are_used_and_listen_overrides_them(tmp_path: Path
                 f"tcp/127.0.0.1:{other}"], env=env)
     r2.wait_for_line(rf"listening on tcp/127\.0\.0\.1:{other}$", 30)
     # both really listen: a client of each connects (client mode fails fast without its router)
-    from zentf.options import ZenohOptions
+    from zentf.transport.options import ZenohOptions
 
     for p in (port, other):
         ZenohOptions(connect=[f"tcp/127.0.0.1:{p}"], mode="client", no_multicast=True).open_session().close()
@@ -95,6 +95,6 @@ def test_split_router_launch_file_runs_a_router(tmp_path: Path, spawn) -> None:
     launcher = spawn([sys.executable, "-m", "zentf.cli", "launch", str(REPO / "configs/split/router.yaml"),
                       f"zenoh_config:={cfg}"], env=env)
     launcher.wait_for_line(rf"\[router\] zentf router \S+ listening on tcp/127\.0\.0\.1:{port}", 30)
-    from zentf.options import ZenohOptions
+    from zentf.transport.options import ZenohOptions
 
     ZenohOptions(connect=[f"tcp/127.0.0.1:{port}"], mode="client", no_multicast=True).open_session().close()

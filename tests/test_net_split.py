@@ -24,7 +24,7 @@ def on_ellipse(x: float, y: float, z: float, tol: float = 1e-3) -> bool:
 
 
 def test_on_ellipse_rejects_points_off_it() -> None:
-    from nodes.frames_publisher import av2_in_av1
+    from zentf.demos.frames_publisher import av2_in_av1
 
     assert all(on_ellipse(*av2_in_av1(t / 7)) for t in range(50))
     assert not on_ellipse(0.0, 0.0, 0.0) and not on_ellipse(-1.0, -0.5, 0.5)

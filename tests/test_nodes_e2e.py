@@ -143,7 +143,7 @@ def test_plots_publisher_markers_are_three_growing_line_strips(spawn, node_optio
     import threading
 
     from zentf.core.messages import Marker, MarkerArray
-    from zentf.node import Node
+    from zentf.transport.node import Node
 
     got: list[MarkerArray] = []
     cond = threading.Condition()
@@ -170,14 +170,14 @@ def test_plots_publisher_markers_are_three_growing_line_strips(spawn, node_optio
 
 def test_drones_follow_a_published_sim_clock(isolated_router, test_namespace, zenoh_env, spawn):
     """With use_sim_time the drones are stamped with /clock and sit exactly where the clock says."""
-    from zentf.buffer import Buffer
-    from zentf.listener import TransformListener
+    from zentf.transport.buffer import Buffer
+    from zentf.transport.listener import TransformListener
     from zentf.core.messages import Clock
-    from zentf.node import Node
-    from zentf.options import NodeOptions, ZenohOptions
+    from zentf.transport.node import Node
+    from zentf.transport.options import NodeOptions, ZenohOptions
     from zentf.core.time import Time
 
-    from nodes.frames_publisher import av2_in_av1
+    from zentf.demos.frames_publisher import av2_in_av1
 
     env = {**zenoh_env, "ZENTF_CONNECT": isolated_router}  # /clock is absolute: keep it to this test
     spawn.python("-m", "nodes.frames_publisher", "-p", "use_sim_time:=true", env=env)

@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from nodes.static_transform_publisher import UsageError, parse_args, parse_float
+from zentf.tools.static_transform_publisher import UsageError, parse_args, parse_float
 
 
 def q_close(a, b, tol=1e-12):

@@ -15,9 +15,9 @@ from collections.abc import Iterator
 import pytest
 
 from conftest import REPO, Proc
-from nodes.turtle_teleop_key import parse_keys
+from zentf.demos.turtle_teleop_key import parse_keys
 from zentf.core.messages import TurtlePose, Twist
-from zentf.node import Node
+from zentf.transport.node import Node
 
 UP, DOWN, RIGHT, LEFT = b"\x1b[A", b"\x1b[B", b"\x1b[C", b"\x1b[D"
 

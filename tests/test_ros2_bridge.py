@@ -62,8 +62,8 @@ def test_bridge_relays_both_ways_latched_and_loop_free(graphs) -> None:
     # publishers gone: nothing may keep circulating between the two graphs
     zpub.stop()
     rpub.stop()
-    from zentf.options import ZenohOptions
-    from zentf.profile import Ros2Profile
+    from zentf.transport.options import ZenohOptions
+    from zentf.transport.wire.profiles import Ros2Profile
 
     session = ZenohOptions(connect=[router], mode="client", no_multicast=True).open_session()
     try:
@@ -104,9 +104,9 @@ def test_bridge_relays_clock_and_named_topics_in_process(isolated_router: str, t
 
     from zentf.core.messages import Clock, Header, Point, PointStamped
     from zentf.core.time import Time
-    from zentf.graph import GraphWatcher
-    from zentf.node import Node
-    from zentf.options import NodeOptions, ZenohOptions
+    from zentf.transport.graph import GraphWatcher
+    from zentf.transport.node import Node
+    from zentf.transport.options import NodeOptions, ZenohOptions
     from zentf.tools.bridge import Ros2Bridge
 
     z = ZenohOptions(connect=[isolated_router], mode="client", no_multicast=True)

@@ -23,10 +23,10 @@ SDK_NODE = [sys.executable, str(REPO / "tests" / "ros2_sdk_node.py")]
 
 LISTENER = """
 import sys, time
-from zentf.buffer import Buffer
+from zentf.transport.buffer import Buffer
 from zentf.core.time import Time
-from zentf.listener import TransformListener
-from zentf.node import Node
+from zentf.transport.listener import TransformListener
+from zentf.transport.node import Node
 node = Node("zentf_listener")
 buf = Buffer()
 TransformListener(buf, node)
@@ -45,10 +45,10 @@ node.shutdown()
 
 BROADCASTER = """
 import time
-from zentf.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
+from zentf.transport.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
 from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
 from zentf.core.time import Time
-from zentf.node import Node
+from zentf.transport.node import Node
 node = Node("zentf_broadcaster")
 static = StaticTransformBroadcaster(node)
 static.send_transform(TransformStamped(Header(Time(sec=7, nanosec=5), "world"), "robot",

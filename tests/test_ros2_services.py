@@ -21,9 +21,9 @@ from cli_helpers import assert_one_line_error, zentf
 
 from conftest import REPO, router_address
 from zentf.core.services import LookupTransform, Trigger
-from zentf.node import Node
-from zentf.options import NodeOptions, ZenohOptions
-from zentf.service import ServiceUnavailableError
+from zentf.transport.node import Node
+from zentf.transport.options import NodeOptions, ZenohOptions
+from zentf.transport.service import ServiceUnavailableError
 
 SDK_SERVICE = [sys.executable, str(REPO / "tests" / "ros2_sdk_service.py")]
 
@@ -133,7 +133,7 @@ def test_bad_ros2_requests_get_an_error_reply_and_one_line(isolated_router, capl
     import zenoh
 
     from zentf.core.services import SetBool
-    from zentf.profile import parse_ros2_attachment, ros2_attachment
+    from zentf.transport.wire.profiles import parse_ros2_attachment, ros2_attachment
     from zentf.ros import decode
 
     opts = NodeOptions(zenoh=ZenohOptions(connect=[isolated_router], no_multicast=True, mode="client"),

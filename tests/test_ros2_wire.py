@@ -9,8 +9,8 @@ import uuid
 
 import pytest
 
-from zentf.options import NodeOptions, OptionsError
-from zentf.profile import (Ros2Profile, WireProfile, make_profile, parse_ros2_attachment,
+from zentf.transport.options import NodeOptions, OptionsError
+from zentf.transport.wire.profiles import (Ros2Profile, WireProfile, make_profile, parse_ros2_attachment,
                            parse_ros2_token, qos_string, ros2_attachment)
 
 TF = "tf2_msgs/msg/TFMessage"
@@ -95,7 +95,7 @@ def test_profile_and_domain_options() -> None:
 
 
 def test_ros2_machine_session_defaults_only_when_nothing_was_given() -> None:
-    from zentf.options import ZenohOptions
+    from zentf.transport.options import ZenohOptions
 
     p = Ros2Profile()
     z = p.session_defaults(ZenohOptions())
@@ -110,7 +110,7 @@ def test_ros2_machine_session_defaults_only_when_nothing_was_given() -> None:
 @pytest.fixture
 def ros2_options(isolated_router: str):
     """NodeOptions of a ROS 2 node on this test's own router, in a domain of its own."""
-    from zentf.options import ZenohOptions
+    from zentf.transport.options import ZenohOptions
 
     domain = 1 + uuid.uuid4().int % 200
     return NodeOptions(wire="ros2", domain_id=domain,
@@ -127,14 +127,14 @@ def _wait(pred, timeout: float = 10.0) -> bool:
 
 
 def test_zentf_nodes_speak_ros2_on_the_wire(ros2_options) -> None:
-    from zentf.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
-    from zentf.buffer import Buffer
+    from zentf.transport.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
+    from zentf.transport.buffer import Buffer
     from zentf.core.messages import Header, PointStamped, Point, Transform, TransformStamped, Vector3
     from zentf.core.time import Time
-    from zentf.graph import GraphWatcher
-    from zentf.listener import TransformListener
-    from zentf.message_filter import MessageFilter
-    from zentf.node import Node
+    from zentf.transport.graph import GraphWatcher
+    from zentf.transport.listener import TransformListener
+    from zentf.transport.message_filter import MessageFilter
+    from zentf.transport.node import Node
 
     dom = ros2_options.domain_id
     raw = ros2_options.zenoh.open_session()
@@ -203,10 +203,10 @@ def test_zentf_nodes_speak_ros2_on_the_wire(ros2_options) -> None:
 
 
 def test_bad_cdr_on_a_ros2_topic_is_dropped_with_one_line(ros2_options, caplog) -> None:
-    from zentf.buffer import Buffer
+    from zentf.transport.buffer import Buffer
     from zentf.core.messages import PointStamped
-    from zentf.listener import TransformListener
-    from zentf.node import Node
+    from zentf.transport.listener import TransformListener
+    from zentf.transport.node import Node
 
     node = Node("victim", options=ros2_options)
     raw = ros2_options.zenoh.open_session()
@@ -261,13 +261,13 @@ def test_a_ros2_backlog_is_queued_as_cdr_bytes_and_inserted_in_order(ros2_option
     """Under --wire ros2 a listener's per-sender queue also keeps a backlog as the CDR payloads' bytes
     (tfwire.TfHandler.enqueue: the Zenoh samples go at once), and every transform still gets in, in the
     order sent (the sender is its publisher GID, one queue)."""
-    from zentf import tfwire
-    from zentf.broadcaster import TransformBroadcaster
-    from zentf.buffer import Buffer
+    from zentf.transport.ingest import tfwire
+    from zentf.transport.broadcaster import TransformBroadcaster
+    from zentf.transport.buffer import Buffer
     from zentf.core.messages import Header, Transform, TransformStamped, Vector3
     from zentf.core.time import Time
-    from zentf.listener import TransformListener
-    from zentf.node import Node
+    from zentf.transport.listener import TransformListener
+    from zentf.transport.node import Node
 
     count = 1000
     pub_node = Node("tf_flood", options=ros2_options)

@@ -8,20 +8,20 @@ import time
 
 import pytest
 
-from zentf.buffer import Buffer
+from zentf.transport.buffer import Buffer
 from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
 from zentf.core.time import Time
-from zentf.listener import DEFAULT_FUTURE_TOLERANCE, TransformListener
-from zentf.node import Node
-from zentf.options import NodeOptions
+from zentf.transport.listener import DEFAULT_FUTURE_TOLERANCE, TransformListener
+from zentf.transport.node import Node
+from zentf.transport.options import NodeOptions
 
 S = 1_000_000_000
 
 #: An honest node: world -> EDGE at 50 Hz, stamped with its clock, x = 1.0.
 HONEST = textwrap.dedent("""
     import sys
-    from zentf.node import Node, init_logging
-    from zentf.broadcaster import TransformBroadcaster
+    from zentf.transport.node import Node, init_logging
+    from zentf.transport.broadcaster import TransformBroadcaster
     from zentf.core.messages import TransformStamped, Header, Transform, Vector3, Quaternion
     init_logging()
     node = Node("honest")
@@ -40,8 +40,8 @@ HONEST = textwrap.dedent("""
 RAW_TF_PUBLISHER = textwrap.dedent("""
     import os, sys, time
     import msgpack, zenoh
-    from zentf import wire
-    from zentf.options import ZenohOptions
+    from zentf.transport.wire import codec as wire
+    from zentf.transport.options import ZenohOptions
     NS = 1_000_000_000
     s = ZenohOptions.from_env().open_session()
     pub = s.declare_publisher(os.environ["ZENTF_NAMESPACE"] + "/tf",
@@ -105,7 +105,7 @@ def wait_fresh_sample(buf: Buffer, after_ns: int, child: str = "av1", timeout: f
 # ------------------------------------------------------------------ point 3: future-stamp guard
 
 def test_one_sample_stamped_100_years_ahead_does_not_poison_the_edge(spawn, node_options, caplog) -> None:
-    with Node("victim", options=node_options) as node, caplog.at_level(logging.WARNING, "zentf.listener"):
+    with Node("victim", options=node_options) as node, caplog.at_level(logging.WARNING, "zentf.transport.listener"):
         buf = Buffer(node=node)
         tl = TransformListener(buf, node)
         spawn.python("-c", HONEST, "av1").wait_for_line("ready", timeout=30)
@@ -171,7 +171,7 @@ def test_the_guard_follows_sim_time(spawn, node_options, test_namespace) -> None
 
 
 def test_bad_tolerance_values_are_refused() -> None:
-    from zentf.listener import _tolerance_ns
+    from zentf.transport.listener import _tolerance_ns
 
     assert _tolerance_ns(None) is None and _tolerance_ns(-1) is None and _tolerance_ns(float("inf")) is None
     assert _tolerance_ns(0.25) == 250_000_000
@@ -308,11 +308,11 @@ def test_a_backlog_is_queued_as_payload_bytes_and_its_bad_messages_still_get_the
     Zenoh samples (which pin Zenoh's receive buffers): a cut-short TFMessage and one with a bad element
     among them still get their one line each, naming the topic's key and the sender, and every good
     message of the backlog is inserted in order."""
-    from zentf import tfwire
+    from zentf.transport.ingest import tfwire
 
     count = 3000
     xs: list[float] = []
-    with Node("victim", options=node_options) as node, caplog.at_level(logging.WARNING, "zentf.listener"):
+    with Node("victim", options=node_options) as node, caplog.at_level(logging.WARNING, "zentf.transport.listener"):
         buf = Buffer(node=node)
 
         def on_insert() -> None:  # slows the listener's thread, so the flood waits in its queue
@@ -354,9 +354,9 @@ def test_frame_ids_with_control_characters_are_logged_escaped(spawn, node_option
 #: The start of a listener process script: imports and rss_kb().
 LISTENER_HEAD = textwrap.dedent("""
     import json, logging, sys, threading
-    from zentf.node import Node, init_logging
-    from zentf.buffer import Buffer
-    from zentf.listener import TransformListener
+    from zentf.transport.node import Node, init_logging
+    from zentf.transport.buffer import Buffer
+    from zentf.transport.listener import TransformListener
     from zentf.core.time import Time
     init_logging()
     def rss_kb():
@@ -421,8 +421,8 @@ MEMORY_LISTENER = LISTENER_HEAD + textwrap.dedent("""
         def emit(self, record):
             if "freed memory released" in record.getMessage() and flood_handled():
                 done.set()
-    logging.getLogger("zentf.listener").addHandler(Released(logging.DEBUG))
-    logging.getLogger("zentf.listener").setLevel(logging.DEBUG)
+    logging.getLogger("zentf.transport.listener").addHandler(Released(logging.DEBUG))
+    logging.getLogger("zentf.transport.listener").setLevel(logging.DEBUG)
     tl = TransformListener(buf, node)
     buf.set_transform_raw("world", "done_distinct", 1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, "/seed")
     idle = rss_kb()
@@ -445,7 +445,7 @@ def test_a_flooded_listener_maps_no_shared_memory_and_gives_freed_memory_back(sp
     shm_on = tmp_path / "shm-on.json5"
     shm_on.write_text("{ transport: { shared_memory: { enabled: true } } }\n")
     ep = f"tcp/127.0.0.1:{free_port()}"
-    spawn.python("-m", "zentf.router", "--listen", ep, "--no-multicast", "--config", str(shm_on)).wait_for_line(
+    spawn.python("-m", "zentf.transport.router", "--listen", ep, "--no-multicast", "--config", str(shm_on)).wait_for_line(
         "listening on", timeout=20)
     env = {**zenoh_env, "ZENTF_CONNECT": ep}
     victim = spawn.python("-c", MEMORY_LISTENER, "victim", env=env)
@@ -467,7 +467,7 @@ def test_a_flooded_listener_maps_no_shared_memory_and_gives_freed_memory_back(sp
 #: flood's messages), keeping every 50th; prints RSS above the start after the free and after the release.
 ARENA = textwrap.dedent("""
     import ctypes, threading
-    from zentf.heap import release_free_memory
+    from zentf.transport.heap import release_free_memory
     libc = ctypes.CDLL(None)
     libc.malloc.restype, libc.malloc.argtypes = ctypes.c_void_p, [ctypes.c_size_t]
     libc.free.argtypes = [ctypes.c_void_p]
@@ -502,8 +502,8 @@ def test_a_huge_sender_attachment_is_not_kept(node_options, zenoh_session) -> No
     """A sender naming itself with 100 kB attachments: its transforms apply (authority: the key) and the
     listener's authority cache keeps no such name (it kept up to 1024 of any size)."""
     from conftest import matched_tf_publisher
-    from zentf import wire
-    from zentf.listener import MAX_SENDER_KEY
+    from zentf.transport.wire import codec as wire
+    from zentf.transport.listener import MAX_SENDER_KEY
 
     with Node("victim", options=node_options) as node:
         buf = Buffer(node=node)

@@ -9,12 +9,12 @@ import time
 
 import pytest
 
-from zentf.buffer import Buffer
+from zentf.transport.buffer import Buffer
 from zentf.core.exceptions import ExtrapolationException, LookupException
 from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
 from zentf.core.time import Time
-from zentf.listener import TransformListener
-from zentf.node import Node
+from zentf.transport.listener import TransformListener
+from zentf.transport.node import Node
 
 
 def ts(parent: str, child: str, x: float, stamp: Time | None = None) -> TransformStamped:
@@ -133,8 +133,8 @@ def test_many_waiters_each_woken_by_their_own_frame() -> None:
 
 BROADCASTER = textwrap.dedent("""
     import sys
-    from zentf.node import Node, init_logging
-    from zentf.broadcaster import TransformBroadcaster
+    from zentf.transport.node import Node, init_logging
+    from zentf.transport.broadcaster import TransformBroadcaster
     from zentf.core.messages import TransformStamped, Header, Transform, Vector3, Quaternion
     init_logging()
     node = Node(sys.argv[1])

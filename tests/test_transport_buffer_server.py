@@ -8,12 +8,12 @@ import time
 
 import pytest
 
-from zentf.buffer_server import BufferClient
+from zentf.transport.buffer_server import BufferClient
 from zentf.core.exceptions import ExtrapolationException, LookupException, TimeoutException, TransformException
 from zentf.core.messages import Header, Point, PointStamped
 from zentf.core.time import Time
-from zentf.graph import node_info
-from zentf.node import Node
+from zentf.transport.graph import node_info
+from zentf.transport.node import Node
 
 
 @pytest.fixture
@@ -30,7 +30,7 @@ def _server(spawn):
 
 
 def test_lookups_transform_and_errors_through_the_server(spawn, client_node, zenoh_session, test_namespace):
-    from nodes.frames_publisher import av2_in_av1
+    from zentf.demos.frames_publisher import av2_in_av1
 
     _server(spawn)
     spawn.python("-m", "nodes.static_transform_publisher", "0.4", "0", "0.2", "0", "0", "0", "base_link", "laser")

@@ -3,17 +3,17 @@ from __future__ import annotations
 
 import textwrap
 
-from zentf.buffer import Buffer
-from zentf.listener import TransformListener
+from zentf.transport.buffer import Buffer
+from zentf.transport.listener import TransformListener
 from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
-from zentf.node import Node
+from zentf.transport.node import Node
 from zentf.core.time import Time
 
 FUZZER = textwrap.dedent("""
     import math, os, random, sys
     import msgpack, zenoh
-    from zentf.options import ZenohOptions
-    from zentf import wire
+    from zentf.transport.options import ZenohOptions
+    from zentf.transport.wire import codec as wire
     seed = int(sys.argv[1]); n = int(sys.argv[2]); ns = os.environ["ZENTF_NAMESPACE"]
     rnd = random.Random(seed)
     s = ZenohOptions.from_env().open_session()
@@ -108,7 +108,7 @@ def test_listener_survives_fuzzing(spawn, node_options) -> None:
         assert buf.lookup_transform("good_parent", "good_child", Time()).transform.translation.x == 1.5
         assert buf.lookup_transform("odom", "base", Time(sec=1000)).transform.translation.x == 0.5
         # and it still answers new data from a well-behaved sender
-        from zentf.broadcaster import TransformBroadcaster
+        from zentf.transport.broadcaster import TransformBroadcaster
 
         with Node("honest", options=node_options) as src:
             br = TransformBroadcaster(src)

@@ -12,7 +12,8 @@ import sys
 import msgpack
 import pytest
 
-from zentf import tfwire, wire
+from zentf.transport.ingest import tfwire
+from zentf.transport.wire import codec as wire
 from zentf.core.buffer_core import BufferCore
 from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
 from zentf.core.time import Time

@@ -10,11 +10,11 @@ import textwrap
 
 import pytest
 
-from zentf import graph
+from zentf.transport import graph
 from zentf.core.messages import Header, Point, PointStamped
-from zentf.names import encode_chunk, expand_topic, normalize_namespace, resolve_topic, topic_to_key
-from zentf.node import Node, NodeNameError
-from zentf.options import NodeOptions, OptionsError, ZenohOptions, add_node_arguments
+from zentf.transport.names import encode_chunk, expand_topic, normalize_namespace, resolve_topic, topic_to_key
+from zentf.transport.node import Node, NodeNameError
+from zentf.transport.options import NodeOptions, OptionsError, ZenohOptions, add_node_arguments
 
 # ---------------------------------------------------------------- names
 
@@ -52,7 +52,7 @@ def test_private_names_and_remaps() -> None:
 
 def test_options_flags_over_env(tmp_path) -> None:
     pfile = tmp_path / "p.yaml"
-    pfile.write_text("talker:\n  ros__parameters:\n    rate: 5\n    frame: map\n")
+    pfile.write_text("/envns/talker:\n  ros__parameters:\n    rate: 5\n    frame: map\n")
     env = {"ZENTF_NODE_NAME": "envname", "ZENTF_NAMESPACE": "envns", "ZENTF_PARAMS": json.dumps({"a": 1, "rate": 1}),
            "ZENTF_CONNECT": "tcp/127.0.0.1:1,tcp/127.0.0.1:2", "ZENTF_NO_MULTICAST": "1",
            "ZENTF_REMAP": json.dumps({"tf": "/tf"}), "ZENTF_PARAMS_FILE": str(pfile)}
@@ -105,7 +105,7 @@ def test_bad_zenoh_config_file(tmp_path) -> None:
 
 PUBLISHER = textwrap.dedent("""
     import sys
-    from zentf.node import Node, init_logging
+    from zentf.transport.node import Node, init_logging
     from zentf.core.messages import PointStamped, Header, Point
     init_logging()
     node = Node("pub")
@@ -150,7 +150,7 @@ def test_sigint_exits_zero(spawn) -> None:
 #: can first see it): declare_parameter("use_sim_time") comes next, and this one sends the signal first.
 EARLY_SIGINT = textwrap.dedent("""
     import os, signal
-    from zentf.node import Node
+    from zentf.transport.node import Node
     signal.signal(signal.SIGINT, signal.default_int_handler)  # Python's own, whatever the parent set
     real = Node.declare_parameter
     def declare_after_a_sigint(self, *args, **kwargs):
@@ -254,7 +254,7 @@ def test_graph_lists_nodes_and_drops_killed_node(spawn, zenoh_session, zenoh_opt
 def test_duplicate_name_across_processes(spawn, zenoh_env) -> None:
     a = spawn.python("-c", PUBLISHER)
     a.wait_for_line("ready", timeout=20)
-    code = ("import sys\nfrom zentf.node import Node, NodeNameError\n"
+    code = ("import sys\nfrom zentf.transport.node import Node, NodeNameError\n"
             "try:\n    Node('pub')\nexcept NodeNameError as e:\n    print('refused:', e); sys.exit(3)\n")
     b = spawn.python("-c", code)
     assert b.wait(20) == 3
@@ -263,7 +263,7 @@ def test_duplicate_name_across_processes(spawn, zenoh_env) -> None:
 
 def test_params_and_sim_time_param_from_env(spawn, zenoh_env) -> None:
     env = dict(zenoh_env, ZENTF_PARAMS=json.dumps({"rate": 2.5}), ZENTF_NODE_NAME="renamed")
-    code = ("from zentf.node import Node\nn = Node('orig')\n"
+    code = ("from zentf.transport.node import Node\nn = Node('orig')\n"
             "print(n.get_fully_qualified_name(), n.declare_parameter('rate', 1.0).value,"
             " n.declare_parameter('other', 'd').value, n.get_clock().ros_time_is_active)\nn.shutdown()\n")
     p = spawn.python("-c", code, env=env)
@@ -272,7 +272,7 @@ def test_params_and_sim_time_param_from_env(spawn, zenoh_env) -> None:
 
 
 def test_router_bad_endpoint_one_line_error(spawn) -> None:
-    p = spawn.python("-m", "zentf.router", "--listen", "nonsense")
+    p = spawn.python("-m", "zentf.transport.router", "--listen", "nonsense")
     assert p.wait(20) == 2  # a usage error, like every zentf command
     assert "bad endpoint" in p.output() and "Traceback" not in p.output()
 

@@ -13,8 +13,8 @@ from cli_helpers import assert_one_line_error, zentf
 from zentf.core.messages import Clock
 from zentf.core.parameters import SetParametersResult
 from zentf.core.time import Time
-from zentf.node import Node
-from zentf.parameters import InvalidParameterTypeException, InvalidParameterValueException
+from zentf.transport.node import Node
+from zentf.transport.parameters import InvalidParameterTypeException, InvalidParameterValueException
 
 
 @pytest.fixture
@@ -93,7 +93,7 @@ def test_declared_types_locally(node_options):
 def test_use_sim_time_set_at_run_time_switches_the_node_clock(isolated_router, spawn, zenoh_env, node_options,
                                                               test_namespace):
     """frames_publisher stamps tf with its clock: wall time, then /clock once use_sim_time is set, then wall."""
-    from zentf.options import ZenohOptions
+    from zentf.transport.options import ZenohOptions
 
     env = {**zenoh_env, "ZENTF_CONNECT": isolated_router}  # /clock is absolute: keep it to this test
     spawn.python("-m", "nodes.frames_publisher", "-p", "rate:=20", env=env).wait_for_line("publishing", 30)

@@ -13,9 +13,9 @@ from cli_helpers import assert_one_line_error, zentf
 
 from zentf.core.messages import TurtlePose
 from zentf.core.services import Kill, SetBool, Spawn, TeleportAbsolute, Trigger
-from zentf.graph import list_services
-from zentf.node import Node
-from zentf.service import ServiceException, ServiceTimeoutError, ServiceUnavailableError
+from zentf.transport.graph import list_services
+from zentf.transport.node import Node
+from zentf.transport.service import ServiceException, ServiceTimeoutError, ServiceUnavailableError
 
 
 @pytest.fixture

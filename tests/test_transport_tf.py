@@ -8,18 +8,18 @@ import textwrap
 
 import pytest
 
-from zentf.buffer import Buffer
-from zentf.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
+from zentf.transport.buffer import Buffer
+from zentf.transport.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
 from zentf.core.exceptions import LookupException
-from zentf.listener import TransformListener
+from zentf.transport.listener import TransformListener
 from zentf.core.messages import Header, PointStamped, Point, Transform, TransformStamped, Vector3, Quaternion
-from zentf.node import Node
+from zentf.transport.node import Node
 from zentf.core.time import Time
 
 BROADCASTER = textwrap.dedent("""
     import math, sys, time
-    from zentf.node import Node, init_logging
-    from zentf.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
+    from zentf.transport.node import Node, init_logging
+    from zentf.transport.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
     from zentf.core.messages import TransformStamped, Header, Transform, Vector3, Quaternion
     from zentf.core.time import Time
     init_logging()
@@ -151,8 +151,8 @@ def test_compiled_send_transform_sends_what_the_python_path_sends(node_options, 
     """send_transform(one TransformStamped) runs compiled (tfwire.OneTransformSender) to Zenoh's put:
     a raw subscriber on the tf key gets the payload and attachment the Python path sends for the same
     transform given as a list; a subclass overriding send_transform keeps its override."""
-    from zentf.listener import wire_key
-    from zentf.tfwire import OneTransformSender
+    from zentf.transport.listener import wire_key
+    from zentf.transport.ingest.tfwire import OneTransformSender
 
     got: list[tuple[bytes, bytes]] = []
     arrived = threading.Condition()
@@ -193,7 +193,7 @@ def test_compiled_send_transform_sends_what_the_python_path_sends(node_options, 
 
 
 def wire_decode_tf(payload: bytes) -> list:
-    from zentf import wire
+    from zentf.transport.wire import codec as wire
     from zentf.core.messages import TFMessage
 
     return [t.to_dict() for t in wire.decode(payload, TFMessage).transforms]

@@ -1,4 +1,4 @@
-"""The compiled TFMessage decoders (zentf/tfwire.pyx) against the pure-Python paths they stand in front of.
+"""The compiled TFMessage decoders (zentf/transport/ingest/tfwire.pyx) against the pure-Python paths they stand in front of.
 
 Whatever the compiled decoder accepts must be exactly what the Python path reads (same tuples, same
 interned names); whatever it doubts goes to the Python path, so a malformed, truncated or lying payload
@@ -19,15 +19,17 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from zentf import profile, tfwire, wire
-from zentf.clock import Clock
+from zentf.transport.ingest import tfwire
+from zentf.transport.wire import codec as wire
+from zentf.transport.wire import profiles as profile
+from zentf.transport.clock import Clock
 from zentf.core.buffer_core import BufferCore
 from zentf.core.ratelimit import RateLimitedLogger
 from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
 from zentf.core.time import Time
-from zentf.listener import _FutureGuard
+from zentf.transport.listener import _FutureGuard
 from zentf.ros import CdrError, encode_tf as cdr_encode_tf, tf_samples
-from zentf.tfwire import TfIngest
+from zentf.transport.ingest.tfwire import TfIngest
 
 NS = 1_000_000_000
 MAX_SEC = (2**63 - 1) // NS
@@ -70,7 +72,7 @@ def python_only(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def test_the_compiled_decoders_are_built_and_used() -> None:
-    """pip install builds zentf/tfwire.pyx; the listener's paths pick it up (else these tests prove nothing)."""
+    """pip install builds zentf/transport/ingest/tfwire.pyx; the listener's paths pick it up (else these tests prove nothing)."""
     assert wire._compiled_tf is tfwire.msgpack_tf
     assert profile._compiled_cdr_tf is tfwire.cdr_tf
 
@@ -258,7 +260,7 @@ def test_payloads_that_are_not_bytes_take_the_python_path() -> None:
 def listener_ingest(wire_name: str, compiled: bool, clock: Clock, is_static: bool = False):
     """(ingest(payload, authority), buffer, guard) as a TransformListener builds them, without Zenoh."""
     buffer = BufferCore()
-    guard = _FutureGuard(buffer, clock, 5 * NS, RateLimitedLogger(logging.getLogger("zentf.listener")))
+    guard = _FutureGuard(buffer, clock, 5 * NS, RateLimitedLogger(logging.getLogger("zentf.transport.listener")))
     prof = profile.make_profile(wire_name)
     target = buffer if is_static else guard
     if compiled:
@@ -418,9 +420,9 @@ def test_the_guard_refuses_only_against_a_fresh_clock_read() -> None:
 def test_a_listener_forgets_its_clock_read_when_the_clock_jumps_back(node_options) -> None:
     """The listener's jump-back callback resets its compiled ingests: a stamp ahead of the new sim time is
     refused at once, not accepted against the read taken before the jump."""
-    from zentf.buffer import Buffer
-    from zentf.listener import TransformListener
-    from zentf.node import Node
+    from zentf.transport.buffer import Buffer
+    from zentf.transport.listener import TransformListener
+    from zentf.transport.node import Node
 
     with Node("jumper", options=node_options.with_(params={"use_sim_time": True})) as node:
         buf = Buffer(node=node)
@@ -442,9 +444,9 @@ def test_the_encoding_is_checked_when_the_payload_is_not_a_tfmessage(node_option
     Point labelled as a Point on tf gets the type check's one line (naming type and sender); a payload
     that is a TFMessage applies whatever its label."""
     from conftest import matched_tf_publisher
-    from zentf.buffer import Buffer
-    from zentf.listener import TransformListener
-    from zentf.node import Node
+    from zentf.transport.buffer import Buffer
+    from zentf.transport.listener import TransformListener
+    from zentf.transport.node import Node
 
     with Node("labels", options=node_options) as node, caplog.at_level(logging.WARNING, logger="zentf"):
         buf = Buffer(node=node)
@@ -466,7 +468,7 @@ def test_compiled_joint_state_encoder_writes_the_generic_bytes() -> None:
     every number is a float, the same decoded message when some are ints, and None (the generic path)
     for anything unusual; the cached name list is not reused after the names change."""
     from zentf.core.messages import Header as H, JointState
-    from zentf.tfwire import js_payload
+    from zentf.transport.ingest.tfwire import js_payload
 
     rng = random.Random(12)
     for i in range(2000):

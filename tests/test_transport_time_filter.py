@@ -7,14 +7,14 @@ import time
 
 import pytest
 
-from zentf.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
-from zentf.buffer import Buffer
-from zentf.clock import Clock, Rate
-from zentf.listener import TransformListener
-from zentf.message_filter import FilterFailureReason, MessageFilter
+from zentf.transport.broadcaster import StaticTransformBroadcaster, TransformBroadcaster
+from zentf.transport.buffer import Buffer
+from zentf.transport.clock import Clock, Rate
+from zentf.transport.listener import TransformListener
+from zentf.transport.message_filter import FilterFailureReason, MessageFilter
 from zentf.core.messages import Clock as ClockMsg
 from zentf.core.messages import Header, Point, PointStamped, Quaternion, Transform, TransformStamped, Vector3
-from zentf.node import Node
+from zentf.transport.node import Node
 from zentf.core.time import Time
 
 from test_transport_tf import BROADCASTER
@@ -64,7 +64,7 @@ def test_sim_time_drives_clock_and_timers(node_options, test_namespace) -> None:
 
 
 def test_real_clock_topic_with_isolated_router(isolated_router, test_namespace) -> None:
-    from zentf.options import NodeOptions, ZenohOptions
+    from zentf.transport.options import NodeOptions, ZenohOptions
 
     z = ZenohOptions(connect=[isolated_router], no_multicast=True, mode="client")
     with Node("sim", options=NodeOptions(namespace=test_namespace, params={"use_sim_time": True}, zenoh=z)) as node, \
@@ -95,7 +95,7 @@ def test_jump_back_clears_buffer_but_not_statics(node_options, test_namespace, c
         # lookups at the (sim) now of the node find data stamped in sim time
         assert buf.lookup_transform("a", "b", clock.now(), timeout=5).transform.translation.x == 2.0
         assert buf.can_transform("s", "t", Time(), timeout=5)
-        with caplog.at_level(logging.WARNING, logger="zentf.listener"):
+        with caplog.at_level(logging.WARNING, logger="zentf.transport.listener"):
             cpub.publish(ClockMsg(Time(sec=150)))        # bag loop: time goes back
             assert buf.wait_for(lambda: not buf.can_transform("a", "b", Time()), 5)
         assert any("Detected jump back in time" in r.getMessage() for r in caplog.records)

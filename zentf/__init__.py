@@ -19,17 +19,17 @@ __version__ = "0.1.0"
 # name -> module that defines it; filled in as layers land (core first, transport on top).
 _LAZY: dict[str, str] = {
     "BufferCore": "zentf.core.buffer_core",
-    "Buffer": "zentf.buffer",
-    "Node": "zentf.node",
-    "TransformListener": "zentf.listener",
-    "TransformBroadcaster": "zentf.broadcaster",
-    "StaticTransformBroadcaster": "zentf.broadcaster",
-    "MessageFilter": "zentf.message_filter",
-    "Clock": "zentf.clock",
-    "Rate": "zentf.clock",
-    "BufferServer": "zentf.buffer_server",
-    "BufferClient": "zentf.buffer_server",
-    "ServiceException": "zentf.service",
+    "Buffer": "zentf.transport.buffer",
+    "Node": "zentf.transport.node",
+    "TransformListener": "zentf.transport.listener",
+    "TransformBroadcaster": "zentf.transport.broadcaster",
+    "StaticTransformBroadcaster": "zentf.transport.broadcaster",
+    "MessageFilter": "zentf.transport.message_filter",
+    "Clock": "zentf.transport.clock",
+    "Rate": "zentf.transport.clock",
+    "BufferServer": "zentf.transport.buffer_server",
+    "BufferClient": "zentf.transport.buffer_server",
+    "ServiceException": "zentf.transport.service",
 }
 
 

@@ -102,7 +102,7 @@ def _stop_on_signals() -> Iterator[threading.Event]:
 
 
 def _resolve_keys(opts: CliOptions, topics: tuple[str, ...], all_topics: bool) -> tuple[list[str], str]:
-    from zentf.names import resolve_topic, topic_to_key
+    from zentf.transport.names import resolve_topic, topic_to_key
 
     ns = (node_options(opts, "_zentf_bag").namespace or "").strip("/")
     if all_topics:

@@ -37,8 +37,8 @@ def bridge_ros2(topics: tuple[str, ...], ros2_connect: tuple[str, ...], ros2_mod
     """Relay tf, tf_static, /clock and TOPICS both ways between this zentf graph (--connect, --namespace...)
     and a ROS 2 graph over rmw_zenoh (--ros2-connect, --domain), without echo loops; statics stay latched
     on both sides."""
-    from zentf.node import Node
-    from zentf.options import NodeOptions, OptionsError, ZenohOptions
+    from zentf.transport.node import Node
+    from zentf.transport.options import NodeOptions, OptionsError, ZenohOptions
     from zentf.tools.bridge import Ros2Bridge
 
     zopts = node_options(opts, "zentf_bridge")

@@ -13,6 +13,8 @@ _PASS_THROUGH = {"ignore_unknown_options": True, "allow_extra_args": True, "help
 @click.pass_context
 def router(ctx: click.Context) -> int:
     """Run a Zenoh router for multi-machine graphs (see 'zentf router --help')."""
-    from ..router import main
+    from ..transport.router import main
 
-    return main(list(ctx.args), prog="zentf router")
+    from .common import outer_argv
+
+    return main([*outer_argv(("zenoh",)), *ctx.args], prog="zentf router")

@@ -44,7 +44,7 @@ def node_list(show_all: bool, count_only: bool, wait: float, *, opts: CliOptions
 @with_options
 def node_info(name: str, wait: float, *, opts: CliOptions) -> None:
     """Publications and subscriptions of one node (NAME, or /NS/NAME)."""
-    from zentf.names import fully_qualified_node_name
+    from zentf.transport.names import fully_qualified_node_name
 
     from .introspect import graph_namespace, graph_snapshot
 

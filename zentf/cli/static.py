@@ -1,9 +1,7 @@
-"""`zentf static-transform-publisher`: the node program from nodes/, under the CLI."""
+"""`zentf static-transform-publisher`: the static_transform_publisher program (zentf.tools), under the CLI."""
 from __future__ import annotations
 
 import click
-
-from .common import CliError
 
 __all__ = ["static_transform_publisher"]
 
@@ -14,9 +12,9 @@ __all__ = ["static_transform_publisher"]
 @click.pass_context
 def static_transform_publisher(ctx: click.Context) -> int:
     """tf2_ros static_transform_publisher: flags or positional forms, plus the node options."""
-    try:
-        from nodes.static_transform_publisher import main as node_main
-    except ImportError as exc:
-        raise CliError(f"static-transform-publisher is not available: {exc}") from exc
-    rv = node_main(list(ctx.args))
+    from ..tools.static_transform_publisher import main as node_main
+
+    from .common import outer_argv
+
+    rv = node_main([*outer_argv(), *ctx.args])
     return rv if isinstance(rv, int) else 0

@@ -20,8 +20,8 @@ def tf() -> None:
 
 def _listen(opts: CliOptions, tool: str) -> tuple[Any, Any, Any]:
     """Node + Buffer + TransformListener (tf and tf_static of the namespace)."""
-    from zentf.buffer import Buffer
-    from zentf.listener import TransformListener
+    from zentf.transport.buffer import Buffer
+    from zentf.transport.listener import TransformListener
 
     from .common import open_node
 
@@ -61,10 +61,14 @@ def _close(node: Any, listener: Any = None) -> None:
               help="Exit 1 if no transform arrives within this many seconds (default: wait).")
 @click.option("--bag", "bag_file", type=click.Path(), default=None,
               help="Answer from this recording (any bag format zentf reads), no network: print once and exit.")
+@click.option("--start", "start", type=StampSeconds(), default=None,
+              help="With --bag: load only transforms stamped from this time (s) on (statics always).")
+@click.option("--end", "end", type=StampSeconds(), default=None,
+              help="With --bag: load only transforms stamped up to this time (s).")
 @with_options
 def echo(source: str, target: str, rate_arg: Optional[float], rate: float, precision: int,
          at_time: Optional[float], count: Optional[int], timeout: Optional[float], bag_file: Optional[str],
-         *, opts: CliOptions) -> None:
+         start: Optional[float], end: Optional[float], *, opts: CliOptions) -> None:
     """Print the pose of TARGET in SOURCE at a fixed rate, like tf2_echo.
 
     As in tf2_echo the first argument is the frame the result is expressed in
@@ -80,8 +84,10 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
         if not value.strip():  # tf2 refuses it on every lookup: say so once, not every second
             raise click.BadParameter("a frame id cannot be empty", param_hint=f"'{what}'")
     if bag_file is not None:
-        _echo_bag(bag_file, source, target, at_time, precision)
+        _echo_bag(bag_file, source, target, at_time, precision, start, end)
         return
+    if start is not None or end is not None:
+        raise click.BadParameter("only with --bag", param_hint="'--start'/'--end'")
     node, buffer, listener = _listen(opts, "tf_echo")
     try:
         when = Time() if at_time is None else Time.from_sec(at_time)
@@ -89,10 +95,8 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
 
         def show(ts: Any) -> None:
             tr, rot = ts.transform.translation, ts.transform.rotation
-            stamp = ts.header.stamp
-            stamp_ns = stamp.nanoseconds if hasattr(stamp, "nanoseconds") else int(stamp)
-            sys.stdout.write(format_echo(stamp_ns, (tr.x, tr.y, tr.z), (rot.x, rot.y, rot.z, rot.w), precision)
-                             + "\n")
+            xyzw = (rot.x, rot.y, rot.z, rot.w)
+            sys.stdout.write(format_echo(ts.header.stamp.nanoseconds, (tr.x, tr.y, tr.z), xyzw, precision) + "\n")
             sys.stdout.flush()
 
         # Phase 1: wait for the first transform (woken by every insert), saying why once a second.
@@ -140,16 +144,30 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
         _close(node, listener)
 
 
-def _echo_bag(path: str, source: str, target: str, at_time: Optional[float], precision: int) -> None:
-    """tf echo --bag: one lookup in the whole recording (latest common time unless --time)."""
+def _echo_bag(path: str, source: str, target: str, at_time: Optional[float], precision: int,
+              start: Optional[float] = None, end: Optional[float] = None) -> None:
+    """tf echo --bag: one lookup in the recording (latest common time unless --time). With --time alone
+    only the chunks around that time are read (the window widens until the lookup answers as the whole
+    recording would); --start/--end load that window."""
     from zentf.core.exceptions import TransformException
     from zentf.core.time import Time
-    from zentf.tools.bag import BagError, load_buffer
+    from zentf.tools.bag import BagError, load_buffer, load_buffer_at
 
-    from .format import format_echo
+    from .format import format_echo, printable
+
+    if start is not None and end is not None and end < start:
+        raise click.BadParameter(f"--end {end:g} is before --start {start:g}", param_hint="'--end'")
+
+    def warn(line: str) -> None:
+        sys.stderr.write(printable(f"zentf: warning: {line}") + "\n")
 
     try:
-        buffer = load_buffer(path, on_problem=lambda line: sys.stderr.write(f"zentf: warning: {line}\n"))
+        if at_time is not None and start is None and end is None:
+            buffer = load_buffer_at(path, Time.from_sec(at_time), (source, target), on_problem=warn)
+        else:
+            buffer = load_buffer(path, on_problem=warn,
+                                 start=None if start is None else Time.from_sec(start),
+                                 end=None if end is None else Time.from_sec(end))
     except BagError as exc:
         raise CliError(str(exc)) from exc
     try:
@@ -178,8 +196,13 @@ def _render(dot_path: Path, fmt: str, out_path: Path) -> Optional[str]:
     exe = shutil.which("dot")
     if exe is None:
         return "graphviz 'dot' not found; wrote the DOT file only (apt-get install graphviz)"
-    proc = subprocess.run([exe, f"-T{fmt}", str(dot_path), "-o", str(out_path)], capture_output=True,
-                          text=True, timeout=120)
+    try:  # absolute paths: a name starting with '-' is never read as an option
+        proc = subprocess.run([exe, f"-T{fmt}", str(dot_path.absolute()), f"-o{out_path.absolute()}"],
+                              capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL)
+    except subprocess.TimeoutExpired:
+        return f"dot took longer than 120 s to render {dot_path}; wrote the DOT file only"
+    except OSError as exc:
+        return f"cannot run dot: {exc.strerror or exc}"
     if proc.returncode != 0:
         first = (proc.stderr.strip().splitlines() or ["failed"])[0]
         return f"dot could not render {dot_path}: {first}"
@@ -212,15 +235,6 @@ def write_graph(dot_text: str, output: Optional[str], default_stem: str) -> tupl
     return dot_path, (None if problem else img_path), problem
 
 
-def _frame_stats(buffer: Any) -> list:
-    """view_frames' per-edge figures from the buffer (frame_info, else tf2's YAML report)."""
-    from .format import parse_frames_yaml, stats_from_frame_info
-
-    if hasattr(buffer, "frame_info"):
-        return stats_from_frame_info(buffer.frame_info())
-    return parse_frames_yaml(buffer.all_frames_as_yaml())
-
-
 @tf.command("frames", context_settings=CONTEXT_SETTINGS)
 @click.option("--output", "-o", default=None, metavar="NAME",
               help="Write NAME.gv and NAME.pdf (a .svg/.png suffix picks that format). Default: frames_<date>.")
@@ -234,7 +248,7 @@ def frames(output: Optional[str], wait: float, print_tree: bool, *, opts: CliOpt
     Every edge is labelled with its broadcaster, average rate, most recent and oldest transform
     and buffer length; disconnected trees are drawn as separate clusters.
     """
-    from .format import format_frame_tree, frames_dot
+    from .format import format_frame_tree, frames_dot, printable, stats_from_frame_info
 
     node, buffer, listener = _listen(opts, "view_frames")
     try:
@@ -243,8 +257,8 @@ def frames(output: Optional[str], wait: float, print_tree: bool, *, opts: CliOpt
             while (left := deadline - time.monotonic()) > 0 and node.ok():
                 st.update(f"Listening to tf for {wait:g} s ({left:.1f} s left)")
                 time.sleep(min(0.1, left))
-        stats = _frame_stats(buffer)
-        recorded = _now_sec(node)
+        stats = stats_from_frame_info(buffer.frame_info())  # view_frames' per-edge figures
+        recorded = node.get_clock().now().nanoseconds / 1e9
         interrupted = not node.ok()
     finally:
         _close(node, listener)
@@ -259,14 +273,7 @@ def frames(output: Optional[str], wait: float, print_tree: bool, *, opts: CliOpt
         print(format_frame_tree(stats))
     print(f"Wrote {dot_path}" + (f" and {img_path}" if img_path else ""))
     if problem:
-        sys.stderr.write(f"zentf: warning: {problem}\n")
-
-
-def _now_sec(node: Any) -> float:
-    try:
-        return node.get_clock().now().nanoseconds / 1e9
-    except Exception:  # noqa: BLE001
-        return time.time()
+        sys.stderr.write(f"zentf: warning: {printable(problem)}\n")
 
 
 def _tf_topics(opts: CliOptions) -> str:
@@ -480,7 +487,7 @@ def monitor(frame_a: Optional[str], frame_b: Optional[str], duration: Optional[f
     try:
         buffer = None
         if pair:
-            from zentf.buffer import Buffer
+            from zentf.transport.buffer import Buffer
 
             buffer = Buffer()
         stats = MonitorStats(buffer, window)

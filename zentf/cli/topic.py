@@ -22,7 +22,7 @@ def topic() -> None:
 
 def _resolve(opts: CliOptions, name: str) -> tuple[str, str]:
     """(fully qualified topic, key expression of any type on it) of a topic name in the command's namespace."""
-    from zentf.names import resolve_topic
+    from zentf.transport.names import resolve_topic
 
     ns = node_options(opts, "_zentf_cli").namespace or ""
     try:
@@ -84,7 +84,7 @@ def topic_info(name: str, wait: float, *, opts: CliOptions) -> None:
 def render_sample(payload: bytes, encoding: str, as_json: bool, key: str = "", profile: Any = None) -> str:
     """One received sample as YAML (ros2 topic echo style) or one JSON line; raw bytes if unknown.
     The wire ``profile`` (zentf's by default) decodes it: by the carried encoding, or (ros2) the key's type."""
-    from zentf.profile import WireProfile
+    from zentf.transport.wire.profiles import WireProfile
 
     data: Any
     try:
@@ -92,15 +92,19 @@ def render_sample(payload: bytes, encoding: str, as_json: bool, key: str = "", p
         data = value.to_dict() if hasattr(value, "to_dict") else value
     except ValueError:
         known = False
+    from .format import printable
+
     if not known:
         if as_json:
             return json.dumps({"encoding": str(encoding), "size": len(payload), "raw_hex": payload.hex()})
-        return f"# raw payload: {len(payload)} bytes, encoding {encoding}\n{payload!r}\n---"
-    if as_json:
+        return f"# raw payload: {len(payload)} bytes, encoding {printable(encoding)}\n{payload!r}\n---"
+    if as_json:  # (json.dumps escapes every control and non-ASCII character)
         return json.dumps(data, default=_json_default, separators=(",", ":"))
     import yaml
 
-    return yaml.safe_dump(data, sort_keys=False, default_flow_style=False, allow_unicode=True).rstrip() + "\n---"
+    # YAML keeps NEL, bidi overrides and other format characters raw under allow_unicode: each line escaped
+    text = yaml.safe_dump(data, sort_keys=False, default_flow_style=False, allow_unicode=True).rstrip()
+    return "\n".join(printable(line) for line in text.split("\n")) + "\n---"
 
 
 def _json_default(obj: Any) -> Any:
@@ -343,7 +347,7 @@ def _wait_for_subscriber(node: Any, topic: str, timeout: float) -> bool:
     """Block until some live node subscribes `topic` (liveliness), at most `timeout` s."""
     if timeout <= 0:
         return False
-    from zentf.graph import GraphWatcher
+    from zentf.transport.graph import GraphWatcher
 
     watcher = GraphWatcher(node.session, profile=node.wire)
     try:

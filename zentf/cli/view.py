@@ -53,7 +53,7 @@ def view(fixed_frame: str, web: bool, web_port: int, grpc_port: int, bind: str, 
     if not web and not save and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         raise CliError("no display for the native viewer: use --web (browser) or --save FILE.rrd", code=2)
 
-    from zentf.node import Node
+    from zentf.transport.node import Node
     from zentf.tools.view import Viewer
 
     nopts = node_options(opts, f"_zentf_view_{os.getpid()}")

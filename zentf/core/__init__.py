@@ -4,7 +4,7 @@ Mirrors tf2's own split: ``buffer_core`` (BufferCore, the walk) over ``cache`` (
 StaticCache, one object per frame), with ``time``, ``messages``, ``math3d``, ``exceptions``,
 ``constants`` below and ``geometry`` (do_transform_*, vectorized batches) beside. ``buffer_core``
 and ``cache`` are compiled (Cython, built on install). The transport
-(``zentf.node``, ``zentf.listener`` ...) builds on this package, never the other way.
+(``zentf.transport.node``, ``zentf.transport.listener`` ...) builds on this package, never the other way.
 """
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 # Declarations of BufferCore (buffer_core.pyx) for compiled callers: the listener's decoder
-# (zentf/tfwire.pyx) inserts decoded samples through ingest_*_c without building tuples.
+# (zentf/transport/ingest/tfwire.pyx) inserts decoded samples through ingest_*_c without building tuples.
 cimport cython
 from cpython.pythread cimport PyThread_type_lock
 from libc.stdint cimport int32_t, int64_t
@@ -30,7 +30,7 @@ cdef class BufferCore:
     cdef public list _names, _caches, _auths, _requests, _insert_callbacks
     cdef public int64_t _cache_ns
     cdef public int64_t _version
-    # waking waiters (zentf.buffer.Buffer): every successful insert bumps _generation in C; only while
+    # waking waiters (zentf.transport.buffer.Buffer): every successful insert bumps _generation in C; only while
     # _wake_wanted (waiters, pending async waits) is non-zero does it call the Python ``_wake()``
     cdef public int64_t _generation
     cdef public Py_ssize_t _wake_wanted

@@ -58,7 +58,7 @@ class ParameterValue(Message):
 @register
 @dataclass(slots=True)
 class ParameterMsg(Message):
-    """rcl_interfaces/msg/Parameter (named apart from zentf.node.Parameter, the node-side object)."""
+    """rcl_interfaces/msg/Parameter (named apart from zentf.transport.node.Parameter, the node-side object)."""
 
     TYPE_NAME: ClassVar[str] = "rcl_interfaces/msg/Parameter"
     name: str = ""

@@ -15,6 +15,10 @@ from typing import Any, Mapping, Sequence
 
 import yaml
 
+from ..core.text import parse_bool
+from ..transport.names import fully_qualified_node_name
+from ..transport.options import ParamsFileError, load_params_file
+from ..tools.programs import PROGRAMS, module_of
 from .errors import LaunchError
 from .substitution import SubstitutionContext, SubstitutionError, has_substitution, substitute
 from .yaml_tree import Y, load_yaml_file
@@ -24,7 +28,7 @@ __all__ = ["NodeSpec", "ClockSpec", "ArgSpec", "LaunchDescription", "load_launch
            "CLOCK_KEYS"]
 
 TOP_KEYS = ("description", "args", "env", "clock", "nodes", "groups", "include")
-NODE_KEYS = ("name", "module", "cmd", "arguments", "namespace", "parameters", "params_file", "remappings",
+NODE_KEYS = ("name", "run", "module", "cmd", "arguments", "namespace", "parameters", "params_file", "remappings",
              "env", "respawn", "respawn_delay", "respawn_max", "required", "output", "if", "unless")
 GROUP_KEYS = ("namespace", "env", "nodes", "groups", "include", "if", "unless")
 INCLUDE_KEYS = ("file", "args", "namespace", "if", "unless")
@@ -34,8 +38,6 @@ ARG_KEYS = ("default", "description")
 _SEGMENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 _MODULE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*\Z")
 _ENV_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
-_TRUE = {"true", "yes", "on", "1"}
-_FALSE = {"false", "no", "off", "0", ""}
 
 
 @dataclass
@@ -105,7 +107,10 @@ class LaunchDescription:
 # ---------------------------------------------------------------- finding files and args
 
 def package_configs_dir() -> Path:
-    return Path(__file__).resolve().parent.parent.parent / "configs"
+    """The shipped launch files and Zenoh configs: ``zentf/configs`` in a wheel, ``configs/`` in a checkout."""
+    package = Path(__file__).resolve().parent.parent
+    installed = package / "configs"
+    return installed if installed.is_dir() else package.parent / "configs"
 
 
 def resolve_launch_file(name: str, cwd: str | None = None) -> str:
@@ -318,11 +323,18 @@ class _Loader:
         self._check_keys(y, NODE_KEYS, "node")
         v = y.value
         active = self._condition(y, scope)
-        has_module, has_cmd = "module" in v, "cmd" in v
-        if has_module == has_cmd:
-            raise y.error("a node needs exactly one program: module: (in nodes/) or cmd: [...]")
+        has_run, has_module, has_cmd = "run" in v, "module" in v, "cmd" in v
+        if has_run + has_module + has_cmd != 1:
+            raise y.error("a node needs exactly one program: run: NAME (zentf run --list), module: or cmd: [...]")
         module: str | None = None
-        if has_module:
+        if has_run:
+            program = self._str(v["run"], scope, "run")
+            try:
+                module = module_of(program)
+            except KeyError as e:
+                raise v["run"].error(str(e.args[0])) from None
+            cmd = [sys.executable, "-m", module]
+        elif has_module:
             module = self._str(v["module"], scope, "module")
             if not _MODULE.match(module):
                 raise v["module"].error(f"bad module name {module!r}")
@@ -350,7 +362,7 @@ class _Loader:
             if not _SEGMENT.match(name):
                 raise v["name"].error(f"bad node name {name!r} (letters, digits, _; no '/')")
         else:
-            base = module.rsplit(".", 1)[-1] if module else os.path.basename(cmd[0])
+            base = (program if has_run else module.rsplit(".", 1)[-1] if module else os.path.basename(cmd[0]))
             name = re.sub(r"\W", "_", base) or "node"
         namespace = scope.namespace
         if "namespace" in v:
@@ -397,7 +409,7 @@ class _Loader:
             node.output = out
         if not active:
             return
-        self._check_program(node, v["module"] if has_module else v["cmd"])
+        self._check_program(node, v["run"] if has_run else v["module"] if has_module else v["cmd"])
         full = node.full_name
         if full in self.names:
             raise y.error(f"node name {full!r} is already used by the node at {self.names[full]}")
@@ -411,14 +423,11 @@ class _Loader:
                 spec = importlib.util.find_spec(module)
             except (ImportError, ValueError):
                 spec = None
-            if spec is None and "." not in module:
-                try:
-                    spec = importlib.util.find_spec(f"nodes.{module}")
-                except (ImportError, ValueError):
-                    spec = None
-                if spec is not None:
-                    node.module = module = f"nodes.{module}"
-                    node.cmd[2] = module
+            program = module.removeprefix("nodes.")
+            if spec is None and program in PROGRAMS:  # `module: turtlesim` or `nodes.turtlesim` outside a checkout
+                node.module = module = module_of(program)
+                node.cmd[2] = module
+                spec = importlib.util.find_spec(module)
             if spec is None:
                 raise y.error(f"no module named {module!r}")
             node.python_path = _import_root(module)
@@ -510,14 +519,10 @@ class _Loader:
             raise y.error(str(e)) from None
 
     def _bool(self, y: Y, scope: _Scope, what: str) -> bool:
-        val = self._scalar(y, scope)
-        if isinstance(val, bool):
-            return val
-        if isinstance(val, str) and val.strip().lower() in _TRUE | _FALSE:
-            return val.strip().lower() in _TRUE
-        if isinstance(val, int) and val in (0, 1):
-            return bool(val)
-        raise y.error(f"{what}: expected true or false, got {val!r}")
+        try:
+            return parse_bool(self._scalar(y, scope), what)
+        except ValueError as e:
+            raise y.error(str(e)) from None
 
     def _number(self, y: Y, scope: _Scope, what: str, minimum: float, strict: bool = False) -> float:
         val = self._scalar(y, scope)
@@ -613,23 +618,14 @@ def _arg_text(v: Any) -> str:
 
 
 def _read_params_file(path: str, node: NodeSpec, where: Y) -> dict[str, Any]:
-    """A params file: a plain mapping, or ROS 2 style `{node_or_/**: {ros__parameters: {...}}}`."""
+    """The parameters a params file gives this node (``zentf.transport.options.load_params_file``'s rules,
+    ROS 2's); a problem inside the file is reported at its own line, a missing file at the node's key."""
     if not os.path.isfile(path):
         raise where.error(f"params file not found: {path}")
-    root = load_yaml_file(path)
-    if root is None:
-        return {}
-    if not root.is_map:
-        raise root.error("a params file must be a mapping of name -> value")
-    data = root.plain_value()
-    if any(isinstance(v, dict) and "ros__parameters" in v for v in data.values()):
-        merged: dict[str, Any] = {}
-        for key in ("/**", node.name, "/" + node.name, node.full_name, "/" + node.full_name):
-            section = data.get(key)
-            if isinstance(section, dict) and isinstance(section.get("ros__parameters"), dict):
-                merged.update(section["ros__parameters"])
-        return merged
-    return data
+    try:
+        return load_params_file(path, fully_qualified_node_name(node.namespace, node.name))
+    except ParamsFileError as e:
+        raise LaunchError(e.what, display_path(e.file), e.line) from None
 
 
 def declared_args(file: str) -> tuple[str, list[ArgSpec]]:

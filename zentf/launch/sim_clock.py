@@ -74,8 +74,8 @@ class SimClockPublisher:
 
     def __init__(self, spec: ClockSpec, zenoh_options: Any) -> None:
         from zentf.core.messages import Clock as ClockMsg
-        from zentf.node import Node
-        from zentf.options import NodeOptions
+        from zentf.transport.node import Node
+        from zentf.transport.options import NodeOptions
 
         start_ns = time.time_ns() if spec.start is None else ns_from_sec(spec.start, "clock start")
         self.sim = SimTime(start_ns, spec.rate, spec.paused)

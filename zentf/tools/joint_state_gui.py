@@ -11,9 +11,10 @@ import json
 import logging
 import threading
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from .joint_state_publisher import JointStatePublisher
+if TYPE_CHECKING:  # the program (joint_state_publisher) imports this module
+    from .joint_state_publisher import JointStatePublisher
 
 __all__ = ["JointStateGui", "PAGE"]
 
@@ -24,7 +25,7 @@ _MAX_BODY = 64 * 1024
 class JointStateGui:
     """Serves the slider page for a JointStatePublisher until ``close()``."""
 
-    def __init__(self, jsp: JointStatePublisher, host: str = "127.0.0.1", port: int = 0) -> None:
+    def __init__(self, jsp: "JointStatePublisher", host: str = "127.0.0.1", port: int = 0) -> None:
         self.jsp = jsp
         gui = self
 

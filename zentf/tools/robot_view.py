@@ -17,7 +17,7 @@ from ..urdf import Box, Cylinder, Mesh, Robot, Sphere, URDFError, Visual, parse_
 
 __all__ = ["RobotModelDisplay", "DEFAULT_COLOR"]
 
-log = logging.getLogger("zentf.view.robot")
+log = logging.getLogger("zentf.tools.view.robot")
 
 #: RViz draws visuals without a material in this light grey.
 DEFAULT_COLOR = (0.8, 0.8, 0.8, 1.0)

@@ -19,8 +19,8 @@ def write_drones_demo(path: str | os.PathLike, duration: float = 10.0, *, tf_rat
     tf at ``tf_rate`` (av1, av2 in world, stamped t), ``visual_markers`` trails at ``marker_rate``
     (as plots_publisher draws them) and a latched tf_static ``world -> ground``; root namespace.
     """
-    from nodes.frames_publisher import av2_in_av1, drone_poses
-    from zentf import wire
+    from zentf.demos.frames_publisher import av2_in_av1, drone_poses
+    from zentf.transport.wire import codec as wire
     from zentf.core.messages import (ColorRGBA, Header, Marker, MarkerArray, Point, Quaternion, TFMessage, Transform,
                                 TransformStamped, Vector3)
     from zentf.core.time import Time

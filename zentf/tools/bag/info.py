@@ -31,7 +31,7 @@ def _size(p: Path) -> int:
 def _tf_frames(bag: Any) -> Any:
     """A function payload -> [(parent, child)] for this bag's TFMessages (empty on a bad one)."""
     if bag.ros is None:
-        from zentf.wire import unpack
+        from zentf.transport.wire.codec import unpack
 
         def zentf_pairs(payload: bytes) -> list[tuple[str, str]]:
             try:

@@ -69,7 +69,7 @@ class BagWriter(McapFileWriter):
         self.namespace = namespace.strip("/")
 
     def _register_channel(self, ck: tuple[str, str, str], latched: bool | None) -> int:
-        from zentf.wire import type_name_from_encoding
+        from zentf.transport.wire.codec import type_name_from_encoding
 
         key, encoding, sender = ck
         type_name = type_name_from_encoding(encoding) or ""

@@ -16,7 +16,7 @@ from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from ...entities import undeclare_all
+from ...transport.entities import undeclare_all
 from .native import BagMessage, BagWriter, rebase_key
 from .source import open_bag
 
@@ -50,7 +50,7 @@ class Recorder:
             att = sample.attachment
             sender = ""
             if att is not None:
-                from zentf.wire import authority_of
+                from zentf.transport.wire.codec import authority_of
 
                 sender = authority_of(att, "")
             self.writer.write(key, sample.payload.to_bytes(), str(sample.encoding), sender)
@@ -131,7 +131,7 @@ class Player:
     def _publish_clock(self, t_ns: int) -> None:
         import zenoh
 
-        from zentf import wire
+        from zentf.transport.wire import codec as wire
         from zentf.core.messages import Clock
 
         if self._clock_pub is None:

@@ -80,7 +80,7 @@ class Ros2Writer(WriterBase):
     def write(self, key: str, payload: bytes, encoding: str, sender: str = "", log_time: int | None = None,
               latched: bool | None = None) -> None:
         """One zentf message (msgpack payload of the type its encoding names), as CDR on /<key>."""
-        from zentf.wire import type_name_from_encoding, unpack
+        from zentf.transport.wire.codec import type_name_from_encoding, unpack
 
         from .native import is_latched_key
         from .plain import from_plain

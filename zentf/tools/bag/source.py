@@ -116,7 +116,7 @@ class Bag:
             for m in self.raw(topics):
                 yield m.conn
             return
-        from zentf.wire import pack
+        from zentf.transport.wire.codec import pack
 
         decoded: set[str] = set()  # topics with at least one decoded message
         bad = 0

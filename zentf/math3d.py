@@ -1,4 +1,0 @@
-"""Deprecated alias of zentf.core.math3d (moved in 0.2; removed in the next release)."""
-from zentf._moved import moved
-
-moved(__name__, "zentf.core.math3d")

@@ -1,0 +1,256 @@
+"""tf2_ros's BufferServer / BufferClient: one process keeps the tf buffer, others ask it for lookups.
+
+The answer to the field's usual complaint (every Python process deserializes all of ``tf``): a
+BufferClient has the Buffer API (``lookup_transform``, ``lookup_transform_full``, ``can_transform``,
+``transform``) and subscribes to nothing; each call is one Zenoh query to the server's queryable
+``<ns>/tf2_buffer_server`` (type ``tf2_msgs/action/LookupTransform``; tf2_ros runs it as an action,
+zentf as one request and one reply, with no feedback or cancel). The server answers at once from
+Zenoh's thread when it can; a lookup that must wait (``timeout`` > 0) waits on the buffer's insert
+events in a worker thread, never polling. Errors come back as tf2's exception classes with the
+server's text. A client whose server restarts simply reaches the new one.
+"""
+from __future__ import annotations
+
+import logging
+import threading
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+from .wire import codec as wire
+from ..core.buffer_core import _ns
+from ..core.exceptions import (ConnectivityException, ExtrapolationException, InvalidArgumentException,
+                              LookupException, TimeoutException, TransformException)
+from ..core.messages import TransformStamped
+from ..core.services import TF2Error, LookupTransform
+from ..core.time import Duration, Time, to_duration
+from .entities import undeclare_all
+from .names import topic_to_key
+
+__all__ = ["BufferServer", "BufferClient", "DEFAULT_NAME"]
+
+log = logging.getLogger("zentf.transport.buffer_server")
+
+#: tf2_ros's default name of the buffer server.
+DEFAULT_NAME = "tf2_buffer_server"
+
+_CODES: list[tuple[type[Exception], int]] = [
+    (LookupException, TF2Error.LOOKUP_ERROR), (ConnectivityException, TF2Error.CONNECTIVITY_ERROR),
+    (ExtrapolationException, TF2Error.EXTRAPOLATION_ERROR), (InvalidArgumentException, TF2Error.INVALID_ARGUMENT_ERROR),
+    (TimeoutException, TF2Error.TIMEOUT_ERROR), (TransformException, TF2Error.TRANSFORM_ERROR)]
+_EXCEPTIONS = {code: cls for cls, code in _CODES}
+_NO_ERROR = {"error": 0, "error_string": ""}
+_ZERO_TS = wire.tf_to_plain(TransformStamped())
+
+
+def _code(e: BaseException) -> int:
+    for cls, code in _CODES:
+        if isinstance(e, cls):
+            return code
+    return TF2Error.TRANSFORM_ERROR
+
+
+def _stamp_ns(d: Any, what: str) -> int:
+    if not isinstance(d, dict):
+        raise ValueError(f"{what} must be {{sec, nanosec}}")
+    sec, nsec = d.get("sec", 0), d.get("nanosec", 0)
+    if type(sec) is not int or type(nsec) is not int or sec < 0 or not 0 <= nsec < 1_000_000_000:
+        raise ValueError(f"bad {what} {d!r}"[:120])
+    return sec * 1_000_000_000 + nsec
+
+
+class BufferServer:
+    """Answers LookupTransform queries from ``buffer`` (a Buffer that a TransformListener fills).
+
+    ``max_waiting`` bounds the lookups waiting for data at once (each holds a worker thread); one more
+    is answered with a TIMEOUT_ERROR saying the server is busy.
+    """
+
+    def __init__(self, buffer: Any, node: Any, ns: str = DEFAULT_NAME, *, max_waiting: int = 64) -> None:
+        self.buffer = buffer
+        self.node = node
+        self.name = node.resolve_topic_name(ns)
+        self.key = topic_to_key(self.name)
+        self.requests = 0
+        self.errors = 0
+        self._resp_enc = wire.encoding_for(LookupTransform.Response.TYPE_NAME)
+        self._req_type = LookupTransform.Request.TYPE_NAME
+        self._max_waiting = max_waiting
+        self._waiting = 0
+        self._lock = threading.Lock()
+        self._pool = ThreadPoolExecutor(max_workers=max_waiting, thread_name_prefix="tf2-buffer-server")
+        self._closed = False
+        self._queryable = node.session.declare_queryable(self.key, self._on_query, complete=True)
+        self._token = node._declare_entity("srv", LookupTransform.TYPE_NAME, self.key)
+        node.add_on_shutdown(self.destroy)
+
+    def _on_query(self, query: Any) -> None:
+        """Zenoh thread: decode, answer now if possible, else hand the wait to a worker."""
+        self.requests += 1
+        try:
+            type_name = wire.type_name_from_encoding(query.encoding)
+            if type_name is not None and type_name != self._req_type:
+                raise ValueError(f"{self.name} is {LookupTransform.TYPE_NAME}: refused a {type_name} request")
+            d = wire.unpack(query.payload.to_bytes() if query.payload is not None else b"\x80")
+            if not isinstance(d, dict):
+                raise ValueError("request is not a LookupTransform goal")
+            target, source = d.get("target_frame", ""), d.get("source_frame", "")
+            fixed = d.get("fixed_frame", "")
+            if not all(type(x) is str for x in (target, source, fixed)):
+                raise ValueError("frame names must be strings")
+            args = (target, _stamp_ns(d.get("target_time", {}), "target_time"), source,
+                    _stamp_ns(d.get("source_time", {}), "source_time"), fixed, bool(d.get("advanced", False)))
+            timeout_ns = _stamp_ns(d.get("timeout", {}), "timeout")
+        except Exception as e:
+            self.errors += 1
+            self._reply(query, None, TF2Error.INVALID_ARGUMENT_ERROR, f"bad LookupTransform request: {e}")
+            return
+        try:
+            self._reply(query, self._lookup(*args, 0.0), 0, "")
+            return
+        except TransformException as e:
+            if timeout_ns <= 0:
+                self._reply(query, None, _code(e), str(e))
+                return
+        except Exception as e:  # the buffer refused the arguments (e.g. a type error)
+            self._reply(query, None, TF2Error.TRANSFORM_ERROR, f"{type(e).__name__}: {e}")
+            return
+        with self._lock:
+            busy = self._waiting >= self._max_waiting or self._closed
+            if not busy:
+                self._waiting += 1
+        if busy:
+            self._reply(query, None, TF2Error.TIMEOUT_ERROR,
+                        f"buffer server {self.name} is busy ({self._max_waiting} lookups waiting)")
+            return
+        self._pool.submit(self._wait_and_reply, query, args, timeout_ns / 1e9)
+
+    def _lookup(self, target: str, tt: int, source: str, st: int, fixed: str, advanced: bool,
+                timeout: float) -> TransformStamped:
+        if advanced:
+            return self.buffer.lookup_transform_full(target, Time(nanoseconds=tt), source, Time(nanoseconds=st),
+                                                     fixed, timeout)
+        return self.buffer.lookup_transform(target, source, Time(nanoseconds=st), timeout)
+
+    def _wait_and_reply(self, query: Any, args: tuple, timeout: float) -> None:
+        """Worker: the buffer's own event-driven wait (woken by each insert), then the answer."""
+        try:
+            self._reply(query, self._lookup(*args, timeout), 0, "")
+        except TransformException as e:
+            self._reply(query, None, _code(e), str(e))
+        except Exception as e:
+            self._reply(query, None, TF2Error.TRANSFORM_ERROR, f"{type(e).__name__}: {e}")
+        finally:
+            with self._lock:
+                self._waiting -= 1
+
+    def _reply(self, query: Any, ts: TransformStamped | None, code: int, text: str) -> None:
+        body = {"transform": wire.tf_to_plain(ts) if ts is not None else _ZERO_TS,
+                "error": _NO_ERROR if code == 0 else {"error": code, "error_string": text}}
+        try:
+            query.reply(query.key_expr, wire.pack(body), encoding=self._resp_enc)
+        except Exception as e:
+            log.debug("buffer server reply failed: %s", e)
+        finally:
+            try:
+                query.drop()
+            except Exception:
+                pass
+
+    def destroy(self) -> None:
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+        undeclare_all((self._queryable, self._token))
+        self._pool.shutdown(wait=False, cancel_futures=True)
+
+
+class BufferClient:
+    """The Buffer API answered by a BufferServer (tf2_ros.BufferClient); subscribes to nothing.
+
+    ``timeout_padding`` (seconds) is added to each lookup's timeout for the network round trip.
+    """
+
+    def __init__(self, node: Any, ns: str = DEFAULT_NAME, check_frequency: float | None = None,
+                 timeout_padding: float = 2.0) -> None:
+        from .service import Client
+
+        self.node = node
+        self.timeout_padding = float(timeout_padding)
+        self._client = Client(node, node.resolve_topic_name(ns), LookupTransform)
+        self.name = self._client.service_name
+
+    def wait_for_server(self, timeout: float | None = None) -> bool:
+        """True once a server is reachable (event-driven)."""
+        return self._client.wait_for_service(timeout)
+
+    def lookup_transform(self, target_frame: str, source_frame: str, time: Any,
+                         timeout: Any = 0.0) -> TransformStamped:
+        """target <- source at time; waits up to ``timeout`` on the server for the data."""
+        req = LookupTransform.Request(target_frame=target_frame, source_frame=source_frame,
+                                      source_time=Time(nanoseconds=_ns(time)), timeout=_duration(timeout))
+        return self._call(req)
+
+    def lookup_transform_full(self, target_frame: str, target_time: Any, source_frame: str, source_time: Any,
+                              fixed_frame: str, timeout: Any = 0.0) -> TransformStamped:
+        req = LookupTransform.Request(target_frame=target_frame, source_frame=source_frame,
+                                      source_time=Time(nanoseconds=_ns(source_time)), timeout=_duration(timeout),
+                                      target_time=Time(nanoseconds=_ns(target_time)), fixed_frame=fixed_frame,
+                                      advanced=True)
+        return self._call(req)
+
+    def can_transform(self, target_frame: str, source_frame: str, time: Any, timeout: Any = 0.0,
+                      return_debug_tuple: bool = False) -> Any:
+        try:
+            self.lookup_transform(target_frame, source_frame, time, timeout)
+            ok, msg = True, ""
+        except TransformException as e:
+            ok, msg = False, str(e)
+        return (ok, msg) if return_debug_tuple else ok
+
+    def can_transform_full(self, target_frame: str, target_time: Any, source_frame: str, source_time: Any,
+                           fixed_frame: str, timeout: Any = 0.0, return_debug_tuple: bool = False) -> Any:
+        try:
+            self.lookup_transform_full(target_frame, target_time, source_frame, source_time, fixed_frame, timeout)
+            ok, msg = True, ""
+        except TransformException as e:
+            ok, msg = False, str(e)
+        return (ok, msg) if return_debug_tuple else ok
+
+    def transform(self, object_stamped: Any, target_frame: str, timeout: Any = None, new_type: Any = None) -> Any:
+        """A stamped object expressed in target_frame (the math runs here, the lookup on the server)."""
+        from ..core import geometry
+
+        return geometry.transform(self, object_stamped, target_frame, new_type, timeout)
+
+    def transform_full(self, object_stamped: Any, target_frame: str, target_time: Any, fixed_frame: str,
+                       timeout: Any = None, new_type: Any = None) -> Any:
+        from ..core import geometry
+
+        return geometry.transform_full(self, object_stamped, target_frame, target_time, fixed_frame, new_type,
+                                       timeout)
+
+    def _call(self, req: Any) -> TransformStamped:
+        from .service import ServiceException
+
+        wait = req.timeout.nanoseconds / 1e9
+        if not self._client.service_is_ready() and not self._client.wait_for_service(max(wait, 0.0)):
+            raise TimeoutException(f"no buffer server at {self.name} (waited {wait:g} s)")
+        try:
+            resp = self._client.call(req, timeout=wait + self.timeout_padding)
+        except ServiceException as e:
+            raise TimeoutException(f"buffer server {self.name}: {e}") from None
+        err = resp.error
+        if err.error != TF2Error.NO_ERROR:
+            raise _EXCEPTIONS.get(err.error, TransformException)(err.error_string)
+        return resp.transform
+
+    def destroy(self) -> None:
+        self._client.destroy()
+
+
+def _duration(timeout: Any) -> Duration:
+    if timeout is None:
+        return Duration()
+    d = to_duration(timeout)
+    return d if d.nanoseconds > 0 else Duration()

@@ -1,0 +1,1 @@
+"""The compiled ingest path: TFMessage decoders, the listener's per-message insert and its thread."""

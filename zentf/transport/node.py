@@ -1,0 +1,723 @@
+"""Node: a named participant with a Zenoh session, publishers, subscriptions, timers and parameters.
+
+Callbacks (subscriptions and timers) run on the node's own executor thread, one at a time, so Zenoh's
+threads only copy bytes and return. Liveliness tokens announce the node and each of its topics
+(layout in docs/protocol.md and ``zentf.transport.graph``).
+"""
+from __future__ import annotations
+
+import functools
+import logging
+import queue
+import signal
+import threading
+import time as _time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from .wire import codec as wire
+from .clock import Clock, ClockType, Rate
+from ..core.messages import Clock as ClockMsg
+from ..core.messages import Message
+from .names import (fully_qualified_node_name, key_to_topic, normalize_namespace, resolve_topic,
+                    validate_node_name)
+from .options import NodeOptions
+from .wire.profiles import make_profile, zentf_entity_token, zentf_node_token
+from ..core.ratelimit import RateLimitedLogger
+from ..core.text import parse_bool, stderr_log_handler
+from ..core.time import Duration, to_duration
+from .entities import undeclare_all
+
+__all__ = ["Node", "Publisher", "Subscription", "Timer", "Parameter", "NodeNameError",
+           "ParameterNotDeclaredException", "spin", "init_logging",
+           "node_token_key", "entity_token_key", "LIVELINESS_PREFIX"]
+
+LIVELINESS_PREFIX = "@zentf"
+log = logging.getLogger("zentf.transport.node")
+
+
+class NodeNameError(ValueError):
+    """Another live node already has this name in this namespace."""
+
+
+class ParameterNotDeclaredException(KeyError):
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else "parameter not declared"
+
+
+def node_token_key(namespace: str, name: str) -> str:
+    """zentf's node token (the ``zentf`` wire profile)."""
+    return zentf_node_token(namespace, name)
+
+
+def entity_token_key(kind: str, namespace: str, name: str, type_name: str, key: str) -> str:
+    return zentf_entity_token(kind, namespace, name, type_name, key)
+
+
+#: ROS-like log lines: ``[WARNING] [zentf.transport.listener]: ...``
+LOG_FORMAT = "[%(levelname)s] [%(name)s]: %(message)s"
+
+
+def init_logging(level: int = logging.INFO) -> None:
+    """ROS-like one-line log records on stderr, names from outside escaped, unless the program configured
+    logging already."""
+    logging.basicConfig(level=level, handlers=[stderr_log_handler(LOG_FORMAT)])
+
+
+@dataclass
+class Parameter:
+    """A node parameter (rclpy-like: ``node.get_parameter('x').value``)."""
+
+    name: str
+    value: Any = None
+
+
+class Publisher:
+    """Publishes messages of one type on one topic; ``publish`` also takes a plain dict."""
+
+    def __init__(self, node: "Node", topic: str, msg_type: type[Message], *, latched: bool = False,
+                 history: int = 1, depth: int = 10) -> None:
+        import zenoh
+        import zenoh.ext as zx
+
+        self.node = node
+        self.topic_name = topic
+        self.msg_type = msg_type
+        profile = node.wire
+        self.key = profile.data_key(topic, msg_type.TYPE_NAME)
+        self.latched = latched
+        self._encode = profile.encode
+        enc = profile.encoding(msg_type.TYPE_NAME)
+        if latched:
+            extra = {}
+            if profile.name == "ros2":  # as rmw_zenoh's RELIABLE + TRANSIENT_LOCAL publishers
+                extra["sample_miss_detection"] = zx.MissDetectionConfig(sporadic_heartbeat=0.5)
+            self._pub = zx.declare_advanced_publisher(
+                node.session, self.key, encoding=enc, cache=zx.CacheConfig(max_samples=max(1, history)),
+                publisher_detection=True, **extra)
+        else:
+            self._pub = node.session.declare_publisher(self.key, encoding=enc,
+                                                       congestion_control=zenoh.CongestionControl.BLOCK)
+        self._token, token_key = node._declare_entity("pub", msg_type.TYPE_NAME, self.key, topic=topic,
+                                                      depth=max(1, history) if latched else depth,
+                                                      latched=latched, with_key=True)
+        self._attach = profile.attacher(node, token_key)
+        #: the attachment as Zenoh bytes, made once, when it is the same on every sample (zentf's wire:
+        #: the node name); None when the wire makes one per sample (ROS 2: sequence number, time)
+        self._const_attachment = None if self._attach.constant is None else zenoh.ZBytes(self._attach.constant)
+        if self._const_attachment is not None and type(self).publish_bytes is _publish_bytes:
+            # publish_bytes is Zenoh's put with it bound: no Python frame per message (a subclass's
+            # override is kept)
+            self.publish_bytes = functools.partial(  # type: ignore[method-assign]
+                self._pub.put, attachment=self._const_attachment)
+
+    def wait_for_subscribers(self, timeout: float = 5.0) -> bool:
+        """Block until at least one subscriber matches (event-driven); True at once for latched topics."""
+        if self.latched:
+            return True
+        if self._pub.matching_status.matching:
+            return True
+        ev = threading.Event()
+        listener = self._pub.declare_matching_listener(lambda st: st.matching and ev.set())
+        try:
+            return self._pub.matching_status.matching or ev.wait(timeout)
+        finally:
+            try:
+                listener.undeclare()
+            except Exception:
+                pass
+
+    def publish(self, msg: Message | dict) -> None:
+        if isinstance(msg, Message) and not isinstance(msg, self.msg_type):
+            raise TypeError(f"publisher on {self.topic_name} takes {self.msg_type.__name__}, "
+                            f"got {type(msg).__name__}")
+        self.publish_bytes(self._encode(msg, self.msg_type.TYPE_NAME))
+
+    def publish_bytes(self, payload: bytes) -> None:
+        """Send an already encoded payload (e.g. from ``node.wire.encode_tf``)."""
+        self._pub.put(payload, attachment=self._attach())
+
+    def destroy(self) -> None:
+        undeclare_all((self._pub, self._token))
+        self.node._publishers.discard(self)
+
+    def get_subscription_count(self) -> int:
+        return 0  # Zenoh does not expose counts; kept for rclpy familiarity
+
+
+_publish_bytes = Publisher.publish_bytes
+
+
+class Subscription:
+    """Receives one topic; decoding and the callback run on the node's executor thread."""
+
+    def __init__(self, node: "Node", topic: str, msg_type: type[Message] | None,
+                 callback: Callable[[Any], None], *, depth: int = 100, latched: bool = False) -> None:
+        import zenoh.ext as zx
+
+        self.node = node
+        self.topic_name = topic
+        self.msg_type = msg_type
+        self.callback = callback
+        self.key = node.wire.data_key(topic, msg_type.TYPE_NAME if msg_type is not None else None)
+        self.received = 0
+        self.errors = 0
+        self.overflows = 0
+        self._queue: deque = deque(maxlen=depth if depth > 0 else None)
+        self._scheduled = False
+        self._lock = threading.Lock()
+        if latched:
+            self._sub = zx.declare_advanced_subscriber(
+                node.session, self.key, self._on_sample,
+                history=zx.HistoryConfig(detect_late_publishers=True))
+        else:
+            self._sub = node.session.declare_subscriber(self.key, self._on_sample)
+        type_name = msg_type.TYPE_NAME if msg_type is not None else ""  # '%' on the wire = any type
+        self._token = node._declare_entity("sub", type_name, self.key, topic=topic, depth=depth, latched=latched)
+
+    def _on_sample(self, sample: Any) -> None:  # Zenoh thread: copy and hand over
+        try:
+            item = (sample.payload.to_bytes(), str(sample.encoding), sample.attachment, str(sample.key_expr))
+        except Exception:
+            return
+        with self._lock:
+            if self._queue.maxlen is not None and len(self._queue) == self._queue.maxlen:
+                self.overflows += 1
+            self._queue.append(item)
+            if self._scheduled:
+                return
+            self._scheduled = True
+        self.node._post(self._drain)
+
+    def _drain(self) -> None:
+        while True:
+            with self._lock:
+                if not self._queue:
+                    self._scheduled = False
+                    return
+                payload, enc, att, key = self._queue.popleft()
+            self.received += 1
+            try:
+                msg = self.node.wire.decode(payload, enc, key, self.msg_type)
+            except ValueError as e:
+                self.errors += 1
+                sender = self.node.wire.authority(att, "unknown sender")
+                self.node._bad_input.log(logging.WARNING, ("bad", key, sender),
+                                         "dropped bad message on '%s' from %s: %s", key, sender, e)
+                continue
+            self.callback(msg)
+
+    def destroy(self) -> None:
+        undeclare_all((self._sub, self._token))
+        self.node._subscriptions.discard(self)
+
+
+class Timer:
+    """Calls ``callback()`` every ``period`` of the node's clock (sim time when active)."""
+
+    def __init__(self, node: "Node", period: Duration, callback: Callable[[], None]) -> None:
+        if period.nanoseconds <= 0:
+            raise ValueError(f"timer period must be > 0, got {period}")
+        self.node = node
+        self.timer_period_ns = period.nanoseconds
+        self.callback = callback
+        self._canceled = False
+        self._next = node._timer_now() + self.timer_period_ns
+
+    def cancel(self) -> None:
+        self._canceled = True
+
+    def is_canceled(self) -> bool:
+        return self._canceled
+
+    def reset(self) -> None:
+        self._canceled = False
+        self._next = self.node._timer_now() + self.timer_period_ns
+        self.node._post(None)
+
+    def destroy(self) -> None:
+        self.cancel()
+        self.node._timers.discard(self)
+
+
+class _NoToken:
+    """Stands for a token a profile does not declare (e.g. a ROS 2 subscriber of any type)."""
+
+    def undeclare(self) -> None:
+        return None
+
+
+_STOP = object()
+
+# Signal handling: like rclpy.init(), the first node created in the main thread owns SIGINT/SIGTERM.
+# The first signal shuts every node down (spin() returns, ok() turns False, exit code stays 0); a
+# second SIGINT interrupts for real. The previous handlers come back when the last node shuts down.
+_live_nodes: "set[Node]" = set()
+_saved_handlers: dict[int, Any] = {}
+_signal_count = 0
+_signals_lock = threading.Lock()
+
+
+def _on_signal(signum: int, frame: Any) -> None:
+    global _signal_count
+    _signal_count += 1
+    if _signal_count > 1 and signum == signal.SIGINT:
+        raise KeyboardInterrupt
+    for node in list(_live_nodes):
+        node.request_shutdown()
+
+
+def _shutdown_all_nodes() -> None:
+    """At interpreter exit (before non-daemon threads are joined): close what programs left open,
+    otherwise Zenoh's callback threads would keep the process alive."""
+    for node in list(_live_nodes):
+        try:
+            node.shutdown()
+        except Exception:
+            pass
+
+
+try:  # runs before threading joins non-daemon threads, unlike atexit
+    threading._register_atexit(_shutdown_all_nodes)  # type: ignore[attr-defined]
+except Exception:  # pragma: no cover - other interpreters
+    import atexit
+
+    atexit.register(_shutdown_all_nodes)
+
+
+def _register_node(node: "Node") -> None:
+    global _signal_count
+    with _signals_lock:
+        _live_nodes.add(node)
+        if _saved_handlers or threading.current_thread() is not threading.main_thread():
+            return
+        _signal_count = 0
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            try:
+                _saved_handlers[sig] = signal.signal(sig, _on_signal)
+            except (ValueError, OSError):
+                pass
+
+
+def _unregister_node(node: "Node") -> None:
+    with _signals_lock:
+        _live_nodes.discard(node)
+        if _live_nodes or not _saved_handlers or threading.current_thread() is not threading.main_thread():
+            return
+        for sig, old in _saved_handlers.items():
+            try:
+                signal.signal(sig, old)
+            except (ValueError, OSError, TypeError):
+                pass
+        _saved_handlers.clear()
+
+
+class Node:
+    """A zentf node (rclpy.node.Node-like). Flags/env (``options``) override constructor arguments."""
+
+    def __init__(self, name: str | None = None, namespace: str | None = None,
+                 params: dict[str, Any] | None = None, *, options: NodeOptions | None = None,
+                 session: Any = None, check_unique: bool = True,
+                 start_parameter_services: bool | None = None) -> None:
+        opts = options if options is not None else NodeOptions.from_env()
+        self.options = opts
+        self._name = validate_node_name(opts.name or name or "")
+        self._namespace = normalize_namespace(opts.namespace if opts.namespace is not None else namespace)
+        self._fq_name = fully_qualified_node_name(self._namespace, self._name)
+        self._remappings = dict(opts.remappings)
+        self._overrides: dict[str, Any] = dict(params or {})
+        self._overrides.update(opts.resolved_params(self._name, self._namespace))
+        self._params: dict[str, Parameter] = {}
+        self._param_types: dict[str, int] = {}  # rcl_interfaces ParameterType, fixed at declaration
+        self._param_callbacks: list[Callable[[list[Parameter]], Any]] = []
+        self._logger = logging.getLogger(f"zentf.transport.node.{self._fq_name.strip('/').replace('/', '.')}")
+        #: one line per (problem, key, sender) and period for bad input from the network, names escaped
+        self._bad_input = RateLimitedLogger(self._logger)
+        self._publishers: set[Publisher] = set()
+        self._subscriptions: set[Subscription] = set()
+        self._timers: set[Timer] = set()
+        self._tokens: list[Any] = []
+        self._on_shutdown: list[Callable[[], None]] = []
+        self._queue: queue.SimpleQueue = queue.SimpleQueue()
+        self._shutdown = threading.Event()
+        self._closed = False
+        self._lock = threading.Lock()
+        #: the wire profile (zentf.transport.wire.profiles): keys, payloads, attachments and graph tokens of this node
+        self.wire = make_profile(opts.wire, opts.domain_id)
+        self._ros2_id: int | None = None
+        self._owns_session = session is None
+        self.session = session if session is not None else self.wire.session_defaults(opts.zenoh).open_session()
+        try:
+            if check_unique and self.wire.name == "zentf":  # ROS 2 allows (and warns about) duplicates
+                self._check_unique()
+            # SIGINT/SIGTERM are this node's before anything can see it: a Ctrl-C as soon as it shows up
+            # in the graph stops it cleanly instead of interrupting the rest of this constructor
+            _register_node(self)
+            self._tokens.append(self.session.liveliness().declare_token(self.wire.node_token(self)))
+            use_sim = parse_bool(self.declare_parameter("use_sim_time", False).value, "parameter use_sim_time")
+            self._params["use_sim_time"].value = use_sim
+            self._clock = Clock(ClockType.ROS_TIME if use_sim else ClockType.SYSTEM_TIME, sim=use_sim)
+            self._clock_sub = None
+            self._clock_token = None
+            self._clock_jump = None
+            if use_sim:
+                self._start_sim_clock()
+            if not self._name.startswith("_") if start_parameter_services is None else start_parameter_services:
+                from .parameters import ParameterService  # ~/get_parameters, ~/set_parameters, ...
+
+                ParameterService(self)  # hidden (tool) nodes skip them unless asked
+            self._executor = threading.Thread(target=self._run_executor, name=f"zentf-exec{self._fq_name}",
+                                              daemon=True)
+            self._executor.start()
+        except BaseException:
+            _unregister_node(self)
+            self._close_session()
+            raise
+
+    # ---- identity
+    def get_name(self) -> str:
+        return self._name
+
+    def get_namespace(self) -> str:
+        return "/" + self._namespace
+
+    def get_fully_qualified_name(self) -> str:
+        return self._fq_name
+
+    def get_logger(self) -> logging.Logger:
+        return self._logger
+
+    def get_clock(self) -> Clock:
+        return self._clock
+
+    def resolve_topic_name(self, topic: str) -> str:
+        return resolve_topic(topic, self._namespace, self._name, self._remappings)
+
+    def _check_unique(self) -> None:
+        key = node_token_key(self._namespace, self._name)
+        # A fresh peer session learns the network's declarations a few ms after open returns, so an
+        # empty answer is asked again shortly (peer mode only; clients get them before open returns).
+        delays = (0.0,) if self.options.zenoh.mode in ("client", "router") else (0.0, 0.02, 0.08)
+        for delay in delays:
+            _time.sleep(delay)
+            try:
+                replies = self.session.liveliness().get(key, timeout=2.0)
+                if any(reply.ok is not None for reply in replies):
+                    raise NodeNameError(f"a node named {self._fq_name} is already running; "
+                                        "choose another --name or --namespace")
+            except NodeNameError:
+                raise
+            except Exception as e:  # a failed query must not stop the node
+                log.debug("liveliness query for %s failed: %s", key, e)
+                return
+
+    def _declare_entity(self, kind: str, type_name: str, key: str, *, topic: str | None = None, depth: int = 10,
+                        latched: bool = False, with_key: bool = False) -> Any:
+        """Announce a publisher ('pub') or subscriber ('sub') of ``key`` in the graph (the profile's
+        token layout); with_key: (token, token key)."""
+        token_key = self.wire.entity_token(self, kind, topic or key_to_topic(key), type_name, key,
+                                           depth=depth, latched=latched)
+        token = self.session.liveliness().declare_token(token_key) if token_key else _NoToken()
+        return (token, token_key) if with_key else token
+
+    # ---- pub/sub
+    def create_publisher(self, topic: str | type[Message], msg_type: type[Message] | str,
+                         qos: int = 10, *, latched: bool = False) -> Publisher:
+        """``create_publisher('tf', TFMessage)``; rclpy order ``(TFMessage, 'tf')`` works too.
+        ``qos`` is the history depth (a latched topic keeps that many samples for late joiners)."""
+        if isinstance(topic, type):
+            topic, msg_type = msg_type, topic  # type: ignore[assignment]
+        self._check_open()
+        pub = Publisher(self, self.resolve_topic_name(topic), msg_type, latched=latched,  # type: ignore[arg-type]
+                        history=qos if latched and self.wire.name == "ros2" else 1, depth=qos)
+        self._publishers.add(pub)
+        return pub
+
+    def create_subscription(self, topic: str | type[Message], msg_type: type[Message] | str | None,
+                            callback: Callable[[Any], None], qos: int = 100, *,
+                            latched: bool = False) -> Subscription:
+        """Callback gets decoded messages; with msg_type None, any type, decoded by the type name the
+        sample carries (plain data for unknown types). Bad ones are counted, logged and dropped."""
+        if isinstance(topic, type):
+            topic, msg_type = msg_type, topic  # type: ignore[assignment]
+        self._check_open()
+        sub = Subscription(self, self.resolve_topic_name(topic), msg_type, callback,  # type: ignore[arg-type]
+                           depth=qos, latched=latched)
+        self._subscriptions.add(sub)
+        return sub
+
+    # ---- services (zentf.transport.service)
+    def create_service(self, name: Any, srv_type: Any, callback: Callable[..., Any], qos: int = 10) -> Any:
+        """A service server: ``create_service('spawn', Spawn, handler)``; rclpy's order works too.
+        ``qos`` is the history depth ROS 2 tokens show (--wire ros2)."""
+        from .service import Service
+
+        if isinstance(name, type):
+            name, srv_type = srv_type, name
+        self._check_open()
+        return Service(self, self.resolve_topic_name(name), srv_type, callback, depth=qos)
+
+    def create_client(self, name: Any, srv_type: Any, qos: int = 10) -> Any:
+        """A service client: ``create_client('spawn', Spawn)``; rclpy's order works too."""
+        from .service import Client
+
+        if isinstance(name, type):
+            name, srv_type = srv_type, name
+        self._check_open()
+        return Client(self, self.resolve_topic_name(name), srv_type, depth=qos)
+
+    def destroy_publisher(self, pub: Publisher) -> None:
+        pub.destroy()
+
+    def destroy_subscription(self, sub: Subscription) -> None:
+        sub.destroy()
+
+    # ---- timers and time
+    def create_timer(self, period: Duration | float, callback: Callable[[], None]) -> Timer:
+        self._check_open()
+        t = Timer(self, to_duration(period), callback)
+        self._timers.add(t)
+        self._post(None)
+        return t
+
+    def destroy_timer(self, timer: Timer) -> None:
+        timer.destroy()
+
+    def create_rate(self, frequency: float) -> Rate:
+        return Rate(frequency, self._clock)
+
+    def _timer_now(self) -> int:
+        clock = getattr(self, "_clock", None)
+        if clock is not None and clock.ros_time_is_active:
+            return clock.now_ns()
+        return _time.monotonic_ns()
+
+    def _start_sim_clock(self) -> None:
+        topic = self.resolve_topic_name("/clock")
+        key = self.wire.data_key(topic, ClockMsg.TYPE_NAME)
+        clock = self._clock
+        profile = self.wire
+
+        def on_clock(sample: Any) -> None:  # Zenoh thread: tiny and never raises
+            try:
+                if profile.name == "zentf":
+                    d = wire.unpack(sample.payload.to_bytes())
+                    st = d["clock"]
+                    sec, nsec = st["sec"], st["nanosec"]
+                else:
+                    st = profile.decode(sample.payload.to_bytes(), "", str(sample.key_expr), ClockMsg).clock
+                    sec, nsec = st.sec, st.nanosec
+                if type(sec) is not int or type(nsec) is not int or sec < 0 or not 0 <= nsec < 1_000_000_000:
+                    raise ValueError(f"bad clock value {st!r}"[:100])
+            except Exception as e:
+                sender = profile.authority(sample.attachment, "unknown sender")
+                self._bad_input.log(logging.WARNING, ("bad", str(sample.key_expr), sender),
+                                    "dropped bad /clock message on '%s' from %s: %s", sample.key_expr, sender, e)
+                return
+            clock.set_sim_time(sec * 1_000_000_000 + nsec)
+            self._post(None)
+
+        def on_jump(old: Any, new: Any) -> None:
+            for t in list(self._timers):
+                t._next = new.nanoseconds + t.timer_period_ns
+
+        if self._clock_jump is None:
+            self._clock_jump = clock.add_jump_callback(on_jump)
+        self._clock_sub = self.session.declare_subscriber(key, on_clock)
+        self._clock_token = self._declare_entity("sub", ClockMsg.TYPE_NAME, key, topic=topic)
+
+    def _set_use_sim_time(self, active: bool) -> None:
+        """``use_sim_time`` changed at run time: follow /clock (time 0 until the first) or the wall clock."""
+        if active == self._clock.ros_time_is_active:
+            return
+        if active and self._clock_sub is None:
+            self._start_sim_clock()
+        elif not active:
+            undeclare_all((self._clock_sub, self._clock_token))
+            self._clock_sub = self._clock_token = None
+        self._clock._set_ros_time_is_active(active)  # jump callbacks run: listeners clear their buffers
+        now = self._timer_now()
+        for t in list(self._timers):
+            t._next = now + t.timer_period_ns
+        self._post(None)
+
+    # ---- parameters
+    def declare_parameter(self, name: str, default: Any = None) -> Parameter:
+        """Declare with a default (an override from flags/launch wins); the default's type is the
+        parameter's type from now on (None: any type)."""
+        from .parameters import declared_type
+
+        self._param_types[name], value = declared_type(default, self._overrides.get(name, default))
+        p = Parameter(name, value)
+        self._params[name] = p
+        return p
+
+    def declare_parameters(self, namespace: str, parameters: list[tuple[str, Any]]) -> list[Parameter]:
+        prefix = f"{namespace}." if namespace else ""
+        return [self.declare_parameter(prefix + n, v) for n, v in parameters]
+
+    def has_parameter(self, name: str) -> bool:
+        return name in self._params
+
+    def get_parameter(self, name: str) -> Parameter:
+        p = self._params.get(name)
+        if p is None:
+            if name in self._overrides:
+                return Parameter(name, self._overrides[name])
+            raise ParameterNotDeclaredException(f"parameter {name!r} is not declared on {self._fq_name}")
+        return p
+
+    def get_parameter_value(self, name: str, default: Any = None) -> Any:
+        try:
+            return self.get_parameter(name).value
+        except ParameterNotDeclaredException:
+            return default
+
+    def set_parameter(self, name: str, value: Any) -> None:
+        """Set one parameter: a declared one through its type check and the on-set callbacks
+        (InvalidParameterTypeException / InvalidParameterValueException); an undeclared one is created."""
+        from .parameters import raise_for
+
+        if name not in self._params:
+            self._params[name] = Parameter(name, value)
+            return
+        raise_for(name, value, self.set_parameters([Parameter(name, value)])[0])
+
+    def set_parameters(self, parameters: list[Parameter]) -> list[Any]:
+        """rclpy's set_parameters: one SetParametersResult per parameter (each applied on its own)."""
+        from .parameters import set_one
+
+        return [set_one(self, p.name, p.value) for p in parameters]
+
+    def add_on_set_parameters_callback(self, callback: Callable[[list[Parameter]], Any]) -> None:
+        """``callback(params) -> SetParametersResult`` (or bool) runs before a set; False rejects it."""
+        self._param_callbacks.append(callback)
+
+    def remove_on_set_parameters_callback(self, callback: Callable[[list[Parameter]], Any]) -> None:
+        self._param_callbacks.remove(callback)
+
+    def get_parameters_dict(self) -> dict[str, Any]:
+        return {n: p.value for n, p in self._params.items()}
+
+    # ---- executor
+    def _post(self, fn: Callable[[], None] | None) -> None:
+        self._queue.put(fn)
+
+    def _run_executor(self) -> None:
+        q = self._queue
+        while True:
+            timeout = self._due_timers()
+            try:
+                item = q.get(timeout=timeout)
+            except queue.Empty:
+                continue
+            if item is _STOP:
+                return
+            if item is not None:
+                try:
+                    item()
+                except Exception:
+                    self._logger.exception("callback raised")
+
+    def _due_timers(self) -> float | None:
+        """Run due timers; return seconds to the next one (None: wait for an event)."""
+        if not self._timers:
+            return None
+        sim = self._clock.ros_time_is_active
+        while True:
+            now = self._timer_now()
+            live = [t for t in self._timers if not t._canceled]
+            if not live:
+                return None
+            t = min(live, key=lambda x: x._next)
+            if t._next > now:
+                return None if sim else (t._next - now) / 1e9
+            t._next += t.timer_period_ns
+            if t._next <= now:
+                t._next = now + t.timer_period_ns
+            try:
+                t.callback()
+            except Exception:
+                self._logger.exception("timer callback raised")
+            if self._shutdown.is_set():
+                return None
+
+    # ---- life cycle
+    def _check_open(self) -> None:
+        if self._closed:
+            raise RuntimeError(f"node {self._fq_name} is shut down")
+
+    def ok(self) -> bool:
+        return not self._shutdown.is_set()
+
+    def request_shutdown(self) -> None:
+        """Make spin() return and ok() False (safe from signal handlers and other threads)."""
+        self._shutdown.set()
+        clock = self.__dict__.get("_clock")  # None while the constructor has not made it yet
+        if clock is not None:
+            clock.wake()
+
+    def spin(self, timeout_sec: float | None = None) -> None:
+        """Block until shutdown, SIGINT or SIGTERM (then shut down cleanly) or ``timeout_sec``."""
+        deadline = None if timeout_sec is None else _time.monotonic() + timeout_sec
+        while not self._shutdown.is_set():
+            left = 0.5 if deadline is None else min(0.5, deadline - _time.monotonic())
+            if left <= 0:
+                return
+            self._shutdown.wait(left)
+        self.shutdown()
+
+    def shutdown(self) -> None:
+        """Undeclare everything and close the session; safe to call twice."""
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+        self._shutdown.set()
+        _unregister_node(self)
+        self._clock.wake()
+        self._queue.put(_STOP)
+        if threading.current_thread() is not self._executor:
+            self._executor.join(timeout=2.0)
+        for cb in reversed(self._on_shutdown):
+            try:
+                cb()
+            except Exception:
+                log.debug("on-shutdown callback failed", exc_info=True)
+        self._on_shutdown.clear()
+        for obj in [*self._subscriptions, *self._publishers]:
+            obj.destroy()
+        self._timers.clear()
+        undeclare_all((self._clock_sub, self._clock_token, *self._tokens))
+        self._tokens.clear()
+        self._close_session()
+
+    destroy_node = shutdown
+
+    def add_on_shutdown(self, callback: Callable[[], None]) -> None:
+        """Run ``callback()`` when the node shuts down (listeners, filters... undeclare themselves)."""
+        self._on_shutdown.append(callback)
+
+    def _close_session(self) -> None:
+        if self._owns_session:
+            try:
+                self.session.close()
+            except Exception:
+                pass
+
+    def __enter__(self) -> "Node":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.shutdown()
+
+    def __repr__(self) -> str:
+        return f"Node({self._fq_name!r})"
+
+
+def spin(node: Node, timeout_sec: float | None = None) -> None:
+    """rclpy.spin(node) look-alike."""
+    node.spin(timeout_sec)
+

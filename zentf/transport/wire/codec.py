@@ -1,0 +1,319 @@
+"""Wire format: msgpack of a message's plain dict, Zenoh encoding ``application/msgpack;<type name>``.
+
+The sending node's fully qualified name travels as the sample attachment (UTF-8), so receivers
+know the authority of every transform. ``ingest_tf`` is the listener's fast path: msgpack straight
+into ``BufferCore.set_transforms_raw`` (one lock per message) with no dataclasses, each bad element
+skipped on its own; ``encode_tf`` is the broadcasters' (TransformStamped written from a byte template).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+import threading
+from functools import lru_cache
+from typing import Any
+
+import msgpack
+
+from ...core.messages import JointState, Message, TransformStamped, message_type
+from ...ros.tf import FRAME_CACHE_SIZE, frame_name  # the one bounded cache of frame names
+from ...ros.tf import _FRAMES as _FRAME_CACHE
+
+__all__ = [
+    "ENCODING", "MAX_PAYLOAD", "encoding_for", "type_name_from_encoding", "pack", "unpack", "encode",
+    "decode", "decode_any", "tf_to_plain", "encode_tf", "ingest_tf", "authority_of",
+]
+
+ENCODING = "application/msgpack"
+#: Payloads larger than this are refused before decoding (a huge message must not stall a listener).
+MAX_PAYLOAD = 64 * 1024 * 1024
+_NS = 1_000_000_000
+_MAX_SEC = (2**63 - 1) // _NS  # stamps are int64 nanoseconds
+
+
+@lru_cache(maxsize=256)
+def encoding_for(type_name: str) -> Any:
+    """zenoh.Encoding ``application/msgpack;<type_name>``."""
+    import zenoh
+
+    return zenoh.Encoding(ENCODING).with_schema(type_name) if type_name else zenoh.Encoding(ENCODING)
+
+
+def type_name_from_encoding(encoding: object) -> str | None:
+    """'application/msgpack;geometry_msgs/msg/Point' -> 'geometry_msgs/msg/Point'; None if not ours."""
+    text = str(encoding)
+    if not text.startswith(ENCODING):
+        return None
+    _, _, schema = text.partition(";")
+    return schema or None
+
+
+_local = threading.local()
+
+
+def pack(plain: Any) -> bytes:
+    """msgpack with a reused per-thread Packer (packb builds a new one per call)."""
+    packer = getattr(_local, "packer", None)
+    if packer is None:
+        packer = _local.packer = msgpack.Packer(use_bin_type=True)
+    try:
+        return packer.pack(plain)
+    except BaseException:
+        _local.packer = None  # a failed pack may leave data in the buffer
+        raise
+
+
+def unpack(payload: bytes | bytearray | memoryview) -> Any:
+    """msgpack -> plain data; any failure (truncated, garbage, too big) is a one-line ValueError."""
+    if len(payload) > MAX_PAYLOAD:
+        raise ValueError(f"payload of {len(payload)} bytes exceeds the {MAX_PAYLOAD} byte limit")
+    try:
+        return msgpack.unpackb(payload, raw=False, strict_map_key=False)
+    except Exception as e:  # msgpack raises several classes (ExtraData, FormatError, ValueError, ...)
+        raise ValueError(f"not valid msgpack ({type(e).__name__}: {str(e)[:80]})") from None
+
+
+def encode(msg: Message | dict) -> bytes:
+    if type(msg) is JointState:  # joint_states at hundreds of hertz: written in C (zentf/transport/ingest/tfwire.pyx)
+        payload = _js_payload(msg)
+        if payload is not None:
+            return payload
+    if isinstance(msg, Message):
+        return pack(msg.to_dict())
+    if isinstance(msg, dict):
+        return pack(msg)
+    raise TypeError(f"cannot publish a {type(msg).__name__}: expected a message or a dict")
+
+
+def decode(payload: bytes, msg_type: type[Message]) -> Message:
+    """Bytes -> message of msg_type; ValueError names what was wrong."""
+    return msg_type.from_dict(unpack(payload))
+
+
+def decode_any(payload: bytes, encoding: object) -> tuple[str | None, Any]:
+    """For generic tools: (type name or None, message object if the type is known else plain data)."""
+    type_name = type_name_from_encoding(encoding)
+    plain = unpack(payload)
+    if type_name:
+        try:
+            return type_name, message_type(type_name).from_dict(plain)
+        except KeyError:
+            pass
+    return type_name, plain
+
+
+def tf_to_plain(ts: TransformStamped | dict) -> dict:
+    """TransformStamped -> plain dict without the generic reflection (hot path of broadcasters)."""
+    if isinstance(ts, dict):
+        return ts
+    h = ts.header
+    st = h.stamp
+    tr = ts.transform
+    p = tr.translation
+    q = tr.rotation
+    return {"header": {"stamp": {"sec": st.sec, "nanosec": st.nanosec}, "frame_id": h.frame_id},
+            "child_frame_id": ts.child_frame_id,
+            "transform": {"translation": {"x": p.x, "y": p.y, "z": p.z},
+                          "rotation": {"x": q.x, "y": q.y, "z": q.z, "w": q.w}}}
+
+
+# Broadcaster fast path: a TransformStamped with a Time stamp is written straight as msgpack bytes by
+# zentf/transport/ingest/tfwire.pyx (``ts_item``, ``ts_payload``): the same map (field names and order) that
+# pack(tf_to_plain(ts)) writes, with sec/nanosec as uint32 and every number as float64 (valid msgpack
+# that any decoder reads back to the same dict, ints as floats); anything unusual takes the dict path.
+
+
+def _tf_item(t: TransformStamped | dict) -> bytes:
+    item = _ts_item(t)  # None: a dict, or unusual (a non-number, sec >= 2**32): packed here (or said why not)
+    return item if item is not None else pack(tf_to_plain(t))
+
+
+def encode_tf(transforms: Iterable[TransformStamped | dict]) -> bytes:
+    """A TFMessage payload from transforms (dataclasses or plain dicts)."""
+    if type(transforms) is list and len(transforms) == 1:  # the common send_transform(one) case
+        payload = _ts_payload(transforms[0])
+        if payload is not None:
+            return payload
+    items = [_tf_item(t) for t in transforms]
+    n = len(items)
+    if n < 16:
+        head = b"\x81\xaatransforms" + bytes((0x90 | n,))
+    elif n < 0x10000:
+        head = b"\x81\xaatransforms\xdc" + n.to_bytes(2, "big")
+    else:
+        head = b"\x81\xaatransforms\xdd" + n.to_bytes(4, "big")
+    return head + b"".join(items)
+
+
+def authority_of(attachment: Any, fallback: str) -> str:
+    """The sender's node name from a sample attachment (ZBytes or bytes); fallback if absent/bad."""
+    if attachment is None:
+        return fallback
+    try:
+        raw = attachment.to_bytes() if hasattr(attachment, "to_bytes") else bytes(attachment)
+        text = raw.decode("utf-8")
+    except Exception:
+        return fallback
+    return text if 0 < len(text) <= 256 and text.isprintable() else fallback
+
+
+_NUM = (float, int)
+
+
+def _num(v: Any) -> float:
+    if type(v) is float:
+        return v
+    if type(v) is int:
+        return float(v)  # OverflowError for absurd integers, caught by the caller
+    raise TypeError(f"expected a number, got {type(v).__name__}")
+
+
+def _frame(b: Any) -> str:
+    """Frame id bytes -> str (cached: a tree has few distinct names)."""
+    name = _FRAME_CACHE.get(b)
+    if name is None:
+        if type(b) is not bytes:
+            raise TypeError("frame ids must be strings")
+        name = frame_name(b)
+    return name
+
+
+def _tf_decoder() -> Any:
+    """msgspec decoder of a TFMessage into slotted structs (None without msgspec: generic path only).
+
+    Types are strict (int stamps, str frame ids, numbers for floats), unknown fields are ignored,
+    as in the per-element path; anything it refuses is re-read by that path.
+    """
+    try:
+        import msgspec
+    except ImportError:  # pragma: no cover - msgspec is a dependency; stay correct without it
+        return None
+
+    def struct(name: str, fields: list) -> Any:
+        return msgspec.defstruct(name, fields, gc=False)  # real types: this module's annotations are strings
+
+    stamp = struct("Time", [("sec", int), ("nanosec", int)])
+    header = struct("Header", [("stamp", stamp), ("frame_id", str)])
+    vector = struct("Vector3", [("x", float), ("y", float), ("z", float)])
+    quaternion = struct("Quaternion", [("x", float), ("y", float), ("z", float), ("w", float)])
+    transform = struct("Transform", [("translation", vector), ("rotation", quaternion)])
+    stamped = struct("TransformStamped", [("header", header), ("child_frame_id", str), ("transform", transform)])
+    return msgspec.msgpack.Decoder(struct("TFMessage", [("transforms", tuple[stamped, ...])]))
+
+
+_TF_DECODER = _tf_decoder()
+
+from ..ingest.tfwire import msgpack_tf as _compiled_tf  # noqa: E402  (compiled decoder; None: Python only, for tests)
+from ..ingest.tfwire import js_payload as _js_payload, ts_item as _ts_item, ts_payload as _ts_payload  # noqa: E402
+
+
+def ingest_tf(payload: bytes, core: Any, authority: str, is_static: bool) -> tuple[int, int, int, str | None]:
+    """Insert every transform of a TFMessage payload into ``core`` (a BufferCore).
+
+    Returns (accepted, rejected_by_buffer, malformed, first_problem). Raises ValueError only if the
+    whole payload is unusable (not msgpack, not a TFMessage). A well-formed message is decoded by
+    the compiled decoder (zentf/transport/ingest/tfwire.pyx) or, without it, by msgspec (fast paths); otherwise msgpack unpacks with raw=True and each element is validated on
+    its own (``+ 0.0`` is the number check), so one bad element costs only itself. Either way
+    ``set_transforms_raw`` inserts the message under one lock and wakes waiters once.
+    """
+    if _compiled_tf is not None:
+        # fastest path: compiled, bytes straight to sample tuples; None on any doubt (then the paths
+        # below read the message again and name what was wrong)
+        samples = _compiled_tf(payload)
+        if samples is not None:
+            if not samples:
+                return 0, 0, 0, None
+            try:
+                accepted = core.set_transforms_raw(samples, authority, is_static)
+            except Exception:  # the buffer failed: _insert retries one by one
+                return _insert(samples, core, authority, is_static, 0, None)
+            return accepted, len(samples) - accepted, 0, None
+    if len(payload) > MAX_PAYLOAD:
+        raise ValueError(f"payload of {len(payload)} bytes exceeds the {MAX_PAYLOAD} byte limit")
+    if _TF_DECODER is not None:
+        # fast path: msgspec decodes and type-checks the whole message in C, straight into structs;
+        # any doubt (bad shape anywhere, stamp out of range) sends the message down the per-element
+        # path below, which finds, counts and names each bad element
+        try:
+            msg = _TF_DECODER.decode(payload)
+        except Exception:
+            msg = None
+        if msg is not None:
+            samples = []
+            append = samples.append
+            for t in msg.transforms:
+                h = t.header
+                st = h.stamp
+                sec = st.sec
+                nsec = st.nanosec
+                if not (0 <= sec < _MAX_SEC and 0 <= nsec < _NS):
+                    break
+                tr = t.transform
+                p = tr.translation
+                q = tr.rotation
+                append((h.frame_id, t.child_frame_id, sec * _NS + nsec, p.x, p.y, p.z, q.x, q.y, q.z, q.w))
+            else:
+                if not samples:
+                    return 0, 0, 0, None
+                try:
+                    accepted = core.set_transforms_raw(samples, authority, is_static)
+                except Exception:  # the buffer failed: _insert retries one by one
+                    return _insert(samples, core, authority, is_static, 0, None)
+                return accepted, len(samples) - accepted, 0, None
+    try:
+        data = msgpack.unpackb(payload, raw=True, use_list=False, strict_map_key=False)
+    except Exception as e:
+        raise ValueError(f"not valid msgpack ({type(e).__name__}: {str(e)[:80]})") from None
+    if type(data) is not dict:
+        raise ValueError(f"expected a TFMessage dict, got {type(data).__name__}")
+    transforms = data.get(b"transforms")
+    if type(transforms) is not tuple:
+        raise ValueError("TFMessage.transforms missing or not a list")
+    malformed = 0
+    problem: str | None = None
+    samples = []
+    append = samples.append
+    frame = _frame
+    names = _FRAME_CACHE.get
+    for t in transforms:
+        try:
+            h = t[b"header"]
+            st = h[b"stamp"]
+            sec = st[b"sec"]
+            nsec = st[b"nanosec"]
+            if type(sec) is not int or type(nsec) is not int or not 0 <= sec < _MAX_SEC or not 0 <= nsec < _NS:
+                raise ValueError(f"bad stamp {st!r}"[:120])
+            tr = t[b"transform"]
+            p = tr[b"translation"]
+            q = tr[b"rotation"]
+            pb = h[b"frame_id"]
+            cb = t[b"child_frame_id"]
+            append((names(pb) or frame(pb), names(cb) or frame(cb), sec * _NS + nsec,
+                    p[b"x"] + 0.0, p[b"y"] + 0.0, p[b"z"] + 0.0,
+                    q[b"x"] + 0.0, q[b"y"] + 0.0, q[b"z"] + 0.0, q[b"w"] + 0.0))
+        except (KeyError, TypeError, ValueError, IndexError, OverflowError) as e:
+            malformed += 1
+            if problem is None:
+                i = len(samples) + malformed - 1
+                if isinstance(e, KeyError):
+                    k = e.args[0] if e.args else "?"
+                    problem = f"transforms[{i}]: missing field {k.decode('utf-8', 'replace') if isinstance(k, bytes) else k!r}"
+                else:
+                    problem = f"transforms[{i}]: {type(e).__name__}: {e}"[:160]
+    return _insert(samples, core, authority, is_static, malformed, problem)
+
+
+def _insert(samples: list, core: Any, authority: str, is_static: bool, malformed: int,
+            problem: str | None) -> tuple[int, int, int, str | None]:
+    if not samples:
+        return 0, 0, malformed, problem
+    try:
+        accepted = core.set_transforms_raw(samples, authority, is_static)
+    except Exception:  # the buffer must never take the listener down: retry one by one
+        accepted = 0
+        for s in samples:
+            try:
+                accepted += bool(core.set_transform_raw(*s, authority, is_static))
+            except Exception as e:
+                if problem is None:
+                    problem = f"rejected by buffer ({type(e).__name__}: {e})"[:200]
+    return accepted, len(samples) - accepted, malformed, problem
