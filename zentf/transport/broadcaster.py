@@ -7,7 +7,7 @@ from typing import Any, Union
 
 from ..core.messages import TFMessage, TransformStamped
 from .node import Node
-from .ingest.tfwire import OneTransformSender
+from .ingest.tf_encoder import OneTransformSender
 
 __all__ = ["TransformBroadcaster", "StaticTransformBroadcaster"]
 
@@ -36,7 +36,7 @@ class TransformBroadcaster:
         att = self._pub._const_attachment
         if node.wire.name == "zentf" and att is not None and type(self).send_transform is _send_transform:
             # the common call, one TransformStamped on zentf's wire, compiled from here to Zenoh's put
-            # (zentf/transport/ingest/tfwire.pyx); anything else reaches the method below
+            # (zentf/transport/ingest/tf_encoder.pyx); anything else reaches the method below
             slow = self.send_transform
             self.send_transform = self.sendTransform = OneTransformSender(  # type: ignore[method-assign]
                 self._pub._pub.put, att, slow)

@@ -32,7 +32,7 @@ from ...ros import CdrError, UnknownTypeError, dds_type_name, ros_type_name, tf_
 from ...ros import codec as cdr_codec
 from ...ros.tf import encode_tf as cdr_encode_tf
 
-from ..ingest.tfwire import cdr_tf as _compiled_cdr_tf  # the compiled decoder (zentf/transport/ingest/tfwire.pyx); None: Python only (tests)
+from ..ingest.decoders import cdr_tf  # the compiled decoder (zentf/transport/ingest/decoders.pyx)
 
 __all__ = ["WireProfile", "ZentfProfile", "Ros2Profile", "make_profile", "PROFILES", "qos_string",
            "parse_ros2_token", "ros2_attachment", "parse_ros2_attachment", "ROS2_DEFAULT_DEPTH",
@@ -336,12 +336,12 @@ class Ros2Profile(WireProfile):
         return type_name, cdr_codec.decode(payload, type_name), True
 
     def ingest_tf(self, payload: bytes, core: Any, authority: str, is_static: bool) -> tuple[int, int, int, str | None]:
-        # compiled first; None (anything doubtful) sends the payload to tf_samples, which names the problem
-        samples = _compiled_cdr_tf(payload) if _compiled_cdr_tf is not None else None
-        if samples is not None:
-            return wire._insert(samples, core, authority, is_static, 0, None)
-        samples, malformed, problem = tf_samples(payload)
-        return wire._insert(samples, core, authority, is_static, malformed, problem)
+        # compiled; None (anything doubtful) sends the payload to tf_samples, which names the problem
+        samples = cdr_tf(payload)
+        if samples is None:
+            samples, malformed, problem = tf_samples(payload)
+            return wire.insert_samples(samples, core, authority, is_static, malformed, problem)
+        return wire.insert_samples(samples, core, authority, is_static)
 
     def check_tf_encoding(self, encoding: Any) -> None:
         return None  # the type is in the key: a subscriber only ever gets TFMessages
