@@ -132,9 +132,10 @@ def _frame_bytes(name: Any) -> bytes:
             raise CdrError(f"frame ids must be strings, got {type(name).__name__}")
         b = name.encode("utf-8")
         raw = _U32.pack(len(b) + 1) + b + b"\x00"
-        if len(_FRAME_BYTES) > 100_000:
-            _FRAME_BYTES.clear()
-        _FRAME_BYTES[name] = raw
+        if len(b) <= DEFAULT_MAX_FRAME_ID_LENGTH:  # (a relay encodes names any peer sent: bounded as _FRAMES)
+            if len(_FRAME_BYTES) >= FRAME_CACHE_SIZE:
+                _FRAME_BYTES.clear()
+            _FRAME_BYTES[name] = raw
     return raw
 
 
@@ -181,9 +182,10 @@ def _middle(parent: Any, child: Any, off: int) -> bytes:
         pad1 = -at & 3
         at += pad1 + len(cb)
         mid = pb + _PAD[pad1] + cb + _PAD[-at & 7]
-        if len(_MIDS) > 100_000:
-            _MIDS.clear()
-        _MIDS[key] = mid
+        if len(mid) <= 2 * DEFAULT_MAX_FRAME_ID_LENGTH + 16:
+            if len(_MIDS) >= FRAME_CACHE_SIZE:
+                _MIDS.clear()
+            _MIDS[key] = mid
     return mid
 
 
