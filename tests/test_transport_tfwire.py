@@ -483,3 +483,41 @@ def test_compiled_joint_state_encoder_writes_the_generic_bytes() -> None:
                 wire.encode(odd)
         else:
             assert wire.encode(odd) == want
+
+
+# ---------------------------------------------------------------- TransformStamped, out on ROS 2's wire
+
+def test_compiled_cdr_sender_writes_the_encoders_bytes_and_rmw_zenohs_attachment() -> None:
+    """tf_encoder.cdr_ts_payload gives zentf.ros.encode_tf's bytes for one TransformStamped (names of any
+    length and script, any stamp CDR holds) and None for what that encoder must judge; OneTransformSenderCdr
+    puts it with rmw_zenoh's attachment: the publisher's next sequence number, the time, its GID."""
+    import itertools
+    import time
+
+    from zentf.transport.ingest.tf_encoder import OneTransformSenderCdr, cdr_ts_payload
+    from zentf.transport.wire.profiles import parse_ros2_attachment
+
+    rng = random.Random(31)
+    for _ in range(3000):
+        parent = "".join(rng.choice("ab/é_π") for _ in range(rng.randrange(0, 12)))
+        child = "".join(rng.choice("xy/ç") for _ in range(rng.randrange(0, 9)))
+        ns = rng.choice([0, NS - 1, (2**31 - 1) * NS + NS - 1, rng.randrange(2**31 * NS)])
+        ts = TransformStamped(Header(Time(nanoseconds=ns), parent), child, Transform(
+            Vector3(rng.uniform(-9, 9), math.inf, -0.0), Quaternion(0.0, math.nan, 0.6, 0.8)))
+        assert cdr_ts_payload(ts) == cdr_encode_tf([ts]), (parent, child, ns)
+    late = TransformStamped(Header(Time(nanoseconds=2**31 * NS), "a"), "b")  # beyond int32 seconds
+    assert cdr_ts_payload(late) is None and cdr_ts_payload(transform_dict()) is None
+    sent, slow = [], []
+    seq = itertools.count(1)
+    sender = OneTransformSenderCdr(lambda p, attachment: sent.append((p, attachment)), seq, b"G" * 16, slow.append)
+    one = TransformStamped(Header(Time(sec=5), "world"), "c", Transform(Vector3(1.0, 2.0, 3.0),
+                                                                           Quaternion(0.0, 0.0, 0.0, 1.0)))
+    before = time.time_ns()
+    sender(one)
+    sender(one)
+    sender([one])  # a list: the Python method
+    assert slow == [[one]] and next(seq) == 3
+    assert [p for p, _ in sent] == [cdr_encode_tf([one])] * 2
+    atts = [parse_ros2_attachment(a) for _, a in sent]
+    assert [a[0] for a in atts] == [1, 2] and all(a[2] == b"G" * 16 for a in atts)
+    assert all(before <= a[1] <= time.time_ns() for a in atts)

@@ -170,7 +170,7 @@ def _fields(t: Any) -> tuple:
 _MIDS: dict[tuple[Any, Any, int], bytes] = {}
 
 
-def _middle(parent: Any, child: Any, off: int) -> bytes:
+def frames_between(parent: Any, child: Any, off: int) -> bytes:
     """frame_id, padding to 4, child_frame_id, padding to 8: the bytes between a stamp (ending at
     ``off``) and the 7 doubles; they depend only on the names and on off % 8 (cached)."""
     key = (parent, child, off & 7)
@@ -202,7 +202,7 @@ def encode_tf(transforms: Iterable[Any]) -> bytes:
             sec, nsec, parent, child, x, y, z, qx, qy, qz, qw = _fields(t)
             stamp = pack_stamp(sec, nsec)
             values = pack_seven(x, y, z, qx, qy, qz, qw)
-            mid = _middle(parent, child, off + 8)
+            mid = frames_between(parent, child, off + 8)
         except (KeyError, AttributeError, TypeError) as e:
             raise CdrError(f"not a TransformStamped: {type(e).__name__}: {e}"[:160]) from None
         except struct.error as e:
