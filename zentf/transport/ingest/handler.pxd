@@ -9,11 +9,18 @@ cdef object payload_of(object sample)
 cdef object attachment_of(object sample)
 
 
+cdef class SenderTail:
+    cdef readonly Py_ssize_t size, marker_at
+    cdef readonly int marker
+    cdef object key(self, bytes raw)
+
+
 cdef class Senders:
     """How a wire names the sender of a sample (shared by a listener's topics)."""
     cdef readonly object authority_of
     cdef readonly object fixed
     cdef readonly object sender_of
+    cdef SenderTail tail
     cdef readonly dict cache
     cdef readonly Py_ssize_t max_key
     cdef object queue_key(self, object raw)

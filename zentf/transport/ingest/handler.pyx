@@ -19,7 +19,7 @@ from .decoders cimport Batch, cdr_le, decode_cdr, decode_msgpack
 from ..wire.codec import insert_samples
 from .tf_encoder import TF_KEY
 
-__all__ = ["IngestEvents", "Senders", "TfIngest", "TfHandler", "CLOCK_CACHE_NS"]
+__all__ = ["IngestEvents", "Senders", "SenderTail", "TfIngest", "TfHandler", "CLOCK_CACHE_NS"]
 
 cdef bytes _TF_KEY = TF_KEY
 
@@ -91,6 +91,27 @@ class IngestEvents:
         """The ring ran empty again soon after a burst was over, with little handled since."""
 
 
+cdef class SenderTail:
+    """``sender_of`` for attachments that carry the sender's identity after per-sample fields: an
+    attachment of ``size`` bytes whose byte ``marker_at`` is ``marker`` -> its bytes from ``marker_at + 1``
+    on; any other attachment is its own key. Callable like any ``sender_of``; Senders runs it in C."""
+
+    def __init__(self, Py_ssize_t size, Py_ssize_t marker_at, int marker):
+        if not 0 <= marker_at < size:
+            raise ValueError("marker_at must fall inside the attachment")
+        self.size = size
+        self.marker_at = marker_at
+        self.marker = marker
+
+    def __call__(self, bytes raw):
+        return self.key(raw)
+
+    cdef object key(self, bytes raw):
+        if PyBytes_GET_SIZE(raw) == self.size and (<const uint8_t*>PyBytes_AS_STRING(raw))[self.marker_at] == self.marker:
+            return raw[self.marker_at + 1:]
+        return raw
+
+
 cdef class Senders:
     """How a wire names the sender of a sample, for a listener's handlers and its thread: the authority
     recorded with its transforms (``authority_of(attachment, fallback)``, or one ``fixed`` for every
@@ -102,6 +123,7 @@ cdef class Senders:
         self.authority_of = authority_of
         self.fixed = fixed
         self.sender_of = sender_of
+        self.tail = sender_of if isinstance(sender_of, SenderTail) else None
         self.cache = {}
         self.max_key = max_key
 
@@ -109,7 +131,10 @@ cdef class Senders:
         """The queue key of a message: its sender (the attachment's bytes, or what the wire makes of them)."""
         if raw is None:
             return b""
-        key = self.sender_of(raw) if self.sender_of is not None else raw
+        if self.tail is not None:
+            key = self.tail.key(raw)
+        else:
+            key = self.sender_of(raw) if self.sender_of is not None else raw
         if len(key) > self.max_key:
             key = key[:self.max_key]
         return key

@@ -33,6 +33,7 @@ from ...ros import codec as cdr_codec
 from ...ros.tf import encode_tf as cdr_encode_tf
 
 from ..ingest.decoders import cdr_tf  # the compiled decoder (zentf/transport/ingest/decoders.pyx)
+from ..ingest.handler import SenderTail
 
 __all__ = ["WireProfile", "ZentfProfile", "Ros2Profile", "make_profile", "PROFILES", "qos_string",
            "parse_ros2_token", "ros2_attachment", "parse_ros2_attachment", "ROS2_DEFAULT_DEPTH",
@@ -352,10 +353,9 @@ class Ros2Profile(WireProfile):
     def authority(self, attachment: Any, fallback: str) -> str:
         return ROS2_AUTHORITY  # as tf2_ros in ROS 2 (ROS 1 used the sender's node name)
 
-    @staticmethod
-    def sender_of(raw: bytes) -> bytes:
-        """The publisher GID of an attachment: its sequence number and time change with every sample."""
-        return raw[17:] if len(raw) == 33 and raw[16] == 16 else raw
+    #: The publisher GID of an attachment (after its sequence number, time and the GID's length 16, which
+    #: change with every sample or say nothing); read in C by the listener's thread.
+    sender_of = SenderTail(33, 16, 16)
 
     def _node_part(self, node: Any, entity_id: int) -> str:
         return f"{_ADMIN}/{self.domain_id}/{node.session.info.zid()}/{node._ros2_id}/{entity_id}"
