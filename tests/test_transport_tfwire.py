@@ -521,3 +521,18 @@ def test_compiled_cdr_sender_writes_the_encoders_bytes_and_rmw_zenohs_attachment
     atts = [parse_ros2_attachment(a) for _, a in sent]
     assert [a[0] for a in atts] == [1, 2] and all(a[2] == b"G" * 16 for a in atts)
     assert all(before <= a[1] <= time.time_ns() for a in atts)
+
+
+def test_the_ros2_sender_key_is_the_publisher_gid() -> None:
+    """Ros2Profile.sender_of (read in C by the listener's thread): the GID of rmw_zenoh's attachment, whose
+    sequence number and time change with every sample; any other attachment is its own key."""
+    from zentf.transport.wire.profiles import Ros2Profile, ros2_attachment
+
+    key = Ros2Profile().sender_of
+    rng = random.Random(33)
+    for _ in range(500):
+        gid = bytes(rng.randrange(256) for _ in range(16))
+        assert key(ros2_attachment(rng.randrange(2**62), rng.randrange(2**62), gid)) == gid
+        other = bytes(rng.randrange(256) for _ in range(rng.choice([0, 1, 32, 33, 34])))
+        if not (len(other) == 33 and other[16] == 16):
+            assert key(other) == other

@@ -132,7 +132,7 @@ cdef inline bint _int(Cur* c, int64_t* v) noexcept nogil:
 
 
 cdef inline bint _float(Cur* c, double* v) noexcept nogil:
-    """A msgpack float64/float32, or an integer as a float (as msgspec and ``+ 0.0`` take it)."""
+    """A msgpack float64/float32, or an integer as a float (as the Python path takes it)."""
     if c.p >= c.end:
         return False
     cdef uint8_t t = c.p[0]

@@ -156,8 +156,8 @@ def serve(ring, TfHandler handle, ServeLimits limits):
     one sender has a backlog, the ring was just found empty and no sender is striking (see _strike), up
     to _SOLO_RUN of its messages are handled in a row (the ring is looked at again ~25 us later). Not
     several messages of a lone backlogged sender per round while the ring still holds samples: the ring
-    must be emptied into the per-sender queues as fast as it fills (the legitimate edge's staleness p99
-    under bench/abuse.py's valid flood doubled with 16 a round).
+    must be emptied into the per-sender queues as fast as it fills, or an honest sender's next message
+    waits behind the flood (bench/abuse.py measures its staleness).
 
     Memory: when the ring runs empty after ``release_after`` messages or ``release_bytes`` payload bytes,
     ``events.burst_over()``; when it runs empty within ``tail_window`` s of that with less since (the
