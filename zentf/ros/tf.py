@@ -29,7 +29,7 @@ _SEVEN = struct.Struct("<7d")
 #: Frame names decoded once, by their UTF-8 bytes (a tree has tens to hundreds). The one cache of every
 #: TFMessage decoder (this module's, zentf.transport.wire.codec's, the compiled ones in
 #: zentf/transport/ingest): when full it starts over and names longer than the buffer takes are not kept,
-#: so forged names cost at most ~4096 x 0.6 kB.
+#: so forged names cost at most ~4096 x 0.6 kB, whatever number of distinct names a peer sends.
 FRAME_CACHE_SIZE = 4096
 _FRAMES: dict[bytes, str] = {}
 

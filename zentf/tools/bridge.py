@@ -22,10 +22,11 @@ from typing import Any
 
 from ..core.constants import DEFAULT_MAX_FRAME_ID_LENGTH, DEFAULT_MAX_FRAMES
 from ..core.messages import TFMessage, message_type
+from ..core.ratelimit import RateLimitedLogger
 from ..ros.tf import MAX_PAYLOAD
 from ..transport.broadcaster import StaticTransformBroadcaster
 from ..transport.heap import BurstRelease
-from ..transport.node import Node, RateLimitedLog
+from ..transport.node import Node
 from ..transport.wire.profiles import parse_ros2_attachment
 from ..transport.entities import undeclare_all
 
@@ -95,7 +96,7 @@ class Ros2Bridge:
         self._z = _Side(zentf_node)
         self._r = _Side(ros2_node)
         self._self_name = zentf_node.get_fully_qualified_name()
-        self._complain = RateLimitedLog(log)
+        self._complain = RateLimitedLogger(log)
         self._release = BurstRelease()
         self._subs: list[Any] = []
         self._tokens: list[Any] = []
@@ -161,7 +162,8 @@ class Ros2Bridge:
                 counts[fq] = counts.get(fq, 0) + 1
             except Exception as e:  # noqa: BLE001 - one bad message must not stop the bridge
                 self.stats.dropped += 1
-                self._complain(f"{fq}:{type(e).__name__}", f"not relayed from {profile.name} '{fq}': {e}")
+                self._complain.log(logging.WARNING, (fq, type(e).__name__), "not relayed from %s '%s': %s",
+                                   profile.name, fq, e)
 
         return relay
 
@@ -173,8 +175,8 @@ class Ros2Bridge:
         collect = _Samples()
         _, _, malformed, problem = profile.ingest_tf(payload, collect, "", latched)
         if malformed:
-            self._complain(f"{fq}:malformed", f"skipped {malformed} malformed transform(s) from "
-                                              f"{profile.name} '{fq}': {problem}")
+            self._complain.log(logging.WARNING, (fq, "malformed"), "skipped %d malformed transform(s) from %s '%s': %s",
+                               malformed, profile.name, fq, problem or "")
         items = [_plain(s) for s in collect.samples if len(s[0].encode()) <= DEFAULT_MAX_FRAME_ID_LENGTH
                  and len(s[1].encode()) <= DEFAULT_MAX_FRAME_ID_LENGTH]
         if not items:
@@ -188,8 +190,9 @@ class Ros2Bridge:
             fresh = [t for t in items if t["child_frame_id"] not in known]
             room = DEFAULT_MAX_FRAMES - len(known)
             if len(fresh) > room:
-                self._complain(f"{fq}:frames", f"{profile.name} '{fq}': more than {DEFAULT_MAX_FRAMES} static "
-                                               f"child frames; {len(fresh) - max(0, room)} not relayed")
+                self._complain.log(logging.WARNING, (fq, "frames"),
+                                   "%s '%s': more than %d static child frames; %d not relayed",
+                                   profile.name, fq, DEFAULT_MAX_FRAMES, len(fresh) - max(0, room))
                 drop = {id(t) for t in fresh[max(0, room):]}
                 items = [t for t in items if id(t) not in drop]
             if not items:

@@ -46,8 +46,9 @@ MAX_SENDERS = 64
 #: as a dictionary key (a node name is at most 256 characters, a ROS 2 GID 16 bytes).
 MAX_SENDER_KEY = 1024
 #: When the ring runs empty after at least this many ``tf`` messages, or this many payload bytes (a burst
-#: is over), the memory the process freed meanwhile goes back to the OS (zentf.transport.heap; a release
-#: costs ~0.02-2 ms: ~1% of the listener thread's time in bench/abuse.py's floods).
+#: is over), the memory the process freed meanwhile goes back to the OS (zentf.transport.heap): often
+#: enough to bound a flood's memory, rarely enough to cost about 1% of the listener thread's time
+#: (docs/performance.md).
 RELEASE_AFTER = 256
 RELEASE_BYTES = 8 * 1024 * 1024
 #: The tail of a flood: when the ring runs empty within TAIL_WINDOW s of such a release, with fewer
