@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Optional, Sequence
 
 from .checks import Report, Thresholds, run_checks
-from .evidence import Evidence
+from .evidence import Evidence, GraphView
 from .why import Explanation, explain_lookup
 
 __all__ = ["TapMessage", "TransformTap", "GraphTap", "TfDoctor"]
@@ -149,13 +149,14 @@ class GraphTap:
     """Follows the graph's liveliness tokens into an Evidence's GraphView: nodes coming and going, and
     (ROS 2) the GID of every publisher, computed from its token as rmw_zenoh does."""
 
-    def __init__(self, session: Any, profile: Any, evidence: Evidence) -> None:
+    def __init__(self, session: Any, profile: Any, graph: GraphView, lock: Any) -> None:
         import zenoh
 
-        self.evidence = evidence
+        self.graph = graph
+        self.lock = lock
         self.profile = profile
         self._put = zenoh.SampleKind.PUT
-        evidence.graph.known = True
+        graph.known = True
         self._sub = session.liveliness().declare_subscriber(profile.liveliness_selector(None), self._on_token,
                                                             history=True)
 
@@ -167,9 +168,9 @@ class GraphTap:
                 return
             alive = sample.kind == self._put
             now = time.monotonic_ns()
-            g = self.evidence.graph
+            g = self.graph
             zid = key.split("/")[2] if self.profile.name == "ros2" else ""
-            with self.evidence.lock:
+            with self.lock:
                 if e.kind == "node":
                     (g.node_seen(e.node, now, zid) if alive else g.node_gone(e.node, now))
                 elif e.kind == "pub" and self.profile.name == "ros2" and e.type_name == "tf2_msgs/msg/TFMessage":
@@ -183,6 +184,17 @@ class GraphTap:
                         g.gid_gone[gid] = now
         except Exception:  # noqa: BLE001 - never raise in Zenoh's thread
             pass
+
+    def publisher(self, attachment: Any) -> str:
+        """The node that sent a ROS 2 sample (its attachment's GID resolved through the tokens), else the GID."""
+        from zentf.transport.wire.profiles import parse_ros2_attachment
+
+        try:
+            gid = parse_ros2_attachment(attachment.to_bytes())[2].hex()
+        except Exception:  # noqa: BLE001 - no or foreign attachment
+            return "unknown sender"
+        hit = self.graph.gids.get(gid)
+        return hit[0] if hit is not None else f"publisher gid {gid}"
 
     def close(self) -> None:
         try:
@@ -216,7 +228,7 @@ class TfDoctor:
         self.tap: Optional[TransformTap] = None
         try:
             if watch_graph:
-                self.graph = GraphTap(node.session, node.wire, self.evidence)
+                self.graph = GraphTap(node.session, node.wire, self.evidence.graph, self.evidence.lock)
             self.tap = TransformTap(node, self._on_message, tf_topics=tf_topics, tf_static_topics=tf_static_topics,
                                     bad=self._on_bad)
         except BaseException:

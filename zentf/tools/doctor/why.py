@@ -89,7 +89,10 @@ class Explanation:
 
     @property
     def ok(self) -> bool:
-        return not self.problem and bool(self.verdicts) and all(v.ok for v in self.verdicts)
+        """The lookup answers with current data: every asked time answers, or fails only for a sample that is
+        due (a timeout fixes that), and no edge is stale."""
+        return not self.problem and bool(self.verdicts) and all(
+            (v.ok or bool(v.failing)) and all(f["kind"] == "not yet" for f in v.failing) for v in self.verdicts)
 
     def stale_edges(self) -> list[str]:
         """Labels of the edges found stale at any of the asked times."""
