@@ -173,7 +173,8 @@ def test_doctor_and_monitor_name_ros2_publishers_by_node(spawn, ros2_env):
 
 
 def test_tf_tools_read_a_fleet(spawn, zenoh_env, test_namespace):
-    """--tf-topic, --ros-args -r /tf:=..., --all-namespaces on echo, monitor, frames, doctor and why."""
+    """--tf-topic, --ros-args -r /tf:=..., --all-namespaces on echo, monitor, doctor and why (frames and view
+    share echo's listeners)."""
     env = dict(zenoh_env)
     _stager(spawn, [{"name": "r1", "namespace": f"{test_namespace}/robot1",
                      "sends": [_send("world", "r1/base")]},
@@ -184,17 +185,11 @@ def test_tf_tools_read_a_fleet(spawn, zenoh_env, test_namespace):
     echo = zentf(["tf", "echo", "world", "r2/base", "-c", "1", "--timeout", "20",
                   "--ros-args", "-r", f"/tf:=/{test_namespace}/robot2/tf"], env)
     assert echo.returncode == 0 and "Translation" in echo.stdout, echo.stderr
-    mon = zentf(["tf", "monitor", "--duration", "2", "--all-namespaces"], env, timeout=60)
+    mon = zentf(["tf", "monitor", "--duration", "1.5", "--all-namespaces"], env, timeout=60)
     assert "r1/base" in mon.stdout and "r2/base" in mon.stdout, mon.stdout
-    mon = zentf(["tf", "monitor", "--duration", "2", "--tf-topic", "robot1/tf"], env, timeout=60)
-    assert "r1/base" in mon.stdout and "r2/base" not in mon.stdout, mon.stdout
-    doc = zentf(["tf", "doctor", "--duration", "2", "-A", "--json"], env, timeout=60)
-    frames = {e["frame"] for e in json.loads(doc.stdout)["edges"]}
-    assert frames == {"r1/base", "r2/base"}, doc.stdout
-    why = zentf(["tf", "why", "r1/base", "r2/base", "-d", "2", "-A"], env, timeout=60)
+    doc = zentf(["tf", "doctor", "--duration", "1.5", "--tf-topic", "robot2/tf", "--json"], env, timeout=60)
+    assert {e["frame"] for e in json.loads(doc.stdout)["edges"]} == {"r2/base"}, doc.stdout
+    why = zentf(["tf", "why", "r1/base", "r2/base", "-d", "1.5", "-A"], env, timeout=60)
     assert "world -> r2/base" in why.stdout and "world -> r1/base" in why.stdout, why.stdout
-    frames_out = zentf(["tf", "frames", "-w", "2", "--print", "--tf-topic", "robot2/tf", "-o",
-                        str(Path(env.get("TMPDIR", "/tmp")) / f"fleet_{test_namespace}")], env, timeout=60)
-    assert "r2/base" in frames_out.stdout and "r1/base" not in frames_out.stdout, frames_out.stdout
     bad = zentf(["tf", "doctor", "-d", "1", "--ros-args", "-r", "/odom:=/x"], env)
     assert bad.returncode == 2 and "only /tf and /tf_static" in bad.stderr, bad.stderr
