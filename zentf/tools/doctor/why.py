@@ -256,8 +256,11 @@ def _stale_detail(e: ChainEdge, behind: int) -> str:
 def _verdict(core: Any, ex: Explanation, label: str, t: int, tol: float) -> Verdict:
     from zentf.core.time import Time
 
-    ok, error = core.can_transform_core(ex.target, ex.source, Time(nanoseconds=t)) \
-        if hasattr(core, "can_transform_core") else (True, "")
+    from zentf.core.buffer_core import BufferCore
+
+    # BufferCore's own check, not a Buffer's override (which would wait, and reads its 4th argument as a timeout)
+    ok, error = BufferCore.can_transform(core, ex.target, ex.source, Time(nanoseconds=t), True) \
+        if isinstance(core, BufferCore) else (True, "")
     v = Verdict(label, t, bool(ok), error=" ".join(str(error).split()))
     dynamic = [e for e in ex.chain if not e.static]
     if t == 0:
@@ -271,6 +274,14 @@ def _verdict(core: Any, ex: Explanation, label: str, t: int, tol: float) -> Verd
             return v
         v.answered_at = lct
         lag = ex.now - lct
+        if not v.ok:
+            for e in dynamic:
+                if lct < e.oldest:
+                    v.failing.append({"edge": e.label(), "kind": "too old",
+                                      "detail": f"the latest common time is {_s(e.oldest - lct)} before the oldest "
+                                                f"sample the buffer keeps of it ({e.publisher})"})
+            v.fixes.append("the edges' data do not overlap in time: a stale edge's last sample is older than what "
+                           "the buffer keeps of the others (its cache_time)")
         pinning = [e for e in dynamic if e.newest == lct]
         for e in dynamic:
             age = ex.now - e.newest
