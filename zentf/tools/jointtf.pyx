@@ -1,12 +1,11 @@
 # cython: language_level=3, boundscheck=False, wraparound=False, cdivision=True
 """robot_state_publisher's hot path compiled: one JointState's positions -> its TFMessage bytes in one call.
 
-Why: at 100 Hz the publisher wakes every 10 ms with cold caches, and then each of the ~15 numpy calls
-of the pure-Python path (``_Plan.payload``, ``JointTransforms.Subset.compute``, the finite check and
-the throttle) costs 5-15 us instead of 1: ~230 us per message on a 100-joint chain (bench/urdf.py),
-against ~10 us here. Same maths as ``JointTransforms.Subset.compute`` (zentf/urdf/kinematics.py) and
-the same bytes as ``_Plan.payload``'s numpy path (zentf/tools/robot_state_publisher.py), which stays
-the reference and the fallback without build_ext; tests/test_urdf_publishers.py compares the two.
+Why: at 100 Hz the publisher wakes every 10 ms with cold caches, where each numpy call costs several
+times its warm price; the fifteen or so a message would need (selection, kinematics, the finite check,
+the throttle, the bytes) would cost far more than this one call (docs/performance.md). Same maths as
+``JointTransforms.Subset.compute`` (zentf/urdf/kinematics.py); tests/test_urdf_publishers.py compares
+the published transforms with the model's forward kinematics.
 """
 from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes_GET_SIZE
 from libc.math cimport cos, isfinite, sin
@@ -122,8 +121,8 @@ cdef class JointTfFiller:
         return 0
 
     cdef bint _values(self) noexcept:
-        """The joint values from ``given`` (selected, then mimics from their masters); False if one is not
-        finite."""
+        """The joint values from ``given`` (selected, then mimics from their masters); False if one, or the
+        translation it makes, is not finite."""
         cdef Py_ssize_t i
         cdef double* given = self.given
         cdef double[::1] values = self.values
@@ -131,8 +130,10 @@ cdef class JointTfFiller:
             values[i] = given[self.sel[i]]
         for i in range(self.k - self.n_sel):
             values[self.n_sel + i] = given[self.mimic_src[i]] * self.mimic_mult[i] + self.mimic_off[i]
-        for i in range(self.k):
-            if not isfinite(values[i]):
+        for i in range(self.k):  # the value, and the translation it makes (a prismatic joint can overflow)
+            if not (isfinite(values[i]) and isfinite(self.t0[i, 0] + self.slide[i, 0] * values[i])
+                    and isfinite(self.t0[i, 1] + self.slide[i, 1] * values[i])
+                    and isfinite(self.t0[i, 2] + self.slide[i, 2] * values[i])):
                 return False
         return True
 
