@@ -77,7 +77,8 @@ def test_doctor_names_each_staged_problem_live_and_in_a_bag(spawn, zenoh_env, ze
     doomed = _stager(spawn, [{"name": "doomed", "sends": [_send("world", "beacon")]}])
     doctor = Proc([sys.executable, "-m", "zentf.cli", "tf", "doctor", "--duration", "6", "--json"], env=zenoh_env)
     _wait_for_nodes(zenoh_session, test_namespace, [f"_zentf_tf_doctor_{doctor.pid}"])
-    time.sleep(1.5)
+    _wait_for_senders(zenoh_session, test_namespace, [f"{ns}/doomed", f"{ns}/dup_a", f"{ns}/loop_b"])
+    time.sleep(1.0)
     doomed.kill()  # a crash: no goodbye, Zenoh drops its session and its tokens
     assert doctor.wait(60) == 1, doctor.output()
     report = json.loads(doctor.output()[doctor.output().index("{"):])
@@ -127,6 +128,28 @@ def _wait_for_nodes(session, namespace: str, names: list[str], timeout: float = 
         assert watcher.wait_for(lambda es: set(names) <= {e.name for e in es if e.kind == "node"}, timeout), names
 
 
+def _wait_for_senders(session, namespace: str, senders: list[str], timeout: float = 60.0) -> None:
+    """Until tf samples of each sender reach a subscriber declared now (so one declared before it, the tool's,
+    is known to their sessions too: a publisher sends only where it knows a subscriber)."""
+    import threading
+
+    from zentf.transport.wire.codec import authority_of
+
+    seen: set[str] = set()
+    done = threading.Event()
+
+    def on_sample(sample) -> None:
+        seen.add(authority_of(sample.attachment, ""))
+        if set(senders) <= seen:
+            done.set()
+
+    sub = session.declare_subscriber(f"{namespace}/tf", on_sample)
+    try:
+        assert done.wait(timeout), (senders, seen)
+    finally:
+        sub.undeclare()
+
+
 def test_why_names_every_stale_edge_of_a_four_deep_chain(spawn, zenoh_env, zenoh_session, test_namespace):
     """a -> b -> c -> d -> e: chain 1 with b -> c stale, chain 2 with b -> c and c -> d stale."""
     ns = "/" + test_namespace
@@ -141,7 +164,8 @@ def test_why_names_every_stale_edge_of_a_four_deep_chain(spawn, zenoh_env, zenoh
                 env=zenoh_env)
     why2 = Proc([sys.executable, "-m", "zentf.cli", "tf", "why", "a2", "e2", "--duration", "6"], env=zenoh_env)
     _wait_for_nodes(zenoh_session, test_namespace, [f"_zentf_tf_why_{why1.pid}", f"_zentf_tf_why_{why2.pid}"])
-    time.sleep(1.5)  # both hear every edge for a while, then two of them fall silent
+    _wait_for_senders(zenoh_session, test_namespace, [f"{ns}/stale1", f"{ns}/stale2"])
+    time.sleep(1.0)  # both hear every edge for a while, then two of them fall silent
     stager.signal(signal.SIGUSR1)
     assert why1.wait(60) == 1, why1.output()
     ex = json.loads(why1.output()[why1.output().index("{"):])
