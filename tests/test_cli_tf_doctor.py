@@ -75,7 +75,7 @@ def test_doctor_names_each_staged_problem_live_and_in_a_bag(spawn, zenoh_env, ze
         {"name": "loop_b", "sends": [_send("loop_y", "loop_x", 10.0)]},
     ])
     doomed = _stager(spawn, [{"name": "doomed", "sends": [_send("world", "beacon")]}])
-    doctor = Proc([sys.executable, "-m", "zentf.cli", "tf", "doctor", "--duration", "6", "--json"], env=zenoh_env)
+    doctor = Proc([sys.executable, "-m", "zentf.cli", "tf", "doctor", "--duration", "8", "--json"], env=zenoh_env)
     _wait_for_nodes(zenoh_session, test_namespace, [f"_zentf_tf_doctor_{doctor.pid}"])
     _wait_for_senders(zenoh_session, test_namespace, [f"{ns}/doomed", f"{ns}/dup_a", f"{ns}/loop_b"])
     time.sleep(1.0)
@@ -160,9 +160,9 @@ def test_why_names_every_stale_edge_of_a_four_deep_chain(spawn, zenoh_env, zenoh
         {"name": "healthy2", "sends": [_send(*two[0]), _send(*two[3])]},
         {"name": "stale2", "sends": [_send(*two[1], stop_on="SIGUSR1"), _send(*two[2], stop_on="SIGUSR1")]},
     ])
-    why1 = Proc([sys.executable, "-m", "zentf.cli", "tf", "why", "a1", "e1", "--duration", "6", "--json"],
+    why1 = Proc([sys.executable, "-m", "zentf.cli", "tf", "why", "a1", "e1", "--duration", "8", "--json"],
                 env=zenoh_env)
-    why2 = Proc([sys.executable, "-m", "zentf.cli", "tf", "why", "a2", "e2", "--duration", "6"], env=zenoh_env)
+    why2 = Proc([sys.executable, "-m", "zentf.cli", "tf", "why", "a2", "e2", "--duration", "8"], env=zenoh_env)
     _wait_for_nodes(zenoh_session, test_namespace, [f"_zentf_tf_why_{why1.pid}", f"_zentf_tf_why_{why2.pid}"])
     _wait_for_senders(zenoh_session, test_namespace, [f"{ns}/stale1", f"{ns}/stale2"])
     time.sleep(1.0)  # both hear every edge for a while, then two of them fall silent

@@ -235,7 +235,7 @@ class Evidence:
             e.first_values = values
         elif values != e.first_values:
             e.values_changed += 1
-        if not is_static:
+        if not is_static and clock:  # (sim time before the first /clock: nothing to compare with)
             e.delays.append(clock - stamp)
             if source is not None:
                 e.own_clock.append(stamp - source)
