@@ -235,3 +235,16 @@ def test_tf_topic_options():
         _topics(("ro*bot/tf",), (), False, None)
     with pytest.raises(click.UsageError):
         _topics(("r1/tf",), (), True, None)
+
+
+def test_clock_offset_against_sim_time():
+    ev = Evidence(sim_time=True)
+    for i in range(40):
+        arrival = T0 + i * 50_000_000
+        sim = 100 * NS + i * 50_000_000   # /clock: 100 s into the simulation
+        ev.add([_row("world", "base", sim)], "/sim_ok", False, arrival_ns=arrival, clock_ns=sim)
+        ev.add([_row("world", "arm", sim - 5 * NS // 2)], "/sim_late", False, arrival_ns=arrival, clock_ns=sim)
+        ev.add([_row("world", "leg", T0)], "/early", False, arrival_ns=arrival, clock_ns=0)  # before any /clock
+    found = _codes(_report(ev, at=2.0))
+    assert [f["publishers"] for f in found["clock_offset"]] == [["/sim_late"]]
+    assert "behind /clock (sim time)" in found["clock_offset"][0]["title"]
