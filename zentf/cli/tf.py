@@ -1,4 +1,4 @@
-"""`zentf tf echo | monitor | frames`: tf2_echo, tf2_monitor and view_frames over Zenoh."""
+"""`zentf tf echo | monitor | frames | doctor | why`: tf2_echo, tf2_monitor, view_frames and the tf doctor over Zenoh."""
 from __future__ import annotations
 
 import sys
@@ -8,35 +8,44 @@ from typing import Any, Optional
 
 import click
 
-from .common import CONTEXT_SETTINGS, CliError, CliOptions, NumberArgsCommand, StampSeconds, finite_float, status, with_options
+from .common import CONTEXT_SETTINGS, CliError, CliOptions, StampSeconds, finite_float, status, with_options
+from .tf_topics import TfToolCommand, TfTopics, open_tf_listeners, tf_topic_options
 
 __all__ = ["tf"]
 
 
 @click.group("tf", context_settings=CONTEXT_SETTINGS)
 def tf() -> None:
-    """Transforms: echo (tf2_echo), monitor (tf2_monitor), frames (view_frames)."""
+    """Transforms: echo (tf2_echo), monitor (tf2_monitor), frames (view_frames), doctor, why.
+
+    Every tf tool reads the namespace's tf and tf_static, or the topics --tf-topic /
+    --tf-static-topic / --ros-args -r /tf:=TOPIC name, or every namespace's (--all-namespaces).
+    """
 
 
-def _listen(opts: CliOptions, tool: str) -> tuple[Any, Any, Any]:
-    """Node + Buffer + TransformListener (tf and tf_static of the namespace)."""
+def _listen(opts: CliOptions, tool: str, topics: Optional[TfTopics] = None) -> tuple[Any, Any, Any]:
+    """Node + Buffer + TransformListeners (the namespace's tf and tf_static, or ``topics``)."""
     from zentf.transport.buffer import Buffer
-    from zentf.transport.listener import TransformListener
 
     from .common import open_node
 
     node = open_node(opts, tool)
     try:
         buffer = Buffer()
-        listener = TransformListener(buffer, node)
+        listeners = open_tf_listeners(buffer, node, topics or TfTopics())
+    except ValueError as exc:  # a bad topic pattern
+        node.shutdown()
+        raise CliError(str(exc), code=2) from exc
     except BaseException:
         node.shutdown()
         raise
-    return node, buffer, listener
+    return node, buffer, listeners
 
 
 def _close(node: Any, listener: Any = None) -> None:
-    for obj, meth in ((listener, "unregister"), (node, "shutdown")):
+    listeners = listener if isinstance(listener, list) else [listener]
+    calls = [(obj, "unregister") for obj in listeners] + [(node, "shutdown")]
+    for obj, meth in calls:
         fn = getattr(obj, meth, None) if obj is not None else None
         if fn is not None:
             try:
@@ -45,7 +54,7 @@ def _close(node: Any, listener: Any = None) -> None:
                 pass
 
 
-@tf.command("echo", cls=NumberArgsCommand, context_settings=CONTEXT_SETTINGS)
+@tf.command("echo", cls=TfToolCommand, context_settings=CONTEXT_SETTINGS)
 @click.argument("source")
 @click.argument("target")
 @click.argument("rate_arg", metavar="[RATE]", required=False, type=finite_float(min=0.001))
@@ -65,10 +74,11 @@ def _close(node: Any, listener: Any = None) -> None:
               help="With --bag: load only transforms stamped from this time (s) on (statics always).")
 @click.option("--end", "end", type=StampSeconds(), default=None,
               help="With --bag: load only transforms stamped up to this time (s).")
+@tf_topic_options
 @with_options
 def echo(source: str, target: str, rate_arg: Optional[float], rate: float, precision: int,
          at_time: Optional[float], count: Optional[int], timeout: Optional[float], bag_file: Optional[str],
-         start: Optional[float], end: Optional[float], *, opts: CliOptions) -> None:
+         start: Optional[float], end: Optional[float], *, tf_topics: TfTopics, opts: CliOptions) -> None:
     """Print the pose of TARGET in SOURCE at a fixed rate, like tf2_echo.
 
     As in tf2_echo the first argument is the frame the result is expressed in
@@ -88,7 +98,7 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
         return
     if start is not None or end is not None:
         raise click.BadParameter("only with --bag", param_hint="'--start'/'--end'")
-    node, buffer, listener = _listen(opts, "tf_echo")
+    node, buffer, listener = _listen(opts, "tf_echo", tf_topics)
     try:
         when = Time() if at_time is None else Time.from_sec(at_time)
         period = 1.0 / (rate_arg if rate_arg is not None else rate)
@@ -235,14 +245,15 @@ def write_graph(dot_text: str, output: Optional[str], default_stem: str) -> tupl
     return dot_path, (None if problem else img_path), problem
 
 
-@tf.command("frames", context_settings=CONTEXT_SETTINGS)
+@tf.command("frames", cls=TfToolCommand, context_settings=CONTEXT_SETTINGS)
 @click.option("--output", "-o", default=None, metavar="NAME",
               help="Write NAME.gv and NAME.pdf (a .svg/.png suffix picks that format). Default: frames_<date>.")
 @click.option("--wait", "-w", "--wait-time", type=finite_float(min=0.0), default=5.0, show_default=True,
               help="Seconds to listen before writing.")
 @click.option("--print", "-P", "print_tree", is_flag=True, help="Also print the frame tree as text.")
+@tf_topic_options
 @with_options
-def frames(output: Optional[str], wait: float, print_tree: bool, *, opts: CliOptions) -> None:
+def frames(output: Optional[str], wait: float, print_tree: bool, *, tf_topics: TfTopics, opts: CliOptions) -> None:
     """Listen for a while, then write the frame tree as Graphviz DOT and an image, like view_frames.
 
     Every edge is labelled with its broadcaster, average rate, most recent and oldest transform
@@ -250,7 +261,7 @@ def frames(output: Optional[str], wait: float, print_tree: bool, *, opts: CliOpt
     """
     from .format import format_frame_tree, frames_dot, printable, stats_from_frame_info
 
-    node, buffer, listener = _listen(opts, "view_frames")
+    node, buffer, listener = _listen(opts, "view_frames", tf_topics)
     try:
         deadline = time.monotonic() + wait
         with status(f"Listening to tf for {wait:g} s") as st:
@@ -266,7 +277,7 @@ def frames(output: Optional[str], wait: float, print_tree: bool, *, opts: CliOpt
         if interrupted:
             raise CliError("stopped before any tf data was received", code=130)
         raise CliError(f"no tf data received in {wait:g} s (is anything publishing on "
-                       f"{_tf_topics(opts)}?)")
+                       f"{_tf_topics(opts, tf_topics)}?)")
     stem = time.strftime("frames_%Y-%m-%d_%H.%M.%S")
     dot_path, img_path, problem = write_graph(frames_dot(stats, recorded), output, stem)
     if print_tree:
@@ -276,11 +287,11 @@ def frames(output: Optional[str], wait: float, print_tree: bool, *, opts: CliOpt
         sys.stderr.write(f"zentf: warning: {printable(problem)}\n")
 
 
-def _tf_topics(opts: CliOptions) -> str:
+def _tf_topics(opts: CliOptions, topics: Optional[TfTopics] = None) -> str:
     import os
 
     ns = (opts.namespace if opts.namespace is not None else os.environ.get("ZENTF_NAMESPACE", "")).strip("/")
-    return f"/{ns}/tf and /{ns}/tf_static" if ns else "/tf and /tf_static"
+    return (topics or TfTopics()).describe(ns)
 
 
 # --------------------------------------------------------------------------------------------
@@ -434,21 +445,31 @@ def _monitor_table(stats: MonitorStats, title: str, chain: Optional[list[str]],
     return table
 
 
-def _subscribe_tf(node: Any, stats: MonitorStats) -> list:
+def _subscribe_tf(node: Any, stats: MonitorStats, topics: Optional[TfTopics] = None) -> list:
     """Subscribe tf (plain) and tf_static (latched history) and feed wire.ingest_tf into `stats`."""
     import zenoh.ext as zx
 
-    from zentf.core.messages import TFMessage
+    from zentf.transport.listener import wire_key
 
     profile = node.wire  # zentf's format or ROS 2's (--wire ros2)
+    topics = topics or TfTopics()
     subs = []
-    for topic, is_static in (("tf_static", True), ("tf", False)):
-        key = profile.data_key(node.resolve_topic_name(topic), TFMessage.TYPE_NAME)
+    authority = profile.authority
+    if profile.name == "ros2":  # name each publisher by its node: the GID in the attachment, through the tokens
+        import threading
+
+        from zentf.tools.doctor import GraphTap
+        from zentf.tools.doctor.evidence import GraphView
+
+        names = GraphTap(node.session, profile, GraphView(), threading.Lock())
+        subs.append(names)
+        authority = lambda att, key: names.publisher(att)  # noqa: E731
+    for topic, is_static in [*((t, True) for t in topics.static), *((t, False) for t in topics.dynamic)]:
+        key = wire_key(node, topic)
 
         def on_sample(sample: Any, is_static: bool = is_static, key: str = key) -> None:
             try:
-                profile.ingest_tf(sample.payload.to_bytes(), stats,
-                                  profile.authority(sample.attachment, key), is_static)
+                profile.ingest_tf(sample.payload.to_bytes(), stats, authority(sample.attachment, key), is_static)
             except Exception:  # noqa: BLE001 - bad payloads are the publisher's problem, never ours
                 pass
 
@@ -460,7 +481,7 @@ def _subscribe_tf(node: Any, stats: MonitorStats) -> list:
     return subs
 
 
-@tf.command("monitor", context_settings=CONTEXT_SETTINGS)
+@tf.command("monitor", cls=TfToolCommand, context_settings=CONTEXT_SETTINGS)
 @click.argument("frame_a", required=False)
 @click.argument("frame_b", required=False)
 @click.option("--duration", "-d", type=finite_float(min=0.0, min_open=True), default=None,
@@ -469,9 +490,10 @@ def _subscribe_tf(node: Any, stats: MonitorStats) -> list:
               help="Seconds between reports when stdout is not a terminal.")
 @click.option("--window", type=finite_float(min=0.5), default=10.0, show_default=True,
               help="Seconds of arrivals used for the rates.")
+@tf_topic_options
 @with_options
 def monitor(frame_a: Optional[str], frame_b: Optional[str], duration: Optional[float], period: float,
-            window: float, *, opts: CliOptions) -> None:
+            window: float, *, tf_topics: TfTopics, opts: CliOptions) -> None:
     """Live table of every frame: parent, broadcaster, rate, average and max delay, like tf2_monitor.
 
     With FRAME_A FRAME_B it also shows the chain between them and its net delay (now - stamp of
@@ -491,12 +513,15 @@ def monitor(frame_a: Optional[str], frame_b: Optional[str], duration: Optional[f
 
             buffer = Buffer()
         stats = MonitorStats(buffer, window)
-        subs = _subscribe_tf(node, stats)
+        try:
+            subs = _subscribe_tf(node, stats, tf_topics)
+        except ValueError as exc:  # a bad topic pattern
+            raise CliError(str(exc), code=2) from exc
         _run_monitor(stats, buffer, pair, duration, period, node.ok)
     finally:
         for s in subs:
             try:
-                s.undeclare()
+                (s.close if hasattr(s, "publisher") else s.undeclare)()  # a GraphTap, or a subscriber
             except Exception:  # noqa: BLE001
                 pass
         _close(node)
@@ -578,3 +603,13 @@ def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str
         raise CliError(f"no transform {pair[0]} -> {pair[1]}: {reason or 'frames never connected'}")
     if not live_tty:
         print(format_monitor_text(stats, title, chain, net_figures()), flush=True)
+
+
+def _add_doctor() -> None:
+    from .tf_doctor import doctor, why
+
+    tf.add_command(doctor)
+    tf.add_command(why)
+
+
+_add_doctor()

@@ -13,7 +13,7 @@ import logging
 import queue
 import threading
 import time
-from typing import Any
+from typing import Any, Sequence
 
 from ..transport.wire import codec as wire
 from ..core.messages import Marker, MarkerArray, PointStamped, PoseStamped
@@ -57,7 +57,8 @@ class Viewer:
 
     def __init__(self, node: Any, recording: Any, *, fixed_frame: str = "world", axis_length: float = 0.3,
                  label_frames: bool = True,
-                 robot_description: str | None = "robot_description", frame_prefix: str = "") -> None:
+                 robot_description: str | None = "robot_description", frame_prefix: str = "",
+                 tf_topics: Sequence[tuple[str | None, str]] = (("tf", "tf_static"),)) -> None:
         import rerun as rr
 
         from ..transport.buffer import Buffer
@@ -71,7 +72,10 @@ class Viewer:
         self.axis_length = axis_length
         self.label_frames = label_frames
         self.buffer = Buffer()
-        self.listener = TransformListener(self.buffer, node)
+        # one listener per (tf, tf_static) pair: a fleet's namespaces, or the '/**/tf' pattern
+        self.listeners = [TransformListener(self.buffer, node, tf_topic=dyn or "tf", tf_static_topic=st,
+                                            static_only=dyn is None) for dyn, st in tf_topics]
+        self.listener = self.listeners[0]
         self._inbox: "queue.Queue[tuple[str, str, bytes]]" = queue.Queue(maxsize=10_000)
         ns_key = topic_to_key(node.resolve_topic_name("tf")).rpartition("/")[0]
         self._key = f"{ns_key}/**" if ns_key else "**"
@@ -255,4 +259,5 @@ class Viewer:
 
     def close(self) -> None:
         undeclare_all((self._sub, self._token))
-        self.listener.unregister()
+        for lis in self.listeners:
+            lis.unregister()
