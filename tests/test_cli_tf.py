@@ -34,6 +34,17 @@ def test_tf_echo_waits_says_why_then_prints_camera_from_laser(spawn):
     assert len([ln for ln in echo.lines if ln.startswith("At time")]) == 2
 
 
+def test_tf_echo_says_why_it_waits_at_most_once_a_second(spawn, zenoh_env):
+    """A lookup in the future fails with a new reason at every insert (the latest stamp moves): still one
+    line a second at most."""
+    frames = spawn.python("-m", "nodes.frames_publisher")
+    frames.wait_for_line(r"publishing av1 and av2 in world", 30)
+    proc = zentf(["tf", "echo", "world", "av1", "--time", "9000000000", "--timeout", "3"], zenoh_env)
+    waiting = [ln for ln in proc.stderr.splitlines() if ln.startswith("Waiting for transform world -> av1:")]
+    assert proc.returncode == 1 and "into the future" in proc.stderr, proc.stderr
+    assert 1 <= len(waiting) <= 4, proc.stderr  # 3 s: at 0, 1, 2 (and 3) s
+
+
 def test_tf_monitor_reports_the_drones_at_about_50_hz(spawn, zenoh_env):
     frames = spawn.python("-m", "nodes.frames_publisher")
     frames.wait_for_line(r"publishing av1 and av2 in world", 30)

@@ -102,7 +102,7 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
         # Phase 1: wait for the first transform (woken by every insert), saying why once a second.
         started = time.monotonic()
         deadline = None if timeout is None else started + timeout
-        last_reason, last_reason_at = "", float("-inf")
+        last_reason_at = float("-inf")
         first = None
         with status(f"Waiting for transform {source} -> {target}") as st:
             while first is None and node.ok():
@@ -116,10 +116,10 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
                     now = time.monotonic()
                     if deadline is not None and now >= deadline:
                         raise CliError(f"no transform {source} -> {target} after {timeout:g} s: {reason}") from exc
-                    if reason != last_reason or now - last_reason_at >= 1.0:
+                    if now - last_reason_at >= 1.0:  # at most once a second, even as the reason changes
                         sys.stderr.write(printable(f"Waiting for transform {source} -> {target}: {reason}") + "\n")
                         sys.stderr.flush()
-                        last_reason, last_reason_at = reason, now
+                        last_reason_at = now
                     left = "" if deadline is None else f" ({max(0.0, deadline - now):.1f} s left)"
                     st.update(printable(f"Waiting for transform {source} -> {target}{left}: {reason}"))
         if first is None:  # Ctrl-C / SIGTERM while waiting
