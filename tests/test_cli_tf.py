@@ -5,7 +5,7 @@ import re
 import shutil
 
 import pytest
-from cli_helpers import ZENTF, zentf
+from cli_helpers import ZENTF, assert_one_line_error, zentf
 
 NUM = r"(-?\d+\.\d+)"
 
@@ -95,6 +95,16 @@ def test_tf_frames_writes_dot_with_edges_and_an_image(spawn, zenoh_env, tmp_path
         pdf = tmp_path / "frames.pdf"
         assert pdf.read_bytes()[:5] == b"%PDF-"
         assert f"Wrote {tmp_path / 'frames.gv'} and {pdf}" in proc.stdout
+
+
+def test_tf_frames_with_nothing_on_tf_names_the_namespaced_tf_topics(spawn, zenoh_env, test_namespace):
+    """tf under robot namespaces only: the error says where tf is and how to look there."""
+    _static(spawn, "1", "2", "3", "0", "0", "0", "map", "odom", "--namespace", f"{test_namespace}/robot1")
+    proc = zentf(["tf", "frames", "-w", "0.5"], zenoh_env)
+    err = assert_one_line_error(proc, f"no tf data received in 0.5 s on /{test_namespace}/tf and "
+                                      f"/{test_namespace}/tf_static; tf is published on "
+                                      f"/{test_namespace}/robot1/tf_static")
+    assert f"(e.g. zentf -n {test_namespace}/robot1 tf frames)" in err
 
 
 @pytest.mark.skipif(shutil.which("dot") is None, reason="graphviz not installed")

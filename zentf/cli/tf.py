@@ -265,8 +265,7 @@ def frames(output: Optional[str], wait: float, print_tree: bool, *, opts: CliOpt
     if not stats:
         if interrupted:
             raise CliError("stopped before any tf data was received", code=130)
-        raise CliError(f"no tf data received in {wait:g} s (is anything publishing on "
-                       f"{_tf_topics(opts)}?)")
+        raise CliError(f"no tf data received in {wait:g} s on {_tf_topics(opts)}{_other_tf_topics(opts)}")
     stem = time.strftime("frames_%Y-%m-%d_%H.%M.%S")
     dot_path, img_path, problem = write_graph(frames_dot(stats, recorded), output, stem)
     if print_tree:
@@ -281,6 +280,35 @@ def _tf_topics(opts: CliOptions) -> str:
 
     ns = (opts.namespace if opts.namespace is not None else os.environ.get("ZENTF_NAMESPACE", "")).strip("/")
     return f"/{ns}/tf and /{ns}/tf_static" if ns else "/tf and /tf_static"
+
+
+def _other_tf_topics(opts: CliOptions, shown: int = 6) -> str:
+    """Where tf is published instead (e.g. under robot namespaces), from the graph: the hint a user
+    needs when nothing is on the topics listened to."""
+    import os
+
+    from zentf.transport.names import normalize_namespace
+
+    from .format import printable
+    from .introspect import graph_snapshot
+
+    try:
+        _, topics = graph_snapshot(opts, 1.0, None)
+    except CliError:
+        return ""
+    ns = normalize_namespace(opts.namespace if opts.namespace is not None
+                             else os.environ.get("ZENTF_NAMESPACE", ""))
+    ns = "/" + ns if ns else ""
+    listened = {f"{ns}/tf", f"{ns}/tf_static"}
+    found = sorted((not name.startswith(ns + "/"), name) for name, info in topics.items()
+                   if name.rsplit("/", 1)[-1] in ("tf", "tf_static") and info.publishers and name not in listened)
+    if not found:
+        return " (nothing in the graph publishes tf)"
+    names = [name for _, name in found]
+    more = f" and {len(names) - shown} more" if len(names) > shown else ""
+    example = names[0].rsplit("/", 1)[0].strip("/")
+    return (f"; tf is published on {', '.join(printable(n) for n in names[:shown])}{more} "
+            f"(e.g. zentf -n {printable(example)} tf frames)")
 
 
 # --------------------------------------------------------------------------------------------
