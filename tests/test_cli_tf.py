@@ -6,6 +6,7 @@ import shutil
 
 import pytest
 from cli_helpers import ZENTF, assert_one_line_error, zentf
+from conftest import REPO, Proc, child_env
 
 NUM = r"(-?\d+\.\d+)"
 
@@ -115,3 +116,31 @@ def test_tf_frames_svg_output(spawn, zenoh_env, tmp_path):
     svg = (tmp_path / "tree.svg").read_text()
     assert "<svg" in svg and "odom" in svg
     assert '"map" -> "odom"' in (tmp_path / "tree.gv").read_text()
+
+
+def test_tools_read_sim_time_while_a_bag_plays_with_its_clock(isolated_router, test_namespace, tmp_path):
+    """nav2's run: tf stamped in Gazebo time (~930 s), recorded with a wall clock. Under `bag play --clock`
+    the tools take /clock by themselves, as ROS tools do with use_sim_time: delays and ages in sim time
+    (against the wall clock they read ~1.8e12 ms); `zentf clock` says the bag's clock takes no commands."""
+    env = child_env(isolated_router, test_namespace)
+    play = Proc([*ZENTF, "bag", "play", str(REPO / "tests" / "data" / "nav2_turtlebot.mcap"), "--clock"], env=env)
+    try:
+        play.wait_for_line(r"/clock follows the recording's tf stamps, -\d+ s from its log times", 30)
+        play.wait_for_line(r"playing: t = ", 30)
+        mon = zentf(["tf", "monitor", "--duration", "2"], env)
+        assert mon.returncode == 0, mon.stderr
+        assert "\nClock: sim time from /clock (published)\n" in mon.stdout, mon.stdout
+        rows = re.findall(rf"^(\S+)\s+(\S+)\s+\S*tf\s+{NUM}\s+{NUM}\s+{NUM}$", mon.stdout, re.M)
+        assert {r[0] for r in rows} >= {"base_link", "odom"}, mon.stdout
+        for frame, _parent, _rate, avg, mx in rows:
+            assert abs(float(avg)) < 5000 and abs(float(mx)) < 5000, mon.stdout  # ms: sim time, not 1e12
+        frames = zentf(["tf", "frames", "-w", "1", "-o", str(tmp_path / "nav2")], env)
+        assert frames.returncode == 0, frames.stderr
+        dot = (tmp_path / "nav2.gv").read_text()
+        assert re.search(r'"Recorded at time: 9\d\d\.\d+"', dot) and "Clock: sim time from /clock" in dot, dot
+        ages = [float(a) for a in re.findall(r"\( (-?\d+\.\d+) sec old\)", dot)]
+        assert ages and all(abs(a) < 5 for a in ages), dot
+        clock = zentf(["clock", "--timeout", "30"], env, timeout=20)
+        assert_one_line_error(clock, "no sim clock to control", f"/clock is published by /{test_namespace}/_zentf_bag_play_", code=1)
+    finally:
+        play.stop()

@@ -281,6 +281,9 @@ def bag_play(file: str, clock: bool, clock_hz: float, rate: float, loop: bool, s
             progress = _Progress()
             _err(f"playing {file} at rate {rate:g}{' with /clock' if clock else ''}{' in a loop' if loop else ''}"
                  " (Ctrl-C to stop)")
+            if player.clock_offset:
+                _err(f"/clock follows the recording's tf stamps, {player.clock_offset / 1e9:+.0f} s from its log "
+                     "times (a sim-time graph recorded with a wall clock)")
             if delay:
                 stop.wait(delay)
 
