@@ -36,7 +36,7 @@ import pytest
 from conftest import REPO, free_port
 
 #: How long a program that runs until Ctrl-C runs before it gets it; how long a demo may take to be ready.
-RUN_FOR = 4.0
+RUN_FOR = 1.5
 READY_WITHIN = 90.0
 FINISH_WITHIN = 60.0
 pytest.importorskip("rosbags", reason="the README's recordings block reads ROS bags (zentf[ros])")
