@@ -71,7 +71,6 @@ def robot_columns(image) -> tuple[list[tuple[int, int]], tuple[int, int, int, in
 
 
 def test_view_web_shows_r2d2_in_one_framed_3d_view(spawn, zenoh_env, gl_browser, tmp_path):
-    pytest.importorskip("trimesh", reason="trimesh reads r2d2's .dae gripper meshes")
     env = {**zenoh_env, "ZENTF_PACKAGE_PATH": str(DATA)}
     spawn.python("-m", "nodes.robot_state_publisher", str(R2D2), env=env).wait_for_line("publishing robot", 60)
     spawn.python("-m", "nodes.joint_state_publisher", str(R2D2), env=env).wait_for_line("publishing joint_states", 60)
