@@ -34,7 +34,7 @@ class TransformBroadcaster:
         self._encode_tf = node.wire.encode_tf  # msgpack (zentf) or CDR (ros2)
         if type(self).send_transform is _send_transform:
             # the common call, one TransformStamped, compiled from here to Zenoh's put where the wire has
-            # such a sender (zentf/transport/ingest/tfwire.pyx); anything else reaches the method below
+            # such a sender (zentf/transport/ingest/tf_encoder.pyx); anything else reaches the method below
             fast = self._pub.compiled_tf_sender(self.send_transform)
             if fast is not None:
                 self.send_transform = self.sendTransform = fast  # type: ignore[method-assign]

@@ -145,7 +145,7 @@ class RawPublisher:
 
     def compiled_tf_sender(self, fallback: Callable[[Any], None]) -> Callable[[Any], None] | None:
         """The wire's compiled ``send_transform`` of one TransformStamped on this publisher (None: none)."""
-        return self.node.wire.one_transform_sender(self._pub.put, self._const_attachment, fallback)
+        return self.node.wire.one_transform_sender(self._pub.put, self._attach, fallback)
 
     def get_subscription_count(self) -> int:
         """Subscriptions of this topic and type (or of any type) in the graph, this node's included."""

@@ -127,10 +127,11 @@ class WireProfile(ABC):
         """A listener topic's compiled ``ingest(payload, authority)`` into ``target`` (zentf/transport/ingest),
         with the future guard's clock (``now_ns`` None: no guard); ``ingest_tf`` is its slow path."""
 
-    def one_transform_sender(self, put: Callable[..., Any], attachment: Any,
+    def one_transform_sender(self, put: Callable[..., Any], attacher: Attacher,
                              fallback: Callable[[Any], None]) -> Callable[[Any], None] | None:
-        """A compiled ``send_transform`` for one TransformStamped straight to ``put`` (anything else to
-        ``fallback``), or None when the wire has none (the broadcaster's Python method is then used)."""
+        """A compiled ``send_transform`` for one TransformStamped straight to ``put`` with the attachments
+        ``attacher`` makes (anything else to ``fallback``), or None when the wire has none (the
+        broadcaster's Python method is then used)."""
         return None
 
     # ---- attachments
@@ -150,6 +151,26 @@ class WireProfile(ABC):
     def sender_id(self, attachment: bytes) -> bytes:
         """The sending publisher's identity in an attachment (``Attacher.sender_id`` of its attacher)."""
         return attachment if self.sender_of is None else self.sender_of(attachment)
+
+    # ---- diagnostics: who sent a sample (tf doctor, tf monitor)
+    @abstractmethod
+    def publisher_of(self, attachment: Any) -> tuple[str, int | None] | None:
+        """(the publisher that sent a sample, its clock when it sent in ns if the attachment says), from the
+        attachment (bytes or Zenoh's); None when it names no publisher. zentf names a publisher by its node's
+        name; ROS 2 by its GID in hex, which ``token_publisher`` reads from the graph's tokens."""
+
+    def token_publisher(self, key: str) -> str | None:
+        """The publisher (as ``publisher_of`` names it) a graph token announces, when that is not its node's
+        name; None when it is, or when the key is no publisher's token."""
+        return None
+
+    def token_session(self, key: str) -> str:
+        """The Zenoh session id a graph token names; '' when the wire's tokens name none."""
+        return ""
+
+    def publisher_label(self, publisher: str) -> str:
+        """How a line names a publisher ``publisher_of`` gave whose node the graph does not know."""
+        return publisher
 
     # ---- publishers
     @abstractmethod

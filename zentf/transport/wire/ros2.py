@@ -31,8 +31,9 @@ from ..names import normalize_namespace, topic_to_key
 from ...ros import CdrError, UnknownTypeError, dds_type_name, ros_type_name, tf_samples, type_hash
 from ...ros import codec as cdr_codec
 from ...ros.tf import encode_tf as cdr_encode_tf
-from ..ingest.tfwire import TfIngest
-from ..ingest.tfwire import cdr_tf as _compiled_cdr_tf  # the compiled decoder; None: Python only (tests)
+from ..ingest.decoders import cdr_tf  # the compiled decoder (zentf/transport/ingest/decoders.pyx)
+from ..ingest.handler import SenderTail, TfIngest
+from ..ingest.tf_encoder import OneTransformSenderCdr
 
 __all__ = ["Ros2Profile", "qos_string", "parse_ros2_token", "ros2_attachment", "parse_ros2_attachment",
            "ROS2_DEFAULT_DEPTH", "ROS2_AUTHORITY", "ROS2_ROUTER", "ROS2_SERVICE_DEPTH",
@@ -241,16 +242,24 @@ class Ros2Profile(WireProfile):
         return st.sec, st.nanosec
 
     def ingest_tf(self, payload: bytes, core: Any, authority: str, is_static: bool) -> tuple[int, int, int, str | None]:
-        # compiled first; None (anything doubtful) sends the payload to tf_samples, which names the problem
-        samples = _compiled_cdr_tf(payload) if _compiled_cdr_tf is not None else None
-        if samples is not None:
-            return wire._insert(samples, core, authority, is_static, 0, None)
-        samples, malformed, problem = tf_samples(payload)
-        return wire._insert(samples, core, authority, is_static, malformed, problem)
+        # compiled; None (anything doubtful) sends the payload to tf_samples, which names the problem
+        samples = cdr_tf(payload)
+        if samples is None:
+            samples, malformed, problem = tf_samples(payload)
+            return wire.insert_samples(samples, core, authority, is_static, malformed, problem)
+        return wire.insert_samples(samples, core, authority, is_static)
 
     def tf_ingest(self, target: Any, buffer: Any, now_ns: Callable[[], int] | None, tolerance_ns: int,
                   is_static: bool) -> Any:
-        return TfIngest(True, self.ingest_tf, wire._insert, target, buffer, now_ns, tolerance_ns, is_static)
+        return TfIngest(True, self.ingest_tf, target, buffer, now_ns, tolerance_ns, is_static)
+
+    def one_transform_sender(self, put: Callable[..., Any], attacher: Attacher,
+                             fallback: Callable[[Any], None]) -> Callable[[Any], None] | None:
+        # the CDR payload and rmw_zenoh's attachment (the publisher's own sequence) written in C; a
+        # subclass that writes TFMessages its own way keeps its encode_tf
+        if type(self).encode_tf is not Ros2Profile.encode_tf or not isinstance(attacher, _Ros2Attacher):
+            return None
+        return OneTransformSenderCdr(put, attacher.seq, attacher.gid, fallback)
 
     # ---- attachments
     def attacher(self, node: Any, token_key: str) -> Attacher:
@@ -262,10 +271,37 @@ class Ros2Profile(WireProfile):
     def authority(self, attachment: Any, fallback: str) -> str:
         return ROS2_AUTHORITY
 
-    @staticmethod
-    def sender_of(raw: bytes) -> bytes:  # type: ignore[override]
-        """The publisher GID of an attachment: its sequence number and time change with every sample."""
-        return raw[17:] if len(raw) == 33 and raw[16] == 16 else raw
+    #: The publisher GID of an attachment (after its sequence number, time and the GID's length 16, which
+    #: change with every sample or say nothing); read in C by the listener's thread.
+    sender_of = SenderTail(33, 16, 16)
+
+    # ---- diagnostics
+    def publisher_of(self, attachment: Any) -> tuple[str, int | None] | None:
+        if attachment is None:
+            return None
+        try:
+            _, source_ns, gid = parse_ros2_attachment(_raw(attachment))
+        except ValueError:  # a foreign attachment
+            return None
+        return gid.hex(), source_ns or None
+
+    def token_publisher(self, key: str) -> str | None:
+        """The GID of the publisher a token announces: XXH3-128 of the token key, as rmw_zenoh computes it
+        (None without the xxhash module: a random GID would match nothing)."""
+        if f"/{_KINDS['pub']}/" not in key:
+            return None
+        try:
+            import xxhash
+        except ImportError:
+            return None
+        return xxhash.xxh3_128_digest(key.encode())[::-1].hex()
+
+    def token_session(self, key: str) -> str:
+        parts = key.split("/")
+        return parts[2] if len(parts) > 2 and parts[0] == _ADMIN else ""
+
+    def publisher_label(self, publisher: str) -> str:
+        return f"publisher gid {publisher}"
 
     # ---- publishers
     def latched_history(self, depth: int) -> int:

@@ -18,7 +18,8 @@ from . import codec as wire
 from .base import Attacher, GraphEntry, WireProfile
 from ...core.messages import Message, TFMessage
 from ..names import decode_chunk, encode_chunk, key_to_topic, normalize_namespace, topic_to_key
-from ..ingest.tfwire import OneTransformSender, TfIngest
+from ..ingest.handler import TfIngest
+from ..ingest.tf_encoder import OneTransformSender
 
 __all__ = ["ZentfProfile", "PREFIX", "node_token", "entity_token", "parse_token", "selector"]
 
@@ -123,16 +124,20 @@ class ZentfProfile(WireProfile):
 
     def tf_ingest(self, target: Any, buffer: Any, now_ns: Callable[[], int] | None, tolerance_ns: int,
                   is_static: bool) -> Any:
-        return TfIngest(False, wire.ingest_tf, wire._insert, target, buffer, now_ns, tolerance_ns, is_static)
+        return TfIngest(False, wire.ingest_tf, target, buffer, now_ns, tolerance_ns, is_static)
 
     def check_tf_encoding(self, encoding: Any) -> None:  # type: ignore[override]
         type_name = wire.type_name_from_encoding(encoding)
         if type_name is not None and type_name != _TF:
             raise ValueError(f"wrong type {type_name}, expected {_TF}")
 
-    def one_transform_sender(self, put: Callable[..., Any], attachment: Any,
+    def one_transform_sender(self, put: Callable[..., Any], attacher: Attacher,
                              fallback: Callable[[Any], None]) -> Callable[[Any], None] | None:
-        return OneTransformSender(put, attachment, fallback) if attachment is not None else None
+        if attacher.constant is None:
+            return None
+        import zenoh
+
+        return OneTransformSender(put, zenoh.ZBytes(attacher.constant), fallback)  # the attachment made once
 
     # ---- attachments
     def attacher(self, node: Any, token_key: str) -> Attacher:
@@ -143,6 +148,11 @@ class ZentfProfile(WireProfile):
 
     def authority(self, attachment: Any, fallback: str) -> str:
         return wire.authority_of(attachment, fallback)
+
+    # ---- diagnostics
+    def publisher_of(self, attachment: Any) -> tuple[str, int | None] | None:
+        name = wire.authority_of(attachment, "")
+        return (name, None) if name else None
 
     # ---- publishers
     def latched_history(self, depth: int) -> int:
