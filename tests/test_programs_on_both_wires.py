@@ -1,7 +1,9 @@
 """Every program `zentf run` lists works on both wires: started together on one router (zentf's wire in a
 namespace of its own, ROS 2's in a ROS domain of its own), each one's output is seen on the graph by a node
 on the same wire (transforms in a listener's buffer, messages on its subscriptions, a buffer server's
-answers), or, for the programs that only print, in the line they print from what they heard."""
+answers), or, for the programs that only print, in the line they print from what they heard. The DDS
+bridge's other side is a Cyclone DDS participant in the test (its domain is the test's ROS_DOMAIN_ID): a
+transform written there reaches the observer's buffer, and the graph's tf_static reaches a DDS reader."""
 from __future__ import annotations
 
 import sys
@@ -68,6 +70,35 @@ def _translation(buffer: Buffer, target: str, source: str) -> tuple[float, float
     return t.x, t.y, t.z
 
 
+def _dds_both_ways(domain: int, buffer: Buffer) -> bool:
+    """A TFMessage written on DDS's rt/tf comes out of the bridge into ``buffer``; the graph's tf_static
+    (static_transform_publisher's laser) comes out of the bridge on DDS's rt/tf_static."""
+    from zentf.ros import encode_tf
+    from zentf.tools.dds.convert import cdr_to_message
+    from zentf.tools.dds.cyclone import DdsDomain, TopicQos
+
+    d = DdsDomain(domain, mark=False)  # an ordinary DDS node, not a bridge
+    try:
+        writer = d.writer("rt/tf", "tf2_msgs/msg/TFMessage", TopicQos(depth=100), mark=False)
+        reader = d.reader("rt/tf_static", "tf2_msgs/msg/TFMessage", TopicQos(transient_local=True, depth=1), 1)
+        statics: set[str] = set()
+        deadline = time.monotonic() + WAIT
+        while time.monotonic() < deadline and not (
+                "laser" in statics and buffer.can_transform("dds_parent", "dds_child", Time())):
+            now = time.time()
+            writer.write(encode_tf([{"header": {"stamp": {"sec": int(now), "nanosec": 0}, "frame_id": "dds_parent"},
+                                     "child_frame_id": "dds_child",
+                                     "transform": {"translation": {"x": 7.0, "y": 0.0, "z": 0.0},
+                                                   "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}]))
+            d.wait(0.2)
+            statics.update(t.child_frame_id for cdr, _ in reader.take()
+                           for t in cdr_to_message(cdr, "tf2_msgs/msg/TFMessage").transforms)
+        assert "laser" in statics, f"no laser on DDS's rt/tf_static (got {sorted(statics)})"
+        return _translation(buffer, "dds_parent", "dds_child") == (7.0, 0.0, 0.0)
+    finally:
+        d.close()
+
+
 @pytest.mark.parametrize("wire", ["zentf", "ros2"])
 def test_every_program_works_on_both_wires(wire: str, zenoh_router: str) -> None:
     ns = f"t_{uuid.uuid4().hex[:10]}"
@@ -123,6 +154,7 @@ def test_every_program_works_on_both_wires(wire: str, zenoh_router: str) -> None
                 "point_listener": lambda: _check(procs["point_listener"].wait_for_line(
                     r"obstacle in base_link: ", WAIT)),
                 "frame_listener": lambda: _check(procs["frame_listener"].wait_for_line(r"laser in camera: ", WAIT)),
+                "dds_bridge": lambda: _check(_dds_both_ways(domain, buffer)),
             }
             assert set(checks) == set(PROGRAMS), "a program without its check"
             failed = {}

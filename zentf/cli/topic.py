@@ -89,7 +89,7 @@ def topic_type(name: str, wait: float, *, opts: CliOptions) -> None:
     from .format import printable
     from .introspect import graph_snapshot
 
-    fq, _ = _resolve(opts, name)
+    fq = _resolve(opts, name)
     t = graph_snapshot(opts, wait, None)[1].get(fq)
     if t is None:
         raise CliError(f"unknown topic {fq}: no live node publishes or subscribes it")
