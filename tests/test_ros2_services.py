@@ -75,7 +75,7 @@ def test_service_call_under_ros2(ros2_env, cli_env, spawn) -> None:
                           "service /fail failed: RuntimeError: the disk is full")
     # a zentf client without the profile does not reach a ros2 server
     assert_one_line_error(zentf(["service", "call", "/echo", "std_srvs/srv/SetBool", "{data: true}",
-                                 "--timeout", "1"], cli_env), "not available")
+                                 "--timeout", "1"], cli_env), "service /echo is not offered by any node")
 
 
 def test_sdk_client_calls_zentf_services(ros2_env, spawn) -> None:
