@@ -501,10 +501,16 @@ def resolve_type_name(text: str) -> str:
 
 def parse_message(type_name: str, data: str) -> Any:
     """DATA (YAML or JSON) -> message of the type; one-line CliError naming the bad field."""
-    import yaml
-
     from zentf.core.messages import message_type
 
+    return parse_message_as(message_type(type_name), data)
+
+
+def parse_message_as(cls: Any, data: str) -> Any:
+    """DATA (YAML or JSON) -> a ``cls`` message; one-line CliError naming the bad field."""
+    import yaml
+
+    type_name = cls.TYPE_NAME
     try:
         plain = yaml.safe_load(data) if data.strip() else {}
     except yaml.YAMLError as exc:
@@ -512,7 +518,7 @@ def parse_message(type_name: str, data: str) -> Any:
     if plain is None:
         plain = {}
     try:
-        msg = message_type(type_name).from_dict(plain)
+        msg = cls.from_dict(plain)
     except (ValueError, TypeError) as exc:
         raise CliError(f"bad DATA for {type_name}: {exc}", code=2) from exc
     where = _out_of_range(msg.to_dict() if hasattr(msg, "to_dict") else plain)
