@@ -260,7 +260,7 @@ def cli_examples() -> list[Example]:
 
 
 #: Commands whose numbers are measured (rates, delays, times): any number may differ, the rest may not.
-MEASURED = ("tf monitor", "tf frames")
+MEASURED = ("tf monitor", "tf frames", "topic delay", "topic bw")
 _NUMBER = re.compile(r"-?\d+(?:\.\d+)?")
 
 
