@@ -55,15 +55,19 @@ def test_topic_echo_type_field_csv_and_no_arr(spawn, graph_env):
 
 
 @pytest.mark.parametrize("args, needle", [
-    (["--csv", "--json"], "--csv and --json exclude each other"),
-    (["--field", ".."], "invalid field value '..'"),
-    (["no_pkg_type"], "unknown message type 'no_pkg_type'"),
-    (["--truncate-length", "-1"], "--truncate-length"),
+    (["echo", "x", "--csv", "--json"], "--csv and --json exclude each other"),
+    (["echo", "x", "--field", ".."], "invalid field value '..'"),
+    (["echo", "x", "no_pkg_type"], "unknown message type 'no_pkg_type'"),
+    (["echo", "x", "--truncate-length", "-1"], "--truncate-length"),
+    (["bw", "x", "--window", "0"], "--window"),
+    (["bw", "bad topic!"], "invalid topic name"),
+    (["delay", "x", "--duration", "nan"], "nan is not finite"),
+    (["delay", "x", "--period", "0"], "--period"),
 ])
-def test_topic_echo_bad_arguments_are_one_line(args, needle):
+def test_topic_tools_bad_arguments_are_one_line(args, needle):
     """Refused before anything is opened (no ZENTF_* setting: nothing to reach)."""
     env = {k: v for k, v in os.environ.items() if not k.startswith("ZENTF_")}
-    assert_one_line_error(zentf(["topic", "echo", "x", *args], env), needle, code=2)
+    assert_one_line_error(zentf(["topic", *args], env), needle, code=2)
 
 
 def _size(env: dict[str, str]) -> int:
