@@ -54,3 +54,13 @@ def test_field_selects_and_names_what_is_missing():
     with pytest.raises(FieldError, match="invalid field value"):
         parse_field("..")
     assert parse_field(".pose..position") == ["pose", "position"]  # ros2 drops empty parts
+
+
+@pytest.mark.parametrize("view", [View(), View(csv=True), View(no_arr=True)], ids=["yaml", "csv", "no-arr"])
+def test_a_payload_nested_beyond_any_ros_type_is_shown_raw(view):
+    """500 nested msgpack arrays under a zentf encoding: shown as raw bytes, not walked into a RecursionError."""
+    from zentf.cli.topic import render_sample
+
+    payload = b"\x91" * 500 + b"\x01"
+    out = render_sample(payload, "application/msgpack;evil/msg/X", False, "k", None, view)
+    assert out.startswith("# raw payload: 501 bytes, encoding application/msgpack;evil/msg/X\n"), out[:100]

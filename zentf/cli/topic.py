@@ -134,6 +134,8 @@ def render_sample(payload: bytes, encoding: str, as_json: bool, key: str = "", p
         known = False
     from .format import printable
 
+    if known and not _shallow(data, MAX_DEPTH):
+        known = False  # no ROS type nests this deep: shown raw, not walked (a crafted payload)
     if not known:
         if view.field:
             raise FieldError(f"cannot select field {'.'.join(view.field)!r}: the payload is not a message zentf "
@@ -143,6 +145,26 @@ def render_sample(payload: bytes, encoding: str, as_json: bool, key: str = "", p
         return f"# raw payload: {len(payload)} bytes, encoding {printable(encoding)}\n{payload!r}\n---"
     data, type_name = view.select(data, type_name)
     return view.render(data, type_name)
+
+
+#: Nesting beyond which a decoded payload is shown raw: ROS types are a few levels deep, and the views walk
+#: values recursively.
+MAX_DEPTH = 64
+
+
+def _shallow(value: Any, limit: int) -> bool:
+    """Whether ``value`` nests no deeper than ``limit`` dicts/lists (walked without recursion)."""
+    todo = [(value, 0)]
+    while todo:
+        v, depth = todo.pop()
+        if isinstance(v, dict):
+            v = list(v.values())
+        elif not isinstance(v, (list, tuple)):
+            continue
+        if depth >= limit:
+            return False
+        todo.extend((x, depth + 1) for x in v if isinstance(x, (dict, list, tuple)))
+    return True
 
 
 def message_type_arg(text: str) -> str:
