@@ -195,14 +195,6 @@ def _check_type_in_graph(opts: CliOptions, fq: str, type_name: str) -> None:
                        code=2)
 
 
-def _json_default(obj: Any) -> Any:
-    if isinstance(obj, (bytes, bytearray, memoryview)):
-        return bytes(obj).hex()
-    if hasattr(obj, "to_dict"):
-        return obj.to_dict()
-    return str(obj)
-
-
 def _subscribe(session: Any, key: str, history: bool,
                stamp: Any = None) -> tuple[Any, "queue.Queue[tuple[bytes, str, float, str]]"]:
     """Subscriber whose Zenoh-thread callback only copies the sample into a queue (with ``stamp()``'s value,
