@@ -3,8 +3,8 @@ hand-written class (so `zentf service call` takes every service type it knows, o
 
 A made class is a zentf Message dataclass like the hand-written ones (``from_dict``, ``to_dict``, ROS field
 names and defaults); a type that has a class already (``zentf.core.messages.message_type``) keeps it, so
-nested hand-written types stay themselves. Made classes are cached, not registered: decoding elsewhere is
-unchanged.
+nested hand-written types stay themselves. Made classes are cached (made again when a definition is
+registered anew), not registered: decoding elsewhere is unchanged.
 """
 from __future__ import annotations
 
@@ -60,13 +60,15 @@ def _class(type_name: str) -> Any:
         return message_type(type_name)
     except KeyError:
         pass
-    cls = _made.get(type_name)
-    if cls is None:
-        d = definition(type_name)
-        short = type_name.rsplit("/", 1)[-1]
-        cls = dataclasses.make_dataclass(short, [_field(f) for f in d.fields], bases=(Message,),
-                                         namespace={"TYPE_NAME": type_name, "__module__": __name__}, slots=True)
-        _made[type_name] = cls
+    d = definition(type_name)
+    made = _made.get(type_name)
+    if made is not None and made[0] is d:
+        return made[1]
+    # first use, or the definition was registered again since (register_definition replaces)
+    short = type_name.rsplit("/", 1)[-1]
+    cls = dataclasses.make_dataclass(short, [_field(f) for f in d.fields], bases=(Message,),
+                                     namespace={"TYPE_NAME": type_name, "__module__": __name__}, slots=True)
+    _made[type_name] = (d, cls)
     return cls
 
 
@@ -85,12 +87,13 @@ def service_class(type_name: str) -> type[ServiceType]:
     if type_name not in service_types():
         raise UnknownTypeError(f"unknown service type {type_name!r}")
     with _lock:
-        srv = _made.get(type_name)
-        if srv is None:
-            short = type_name.rsplit("/", 1)[-1]
-            srv = type(short, (ServiceType,), {
-                "TYPE_NAME": type_name, "Request": _class(type_name + "_Request"),
-                "Response": _class(type_name + "_Response"), "__module__": __name__,
-                "__doc__": f"ROS service {type_name} (made from its definition)."})
-            _made[type_name] = srv
+        parts = (_class(type_name + "_Request"), _class(type_name + "_Response"))
+        made = _made.get(type_name)
+        if made is not None and made[0] == parts:
+            return made[1]
+        short = type_name.rsplit("/", 1)[-1]
+        srv = type(short, (ServiceType,), {
+            "TYPE_NAME": type_name, "Request": parts[0], "Response": parts[1], "__module__": __name__,
+            "__doc__": f"ROS service {type_name} (made from its definition)."})
+        _made[type_name] = (parts, srv)
     return srv
