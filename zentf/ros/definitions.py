@@ -332,4 +332,8 @@ bool advanced
 geometry_msgs/TransformStamped transform
 tf2_msgs/TF2Error error
 """,
+    "tf2_msgs/srv/FrameGraph": """
+---
+string frame_yaml
+""",
 }

@@ -128,7 +128,9 @@ class Ros2Bridge:
                 self._release.note(size)
                 if size > MAX_PAYLOAD:
                     raise ValueError(f"payload of {size} bytes exceeds the {MAX_PAYLOAD} byte limit")
-                if topic.startswith("tf") and sample.type_name in (None, TFMessage.TYPE_NAME):
+                if topic.startswith("tf"):
+                    if sample.type_name not in (None, TFMessage.TYPE_NAME):  # another type on tf is named as such
+                        raise ValueError(f"wrong type {sample.type_name}, expected {TFMessage.TYPE_NAME}")
                     if not self._relay_tf(src, dst, topic, fq, latched, payload):
                         self.stats.dropped += 1
                         return

@@ -387,3 +387,4 @@ class Client:
             return
         self._destroyed = True
         undeclare_all((self._querier, self._token))
+

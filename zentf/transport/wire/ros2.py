@@ -84,6 +84,17 @@ def parse_ros2_attachment(raw: bytes) -> tuple[int, int, bytes]:
     raise ValueError(f"not an rmw_zenoh attachment ({len(raw)} bytes)")
 
 
+def _as_class(value: Any, cls: type[Message]) -> Any:
+    """A decoded CDR value as the service's own class: the codec returns a plain dict for a type that has no
+    registered class (one made from its definition, zentf.ros.classes), and handlers and callers get instances."""
+    if isinstance(value, dict):
+        try:
+            return cls.from_dict(cdr_codec.fit_plain(cls, value))
+        except (ValueError, TypeError) as e:
+            raise CdrError(f"{cls.TYPE_NAME}: {e}") from None
+    return value
+
+
 def _raw(attachment: Any) -> bytes:
     return attachment.to_bytes() if hasattr(attachment, "to_bytes") else bytes(attachment)
 
@@ -328,10 +339,10 @@ class Ros2Profile(WireProfile):
         return f"client {gid.hex()}", (seq, gid)
 
     def decode_request(self, payload: bytes, encoding: Any, key: str, request_type: type[Message]) -> Message:
-        return cdr_codec.decode(payload, request_type.TYPE_NAME)  # the key names the service type
+        return _as_class(cdr_codec.decode(payload, request_type.TYPE_NAME), request_type)  # the key names the type
 
     def decode_response(self, payload: bytes, encoding: Any, response_type: type[Message]) -> Message:
-        return cdr_codec.decode(payload, response_type.TYPE_NAME)
+        return _as_class(cdr_codec.decode(payload, response_type.TYPE_NAME), response_type)
 
     def reply(self, query: Any, payload: bytes, context: Any, response_type: str) -> None:
         seq, gid = context  # rmw_zenoh's reply: no encoding; the request's sequence number and GID
