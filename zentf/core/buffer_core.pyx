@@ -934,7 +934,7 @@ cdef class BufferCore:
             a = self._lookup(fixed_frame, source_frame, st)
             b = self._lookup(target_frame, fixed_frame, tt)
         # tf2 composes these as tf2::Transform (rotation matrices), then converts back to a quaternion
-        from .math3d import matrix_from_quaternion, quaternion_from_matrix
+        from .rotation import matrix_from_quaternion, quaternion_from_matrix
         ma = matrix_from_quaternion(a[4:8])
         mb = matrix_from_quaternion(b[4:8])
         m = [[mb[i][0] * ma[0][j] + mb[i][1] * ma[1][j] + mb[i][2] * ma[2][j] for j in range(3)]

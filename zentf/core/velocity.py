@@ -23,7 +23,7 @@ import math
 from typing import Any, Sequence
 
 from .exceptions import InvalidArgumentException
-from .math3d import matrix_from_quaternion, quaternion_from_matrix
+from .rotation import matrix_from_quaternion, quaternion_from_matrix
 from .messages import Header, Twist, Vector3, VelocityStamped
 from .time import Duration, Time, ns_from_sec, to_duration
 
