@@ -116,7 +116,6 @@ def test_burger_loads_with_its_meshes_missing_and_finds_them_on_the_search_path(
 
 
 def test_xacro_file_expands_to_the_same_tree_as_the_urdf() -> None:
-    pytest.importorskip("xacro")
     robot = load_urdf(DATA / "urdf_tutorial" / "urdf" / "08-macroed.urdf.xacro")
     plain = load_urdf(DATA / "urdf_tutorial" / "urdf" / "07-physics.urdf")
     assert set(robot.links) == set(plain.links)
@@ -239,11 +238,10 @@ def test_missing_file_and_xacro_errors_are_one_line(tmp_path: Path) -> None:
     with pytest.raises(URDFError, match=r"nope\.urdf: no such file"):
         load_urdf(tmp_path / "nope.urdf")
     bad = tmp_path / "bad.urdf.xacro"
-    bad.write_text('<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="x"><xacro:nosuchmacro/></robot>')
-    pytest.importorskip("xacro")
+    bad.write_text('<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="x">\n  <xacro:nosuchmacro/></robot>')
     with pytest.raises(URDFError) as exc:
         load_urdf(bad)
-    assert "xacro failed" in str(exc.value) and "\n" not in str(exc.value)
+    assert str(exc.value) == f"{bad}:2: xacro: unknown macro name: xacro:nosuchmacro"
 
 
 def test_batch_fk_shape_checks() -> None:
@@ -271,7 +269,6 @@ def test_joint_transforms_equal_the_kinematics_joint_matrices() -> None:
 
 
 def test_xacro_arguments_reach_the_model(tmp_path: Path) -> None:
-    pytest.importorskip("xacro")
     path = tmp_path / "arm.urdf.xacro"
     path.write_text("""<?xml version="1.0"?>
 <robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="arm">

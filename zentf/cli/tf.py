@@ -61,10 +61,14 @@ def _close(node: Any, listener: Any = None) -> None:
               help="Exit 1 if no transform arrives within this many seconds (default: wait).")
 @click.option("--bag", "bag_file", type=click.Path(), default=None,
               help="Answer from this recording (any bag format zentf reads), no network: print once and exit.")
+@click.option("--start", "start", type=StampSeconds(), default=None,
+              help="With --bag: load only transforms stamped from this time (s) on (statics always).")
+@click.option("--end", "end", type=StampSeconds(), default=None,
+              help="With --bag: load only transforms stamped up to this time (s).")
 @with_options
 def echo(source: str, target: str, rate_arg: Optional[float], rate: float, precision: int,
          at_time: Optional[float], count: Optional[int], timeout: Optional[float], bag_file: Optional[str],
-         *, opts: CliOptions) -> None:
+         start: Optional[float], end: Optional[float], *, opts: CliOptions) -> None:
     """Print the pose of TARGET in SOURCE at a fixed rate, like tf2_echo.
 
     As in tf2_echo the first argument is the frame the result is expressed in
@@ -80,8 +84,10 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
         if not value.strip():  # tf2 refuses it on every lookup: say so once, not every second
             raise click.BadParameter("a frame id cannot be empty", param_hint=f"'{what}'")
     if bag_file is not None:
-        _echo_bag(bag_file, source, target, at_time, precision)
+        _echo_bag(bag_file, source, target, at_time, precision, start, end)
         return
+    if start is not None or end is not None:
+        raise click.BadParameter("only with --bag", param_hint="'--start'/'--end'")
     node, buffer, listener = _listen(opts, "tf_echo")
     try:
         when = Time() if at_time is None else Time.from_sec(at_time)
@@ -140,16 +146,30 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
         _close(node, listener)
 
 
-def _echo_bag(path: str, source: str, target: str, at_time: Optional[float], precision: int) -> None:
-    """tf echo --bag: one lookup in the whole recording (latest common time unless --time)."""
+def _echo_bag(path: str, source: str, target: str, at_time: Optional[float], precision: int,
+              start: Optional[float] = None, end: Optional[float] = None) -> None:
+    """tf echo --bag: one lookup in the recording (latest common time unless --time). With --time alone
+    only the chunks around that time are read (the window widens until the lookup answers as the whole
+    recording would); --start/--end load that window."""
     from zentf.core.exceptions import TransformException
     from zentf.core.time import Time
-    from zentf.tools.bag import BagError, load_buffer
+    from zentf.tools.bag import BagError, load_buffer, load_buffer_at
 
-    from .format import format_echo
+    from .format import format_echo, printable
+
+    if start is not None and end is not None and end < start:
+        raise click.BadParameter(f"--end {end:g} is before --start {start:g}", param_hint="'--end'")
+
+    def warn(line: str) -> None:
+        sys.stderr.write(printable(f"zentf: warning: {line}") + "\n")
 
     try:
-        buffer = load_buffer(path, on_problem=lambda line: sys.stderr.write(f"zentf: warning: {line}\n"))
+        if at_time is not None and start is None and end is None:
+            buffer = load_buffer_at(path, Time.from_sec(at_time), (source, target), on_problem=warn)
+        else:
+            buffer = load_buffer(path, on_problem=warn,
+                                 start=None if start is None else Time.from_sec(start),
+                                 end=None if end is None else Time.from_sec(end))
     except BagError as exc:
         raise CliError(str(exc)) from exc
     try:
@@ -178,8 +198,13 @@ def _render(dot_path: Path, fmt: str, out_path: Path) -> Optional[str]:
     exe = shutil.which("dot")
     if exe is None:
         return "graphviz 'dot' not found; wrote the DOT file only (apt-get install graphviz)"
-    proc = subprocess.run([exe, f"-T{fmt}", str(dot_path), "-o", str(out_path)], capture_output=True,
-                          text=True, timeout=120)
+    try:  # absolute paths: a name starting with '-' is never read as an option
+        proc = subprocess.run([exe, f"-T{fmt}", str(dot_path.absolute()), f"-o{out_path.absolute()}"],
+                              capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL)
+    except subprocess.TimeoutExpired:
+        return f"dot took longer than 120 s to render {dot_path}; wrote the DOT file only"
+    except OSError as exc:
+        return f"cannot run dot: {exc.strerror or exc}"
     if proc.returncode != 0:
         first = (proc.stderr.strip().splitlines() or ["failed"])[0]
         return f"dot could not render {dot_path}: {first}"

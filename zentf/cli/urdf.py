@@ -1,13 +1,15 @@
 """`zentf urdf check | graph`: check_urdf and urdf_to_graphiz for URDF (and .xacro) files."""
 from __future__ import annotations
 
-from typing import Optional
+import re
+from typing import Any, Callable, Optional
 
 import click
 
 from .common import CONTEXT_SETTINGS, CliError
+from .format import printable
 
-__all__ = ["urdf", "load_or_fail"]
+__all__ = ["urdf", "load_or_fail", "model_options", "graph_file_stem"]
 
 
 @click.group("urdf", context_settings=CONTEXT_SETTINGS)
@@ -15,27 +17,54 @@ def urdf() -> None:
     """Robot models: check (check_urdf), graph (urdf_to_graphiz)."""
 
 
-package_path_option = click.option("--package-path", "package_path", multiple=True, metavar="DIR",
-                                   help="Where package:// meshes are looked up (repeat; also $ZENTF_PACKAGE_PATH).")
+def model_options(f: Callable) -> Callable:
+    """The options of every command that loads a model: package paths and the .xacro ones."""
+    for opt in reversed([
+        click.option("--package-path", "package_path", multiple=True, metavar="DIR",
+                     help="Where package:// meshes and $(find PKG) are looked up (repeat; also $ZENTF_PACKAGE_PATH)."),
+        click.option("--xacro-arg", "xacro_arg", multiple=True, metavar="NAME:=VALUE",
+                     help="A xacro argument (repeat)."),
+        click.option("--xacro-budget", "xacro_budget", default=None, metavar="SECONDSs[,MEGABYTESMB]",
+                     help="CPU and memory a .xacro expansion may use (default 10s,512MB; e.g. 60s,2GB)."),
+        click.option("--xacro-env", "xacro_env", multiple=True, metavar="NAME",
+                     help="An environment variable a .xacro model may read with $(env)/$(optenv) (repeat; "
+                          "none by default)."),
+    ]):
+        f = opt(f)
+    return f
 
 
-def load_or_fail(path: str, package_path: tuple[str, ...] = ()):
+def load_or_fail(path: str, package_path: tuple[str, ...] = (), xacro_arg: tuple[str, ...] = (),
+                 xacro_budget: Optional[str] = None, xacro_env: tuple[str, ...] = ()) -> Any:
     """The checked model, or the one-line refusal as a usage error (exit 2)."""
-    from zentf.urdf import URDFError, load_urdf
+    import os
 
+    from zentf.urdf import URDFError, load_urdf, parse_xacro_budget
+
+    args: dict[str, str] = {}
+    for item in xacro_arg:
+        name, sep, value = item.partition(":=")
+        if not sep or not name:
+            raise CliError(f"--xacro-arg expects NAME:=VALUE, got {item!r}", code=2)
+        args[name] = value
     try:
-        return load_urdf(path, package_path=list(package_path))
+        budget = parse_xacro_budget(xacro_budget) if xacro_budget is not None else None
+    except ValueError as exc:
+        raise CliError(str(exc), code=2) from exc
+    env = {n: os.environ[n] for n in xacro_env if n in os.environ}
+    try:
+        return load_urdf(path, package_path=list(package_path), xacro_args=args, xacro_budget=budget, xacro_env=env)
     except URDFError as exc:
         raise CliError(str(exc), code=2) from exc
 
 
 @urdf.command("check", context_settings=CONTEXT_SETTINGS)
 @click.argument("path", metavar="URDF")
-@package_path_option
-def check(path: str, package_path: tuple[str, ...]) -> None:
+@model_options
+def check(path: str, **model: Any) -> None:
     """Parse and check a URDF like check_urdf: the link tree with joint types, or the error."""
-    robot = load_or_fail(path, package_path)
-    print(f"robot name is: {robot.name}")
+    robot = load_or_fail(path, **model)
+    print(f"robot name is: {printable(robot.name)}")
     print("---------- Successfully Parsed XML ---------------")
     print(robot.tree_text())
     counts: dict[str, int] = {}
@@ -45,15 +74,15 @@ def check(path: str, package_path: tuple[str, ...]) -> None:
     print(f"{len(robot.links)} links, {len(robot.joints)} joints" + (f" ({summary})" if summary else ""))
     mimics = [j for j in robot.joints.values() if j.mimic is not None]
     for j in mimics:
-        print(f"mimic: {j.name} = {j.mimic.multiplier:g} * {j.mimic.joint} + {j.mimic.offset:g}")
+        print(f"mimic: {printable(j.name)} = {j.mimic.multiplier:g} * {printable(j.mimic.joint)} + {j.mimic.offset:g}")
     for link, filename in robot.missing_meshes():
-        print(f"mesh not found (drawn without it; frames unaffected): link '{link}': {filename}")
+        print(f"mesh not found (drawn without it; frames unaffected): link '{printable(link)}': {printable(filename)}")
 
 
-def urdf_dot(robot) -> str:
+def urdf_dot(robot: Any) -> str:
     """urdf_to_graphiz's picture: links as boxes, joints as ellipses with their origin on the edge."""
-    def q(s: str) -> str:
-        return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    def q(s: str) -> str:  # a DOT string: quotes and backslashes escaped, no raw line breaks
+        return '"' + s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\r", "\\r") + '"'
 
     def num(v: float) -> str:
         return f"{v:.6g}"
@@ -73,17 +102,28 @@ def urdf_dot(robot) -> str:
     return "\n".join(lines) + "\n"
 
 
+_UNSAFE_FILE_CHARS = re.compile(r"[^A-Za-z0-9._+-]+")
+
+
+def graph_file_stem(robot_name: str) -> str:
+    """The default output name for a robot: a plain file name for the current folder, whatever the model
+    calls itself (no folders, no leading '-' or '.', no control characters, at most 64 characters)."""
+    stem = _UNSAFE_FILE_CHARS.sub("_", robot_name).lstrip("-.")[:64].rstrip(".")
+    return stem or "robot"
+
+
 @urdf.command("graph", context_settings=CONTEXT_SETTINGS)
 @click.argument("path", metavar="URDF")
 @click.option("--output", "-o", default=None, metavar="NAME",
-              help="Write NAME.gv and NAME.pdf (a .svg/.png suffix picks that format). Default: the robot's name.")
-@package_path_option
-def graph(path: str, output: Optional[str], package_path: tuple[str, ...]) -> None:
+              help="Write NAME.gv and NAME.pdf (a .svg/.png suffix picks that format). Default: the robot's "
+                   "name made a plain file name, in the current folder.")
+@model_options
+def graph(path: str, output: Optional[str], **model: Any) -> None:
     """Draw the link/joint tree like urdf_to_graphiz: a Graphviz .gv file and its rendering."""
     from .tf import write_graph
 
-    robot = load_or_fail(path, package_path)
-    dot_path, img_path, problem = write_graph(urdf_dot(robot), output, robot.name)
+    robot = load_or_fail(path, **model)
+    dot_path, img_path, problem = write_graph(urdf_dot(robot), output, graph_file_stem(robot.name))
     if problem:
-        click.echo(f"warning: {problem}", err=True)
-    print(f"Created file {dot_path}" + (f" and {img_path}" if img_path else ""))
+        click.echo(f"warning: {printable(problem)}", err=True)
+    print(f"Created file {printable(dot_path)}" + (f" and {printable(img_path)}" if img_path else ""))

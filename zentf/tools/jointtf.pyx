@@ -122,8 +122,8 @@ cdef class JointTfFiller:
         return 0
 
     cdef bint _values(self) noexcept:
-        """The joint values from ``given`` (selected, then mimics from their masters); False if one is not
-        finite."""
+        """The joint values from ``given`` (selected, then mimics from their masters); False if one, or the
+        translation it makes, is not finite."""
         cdef Py_ssize_t i
         cdef double* given = self.given
         cdef double[::1] values = self.values
@@ -131,8 +131,10 @@ cdef class JointTfFiller:
             values[i] = given[self.sel[i]]
         for i in range(self.k - self.n_sel):
             values[self.n_sel + i] = given[self.mimic_src[i]] * self.mimic_mult[i] + self.mimic_off[i]
-        for i in range(self.k):
-            if not isfinite(values[i]):
+        for i in range(self.k):  # the value, and the translation it makes (a prismatic joint can overflow)
+            if not (isfinite(values[i]) and isfinite(self.t0[i, 0] + self.slide[i, 0] * values[i])
+                    and isfinite(self.t0[i, 1] + self.slide[i, 1] * values[i])
+                    and isfinite(self.t0[i, 2] + self.slide[i, 2] * values[i])):
                 return False
         return True
 

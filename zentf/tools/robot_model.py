@@ -6,7 +6,7 @@ import os
 from typing import Sequence
 
 from ..transport import program
-from ..urdf import Robot, URDFError, load_urdf, parse_urdf
+from ..urdf import Robot, URDFError, XacroBudget, load_urdf, parse_urdf, parse_xacro_budget
 
 __all__ = ["own_arguments", "ArgError", "parse_own", "xacro_mappings", "load_model", "Prepared", "prepare",
            "START_ERRORS"]
@@ -22,6 +22,11 @@ def own_arguments(parser: argparse.ArgumentParser) -> None:
                         help="where package:// meshes are looked up (repeat; also $ZENTF_PACKAGE_PATH)")
     parser.add_argument("--xacro-arg", action="append", default=[], metavar="NAME:=VALUE",
                         help="xacro argument (repeat)")
+    parser.add_argument("--xacro-budget", default=None, metavar="SECONDSs[,MEGABYTESMB]",
+                        help="CPU and memory a .xacro expansion may use (default 10s,512MB; e.g. 60s,2GB)")
+    parser.add_argument("--xacro-env", action="append", default=[], metavar="NAME",
+                        help="an environment variable a .xacro model may read with $(env)/$(optenv) (repeat; none "
+                             "by default)")
 
 
 class ArgError(ValueError):
@@ -50,11 +55,22 @@ def xacro_mappings(items: Sequence[str]) -> dict[str, str]:
     return out
 
 
+def xacro_budget(text: str | None) -> XacroBudget | None:
+    if text is None:
+        return None
+    try:
+        return parse_xacro_budget(text)
+    except ValueError as e:
+        raise ArgError(str(e)) from None
+
+
 def load_model(urdf: str | None, package_path: list[str], xacro_args: dict[str, str],
-               description: object, *, optional: bool = False) -> Robot | None:
+               description: object, *, optional: bool = False, budget: XacroBudget | None = None,
+               env_names: Sequence[str] = ()) -> Robot | None:
     """The robot from a file, else from the robot_description parameter text (None if optional)."""
     if urdf:
-        return load_urdf(urdf, package_path=package_path, xacro_args=xacro_args)
+        env = {n: os.environ[n] for n in env_names if n in os.environ}
+        return load_urdf(urdf, package_path=package_path, xacro_args=xacro_args, xacro_budget=budget, xacro_env=env)
     if isinstance(description, str) and description.strip():
         return parse_urdf(description, source="robot_description", package_path=package_path)
     if optional:
@@ -82,7 +98,7 @@ def prepare(prog: str, parser: argparse.ArgumentParser, argv: Sequence[str], *,
     params = opts.resolved_params(opts.name or prog)
     package_path = [*args.package_path, *[d for d in str(params.get("package_path", "")).split(os.pathsep) if d]]
     robot = load_model(args.urdf, package_path, xacro_mappings(args.xacro_arg), params.get("robot_description"),
-                       optional=model_optional)
+                       optional=model_optional, budget=xacro_budget(args.xacro_budget), env_names=args.xacro_env)
     return Prepared(opts, debug, args, robot, package_path)
 
 

@@ -39,6 +39,8 @@ from ..transport.wire import codec as wire
 from ..transport.broadcaster import StaticTransformBroadcaster
 from ..core.messages import (Header, JointState, Quaternion, String, TFMessage, Transform, TransformStamped,
                              Vector3)
+from ..core.ratelimit import escape
+from ..core.time import Time
 from ..transport.names import topic_to_key
 from ..transport.node import Node, RateLimitedLog
 from ..urdf import Kinematics, Robot
@@ -114,7 +116,8 @@ class _Plan:
         head = b"\x83" + p("header") + b"\x82" + p("stamp") + b"\x82" + p("sec") + b"\xce"
         nsec_key = b"\xa7nanosec\xce"
         k = len(idx)
-        out = bytearray(b"\x81\xaatransforms" + (bytes((0x90 | k,)) if k < 16 else b"\xdc" + k.to_bytes(2, "big")))
+        out = bytearray(b"\x81\xaatransforms" + (bytes((0x90 | k,)) if k < 16 else b"\xdc" + k.to_bytes(2, "big")
+                                                 if k < 0x10000 else b"\xdd" + k.to_bytes(4, "big")))
         sec_pos, nsec_pos, val_pos = [], [], []
         zero = self._ITEM_VALUES.pack(0.0, b"\xa1y\xcb", 0.0, b"\xa1z\xcb", 0.0, b"\xa8rotation\x84\xa1x\xcb", 0.0,
                                       b"\xa1y\xcb", 0.0, b"\xa1z\xcb", 0.0, b"\xa1w\xcb", 0.0)
@@ -287,9 +290,12 @@ class RobotStatePublisher:
                     self.ignored += 1
                     return False
                 payload = filler.payload(position, sec, nsec)
-                if payload is None:
-                    return self._non_finite(names, position)
-                filler.mark(stamp)
+                if payload is None:  # a value or a translation is not finite: those joints are left out
+                    payload = self._finite_part(plan, position, sec, nsec, stamp)
+                    if payload is None:
+                        return False
+                else:
+                    filler.mark(stamp)
             else:  # the same in numpy (no build_ext)
                 last = self._last_publish
                 if not self.ignore_timestamp and len(plan.known):
@@ -298,15 +304,14 @@ class RobotStatePublisher:
                         return False
                 if not len(plan.idx):
                     return False
-                given = np.asarray(position, dtype=float)
-                values = given if plan.all_known else given[plan.sel_arr]
-                if plan.mimics:
-                    values = np.concatenate((values, given[plan.mimic_src] * plan.mimic_mult + plan.mimic_off))
-                if not np.isfinite(values).all():
-                    return self._non_finite(names, position)
-                last[plan.known] = stamp
-                t, q = plan.joints.compute(values)
-                payload = plan.payload(sec, nsec, t, q)
+                values, t, q = self._compute(plan, position)
+                if not (np.isfinite(values).all() and np.isfinite(t).all()):
+                    payload = self._finite_part(plan, position, sec, nsec, stamp)
+                    if payload is None:
+                        return False
+                else:
+                    last[plan.known] = stamp
+                    payload = plan.payload(sec, nsec, t, q)
             self.published += 1
         self._tf.publish_bytes(payload)
         return True
@@ -340,13 +345,51 @@ class RobotStatePublisher:
             self._last_publish[:] = 0
         self._last_callback = now
 
-    def _non_finite(self, names: list[str], position: list[float]) -> bool:
-        """Count and log a JointState with a non-finite position (the caller holds the lock)."""
-        self.ignored += 1
+    @staticmethod
+    def _compute(plan: _Plan, position: list[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(values, translations, quaternions) of a plan's joints, mimics included (numpy; overflow quiet)."""
         given = np.asarray(position, dtype=float)
-        bad = names[int(np.flatnonzero(~np.isfinite(given))[0])] if not np.isfinite(given).all() else "?"
-        self._log("nonfinite", f"ignored a JointState with a non-finite position (joint '{bad}')")
-        return False
+        values = given if plan.all_known else given[plan.sel_arr]
+        with np.errstate(all="ignore"):
+            if plan.mimics:
+                values = np.concatenate((values, given[plan.mimic_src] * plan.mimic_mult + plan.mimic_off))
+            t, q = plan.joints.compute(values)
+        return values, t, q
+
+    def _finite_part(self, plan: _Plan, position: list[float], sec: int, nsec: int, stamp: int) -> bytes | None:
+        """The TFMessage of the joints whose value and transform are finite; each joint left out is named in a
+        rate-limited line (a mimic of a huge master, a NaN position), the others are published as usual.
+        None when no joint is left (the caller holds the lock)."""
+        values, t, q = self._compute(plan, position)
+        ok = np.isfinite(values) & np.isfinite(t).all(axis=1) & np.isfinite(q).all(axis=1)
+        n_sel = len(plan.sel)
+        for k in np.flatnonzero(~ok)[:8]:
+            j = int(plan.idx[k])
+            name = self._movable.names[j]
+            if k < n_sel:
+                why = f"its position {position[plan.sel[k]]!r} is not finite" if not np.isfinite(values[k]) \
+                    else f"its transform at {values[k]!r} is not finite"
+            else:
+                _i, src, mult, off = plan.mimics[k - n_sel]
+                why = (f"as a mimic ({mult:g} * {position[src]!r} + {off:g}) its position is not finite"
+                       if not np.isfinite(values[k]) else f"its transform at {values[k]!r} is not finite")
+            self._log(f"dropped:{name}", f"left joint '{escape(name)}' out of a JointState's transforms: {why}")
+        self.ignored += 1
+        if not ok.any():
+            return None
+        self._last_publish[plan.known[ok[:n_sel]]] = stamp
+        prefix = self.frame_prefix
+        header_stamp = Time(sec, nsec)
+        out = []
+        for k in np.flatnonzero(ok):
+            j = int(plan.idx[k])
+            tk, qk = t[k], q[k]
+            out.append(TransformStamped(Header(header_stamp, prefix + self._movable.parents[j]),
+                                        prefix + self._movable.children[j],
+                                        Transform(Vector3(float(tk[0]), float(tk[1]), float(tk[2])),
+                                                  Quaternion(float(qk[0]), float(qk[1]), float(qk[2]),
+                                                             float(qk[3])))))
+        return wire.encode_tf(out)
 
     def _plan(self, names: list[str]) -> _Plan:
         """The cached plan of a joint-name list (the same list as last time: one list comparison)."""

@@ -63,15 +63,10 @@ class Kinematics:
         """Which actuated joint drives j, and how: (index, multiplier, offset)."""
         if not j.movable:
             return -1, 0.0, 0.0
-        mult, off = 1.0, 0.0
-        while j.mimic is not None:
-            m = j.mimic
-            off = mult * m.offset + off
-            mult = mult * m.multiplier
-            j = self.robot.joints[m.joint]
-        if not j.movable:
+        driver, mult, off = self.robot.mimic_drivers()[j.name]
+        if driver is None:
             return -1, 0.0, off
-        return self._index[j.name], mult, off
+        return self._index[driver], mult, off
 
     # ------------------------------------------------------------------ positions
     def vector(self, positions: Mapping[str, float] | Sequence[float] | None) -> np.ndarray:

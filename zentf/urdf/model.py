@@ -7,10 +7,13 @@ valid tree: the parser refuses anything else.
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass, field
 from typing import Union
 
 import numpy as np
+
+from ..core.ratelimit import escape
 
 __all__ = ["Pose", "Color", "Material", "Box", "Cylinder", "Sphere", "Mesh", "Geometry", "Visual",
            "Link", "JointLimit", "JointMimic", "Joint", "Robot", "URDF", "JOINT_TYPES", "MOVABLE_TYPES"]
@@ -155,7 +158,7 @@ class Joint:
     def center(self) -> float:
         """joint_state_publisher's start value: 0, or the middle of the range when 0 is outside it."""
         lo, hi = self.bounds()
-        return 0.0 if lo <= 0.0 <= hi else (lo + hi) / 2.0
+        return 0.0 if lo <= 0.0 <= hi else lo / 2.0 + hi / 2.0  # (lo + hi) / 2 overflows near 1e308
 
 
 @dataclass(slots=True)
@@ -171,20 +174,45 @@ class Robot:
     root: str = ""                  # the one link with no parent
     parent_joint: dict[str, str] = field(default_factory=dict)   # child link -> joint name
     child_joints: dict[str, list[str]] = field(default_factory=dict)  # link -> joint names
+    _drivers: dict | None = field(default=None, repr=False, compare=False)
 
     def get_root(self) -> str:
         return self.root
 
     def joints_in_order(self) -> list[Joint]:
-        """Every joint, parents before children (breadth-first from the root)."""
+        """Every joint, parents before children (breadth-first from the root; no recursion, linear time)."""
         out: list[Joint] = []
-        todo = [self.root]
+        todo = deque([self.root])
         while todo:
-            link = todo.pop(0)
+            link = todo.popleft()
             for jn in self.child_joints.get(link, []):
                 j = self.joints[jn]
                 out.append(j)
                 todo.append(j.child)
+        return out
+
+    def mimic_drivers(self) -> dict[str, tuple[str | None, float, float]]:
+        """Every joint's driver: (the joint whose position sets it, multiplier, offset), mimic chains
+        composed (``m1 * (m2 * q + o2) + o1``); a joint that mimics nothing drives itself (1, 0), and the
+        driver is None when a chain ends at a joint that is not movable. Worked out once, in linear time
+        (a chain of any length; the parser has refused cycles and unknown targets)."""
+        if self._drivers is not None:
+            return self._drivers
+        out: dict[str, tuple[str | None, float, float]] = {}
+        for name in self.joints:
+            chain: list[Joint] = []
+            j = self.joints[name]
+            while j.name not in out and j.mimic is not None:
+                chain.append(j)
+                j = self.joints[j.mimic.joint]
+            if j.name not in out:
+                out[j.name] = (j.name if j.movable else None, 1.0, 0.0)
+            driver, mult, off = out[j.name]
+            for c in reversed(chain):
+                m = c.mimic
+                driver, mult, off = driver, m.multiplier * mult, m.multiplier * off + m.offset
+                out[c.name] = (driver, mult, off)
+        self._drivers = out
         return out
 
     def movable_joints(self) -> list[Joint]:
@@ -212,17 +240,24 @@ class Robot:
         return [(ln.name, v.geometry.filename) for ln in self.links.values() for v in ln.visuals
                 if isinstance(v.geometry, Mesh) and v.geometry.path is None]
 
-    def tree_text(self) -> str:
-        """check_urdf's tree: the root, then each child link indented under its parent."""
-        lines = [f"root Link: {self.root} has {len(self.child_joints.get(self.root, []))} child(ren)"]
+    def tree_text(self, max_indent: int = 64) -> str:
+        """check_urdf's tree: the root, then each child link indented under its parent (depth first, with
+        an explicit stack: a chain of any length works; the indent stops growing at ``max_indent`` levels
+        and the line then says the depth). Names are escaped: they come from the file."""
+        def name(s: str) -> str:
+            return escape(s, 1024)
 
-        def walk(link: str, depth: int) -> None:
-            for i, jn in enumerate(self.child_joints.get(link, []), 1):
-                j = self.joints[jn]
-                lines.append(f"{'    ' * depth}child({i}):  {j.child}  ({j.type} joint '{j.name}')")
-                walk(j.child, depth + 1)
-
-        walk(self.root, 1)
+        lines = [f"root Link: {name(self.root)} has {len(self.child_joints.get(self.root, []))} child(ren)"]
+        todo: list[tuple[str, int, int]] = []  # (joint, child number, depth), popped in document order
+        for i, jn in reversed(list(enumerate(self.child_joints.get(self.root, []), 1))):
+            todo.append((jn, i, 1))
+        while todo:
+            jn, i, depth = todo.pop()
+            j = self.joints[jn]
+            indent = "    " * min(depth, max_indent) + (f"[{depth}] " if depth > max_indent else "")
+            lines.append(f"{indent}child({i}):  {name(j.child)}  ({j.type} joint '{name(j.name)}')")
+            for k, cn in reversed(list(enumerate(self.child_joints.get(j.child, []), 1))):
+                todo.append((cn, k, depth + 1))
         return "\n".join(lines)
 
 

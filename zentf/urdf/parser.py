@@ -4,19 +4,25 @@ Checks (urdfdom's, plus the tree ones robot_state_publisher relies on): required
 (finite, right count), known joint types, limits on revolute/prismatic joints, unique names, joints
 whose parent/child links exist, a child that is not its own parent, one parent per link, exactly one
 root, no loops, mimic targets that exist (and no mimic cycles), named materials that are defined.
-``.xacro`` files go through the PyPI ``xacro`` package (optional extra ``zentf[urdf]``).
+``.xacro`` files are expanded by zentf's own xacro (``zentf.urdf.xacro``): in a confined child process,
+with a restricted expression evaluator and a CPU/memory budget; a model file is data, never code.
 """
 from __future__ import annotations
 
 import logging
 import math
 import os
+from collections.abc import Mapping
 from pathlib import Path
 
+from ..core.ratelimit import escape
 from .errors import URDFError
 from .model import (JOINT_TYPES, Box, Cylinder, Joint, JointLimit, JointMimic, Link, Material, Mesh,
                     Pose, Robot, Sphere, Visual)
 from .resolve import resolve_uri, search_path
+from .xacro.budget import DEFAULT_BUDGET, Budget, parse_budget
+from .xacro.errors import XacroError
+from .xacro.process import expand_file
 from .xmltree import XElement, parse_xml
 
 __all__ = ["parse_urdf", "load_urdf", "read_urdf_text"]
@@ -51,20 +57,23 @@ def _req(ctx: _Ctx, el: XElement, attr: str, owner: XElement | None = None) -> s
 def _floats(ctx: _Ctx, el: XElement, attr: str, n: int, default: tuple | None, owner: XElement | None = None
             ) -> tuple[float, ...]:
     text = el.get(attr)
-    where = (_describe(owner) + " " if owner is not None and owner is not el else "") + _describe(el)
+
+    def where() -> str:  # only when refusing: a model has hundreds of thousands of numbers
+        return (_describe(owner) + " " if owner is not None and owner is not el else "") + _describe(el)
+
     if text is None:
         if default is None:
-            raise ctx.error(f"missing required attribute '{attr}'", el, where)
+            raise ctx.error(f"missing required attribute '{attr}'", el, where())
         return default
     parts = text.split()
     try:
-        values = tuple(float(p) for p in parts)
+        values = tuple(map(float, parts))
     except ValueError:
-        raise ctx.error(f"bad number in {attr}=\"{text}\"", el, where) from None
+        raise ctx.error(f"bad number in {attr}=\"{text}\"", el, where()) from None
     if len(values) != n:
-        raise ctx.error(f"{attr}=\"{text}\" needs {n} number{'s' if n > 1 else ''}, got {len(values)}", el, where)
-    if not all(math.isfinite(v) for v in values):
-        raise ctx.error(f"{attr}=\"{text}\" must be finite numbers", el, where)
+        raise ctx.error(f"{attr}=\"{text}\" needs {n} number{'s' if n > 1 else ''}, got {len(values)}", el, where())
+    if not all(map(math.isfinite, values)):
+        raise ctx.error(f"{attr}=\"{text}\" must be finite numbers", el, where())
     return values
 
 
@@ -175,10 +184,7 @@ def parse_urdf(text: str | bytes, *, source: str | None = None, package_path: li
         if a is not None:
             axis = _floats(ctx, a, "xyz", 3, (1.0, 0.0, 0.0), el)
         if jtype in ("revolute", "continuous", "prismatic", "planar"):
-            norm = math.sqrt(sum(c * c for c in axis))
-            if norm < 1e-12:
-                raise ctx.error("the axis is zero", a or el)
-            axis = (axis[0] / norm, axis[1] / norm, axis[2] / norm)
+            axis = _unit_axis(ctx, axis, a or el)
         limit = None
         le = el.find("limit")
         if le is not None:
@@ -229,37 +235,90 @@ def parse_urdf(text: str | bytes, *, source: str | None = None, package_path: li
         stray = next(j for j in robot.joints.values() if j.child not in reached)
         raise ctx.error(f"the joints form a loop through link '{stray.child}' (not reachable from root "
                         f"'{robot.root}')", joint_els[stray.name])
-    for name, j in robot.joints.items():
-        if j.mimic is None:
-            continue
-        seen = {name}
-        m = j.mimic
-        while m is not None:
-            target = robot.joints.get(m.joint)
-            if target is None:
-                raise ctx.error(f"mimics unknown joint '{m.joint}'", joint_els[name])
-            if target.name in seen:
-                raise ctx.error(f"mimic joints form a cycle through '{target.name}'", joint_els[name])
-            seen.add(target.name)
-            m = target.mimic
+    _check_mimics(ctx, robot, joint_els)
     return robot
 
 
-def read_urdf_text(path: str, xacro_args: dict[str, str] | None = None) -> str:
-    """A URDF file's text; a .xacro file is expanded by the ``xacro`` package first."""
+def _unit_axis(ctx: _Ctx, axis: tuple[float, ...], el: XElement) -> tuple[float, float, float]:
+    """The axis scaled to length 1 without overflow (divided by its largest component first: 1e200 1e200 0
+    is a fine direction); a zero axis is refused."""
+    big = max(abs(c) for c in axis)
+    if big == 0.0:
+        raise ctx.error(f"the axis xyz=\"{' '.join(f'{c:g}' for c in axis)}\" is zero", el)
+    scaled = [c / big for c in axis]
+    norm = math.hypot(*scaled)  # between 1 and sqrt(3)
+    unit = (scaled[0] / norm, scaled[1] / norm, scaled[2] / norm)
+    if not all(math.isfinite(c) for c in unit) or abs(math.hypot(*unit) - 1.0) > 1e-9:
+        raise ctx.error(f"the axis xyz=\"{' '.join(f'{c:g}' for c in axis)}\" has no usable direction", el)
+    return unit
+
+
+def _check_mimics(ctx: _Ctx, robot: Robot, joint_els: dict[str, XElement]) -> None:
+    """Mimic targets exist and form no cycle (linear time, no recursion), and every mimic joint's position
+    stays finite over its driver's range (the limits; continuous joints: +-pi), mimic chains composed."""
+    state: dict[str, int] = {}  # 1: on the chain being followed, 2: checked
+    for name, j in robot.joints.items():
+        if j.mimic is None or name in state:
+            continue
+        path: list[str] = []
+        cur = name
+        while state.get(cur) != 2:
+            if state.get(cur) == 1:
+                raise ctx.error(f"mimic joints form a cycle through '{cur}'", joint_els[name])
+            joint = robot.joints[cur]
+            if joint.mimic is None:
+                break
+            state[cur] = 1
+            path.append(cur)
+            target = robot.joints.get(joint.mimic.joint)
+            if target is None:
+                raise ctx.error(f"mimics unknown joint '{joint.mimic.joint}'", joint_els[cur])
+            cur = target.name
+        for p in path:
+            state[p] = 2
+    drivers = robot.mimic_drivers()
+    for name, j in robot.joints.items():
+        if j.mimic is None or not j.movable:
+            continue
+        driver, mult, off = drivers[name]
+        lo, hi = robot.joints[driver].bounds() if driver is not None else (0.0, 0.0)
+        ends = (mult * lo + off, mult * hi + off) if driver is not None else (off, off)
+        if not (math.isfinite(mult) and math.isfinite(off) and all(math.isfinite(v) for v in ends)):
+            raise ctx.error(f"mimic multiplier {j.mimic.multiplier:g} and offset {j.mimic.offset:g} take the "
+                            f"position out of the finite range (over '{driver}' in [{lo:g}, {hi:g}])",
+                            joint_els[name])
+
+
+def _budget(budget: "Budget | str | None") -> Budget:
+    if budget is None:
+        return DEFAULT_BUDGET
+    if isinstance(budget, Budget):
+        return budget
+    try:
+        return parse_budget(str(budget))
+    except ValueError as e:
+        raise URDFError(str(e)) from None
+
+
+def read_urdf_text(path: str, xacro_args: dict[str, str] | None = None, *, package_path: list[str] | None = None,
+                   xacro_budget: "Budget | str | None" = None, xacro_env: Mapping[str, str] | None = None) -> str:
+    """A URDF file's text; a .xacro file is expanded first, by zentf's confined xacro (see docs/urdf.md):
+    files are data, never code; ``package_path`` is where ``$(find PKG)`` looks, ``xacro_env`` the only
+    environment the model sees, ``xacro_budget`` its CPU and memory (``"30s,2GB"``)."""
     p = Path(path)
     if p.suffix == ".xacro":
+        budget = _budget(xacro_budget)
         try:
-            import xacro
-        except ImportError:
-            raise URDFError("reading .xacro files needs the xacro package: pip install 'zentf[urdf]'",
-                            file=path) from None
-        try:
-            doc = xacro.process_file(str(p), mappings=dict(xacro_args or {}))
-        except Exception as e:  # xacro raises XacroException, OSError, xml errors...
-            first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-            raise URDFError(f"xacro failed: {first}", file=path) from None
-        return doc.toprettyxml(indent="  ")
+            result = expand_file(str(p), args=dict(xacro_args or {}), package_path=list(package_path or []),
+                                 env=dict(xacro_env or {}), budget=budget)
+        except XacroError as e:
+            msg = e.message if e.message.startswith("xacro") else f"xacro: {e.message}"
+            raise URDFError(msg, file=e.file or path, line=e.line) from None
+        for w in result.warnings[:20]:
+            log.warning("%s: xacro: %s", escape(path), escape(w, 400))
+        if not result.confined.get("landlock"):
+            log.debug("%s: expanded without Landlock (kernel without it): rlimits and zentf's evaluator only", path)
+        return result.urdf
     try:
         return p.read_text(encoding="utf-8")
     except FileNotFoundError:
@@ -269,8 +328,9 @@ def read_urdf_text(path: str, xacro_args: dict[str, str] | None = None) -> str:
 
 
 def load_urdf(path: str | os.PathLike, *, package_path: list[str] | None = None,
-              xacro_args: dict[str, str] | None = None) -> Robot:
+              xacro_args: dict[str, str] | None = None, xacro_budget: "Budget | str | None" = None,
+              xacro_env: Mapping[str, str] | None = None) -> Robot:
     """Read and parse a .urdf (or .xacro) file."""
     path = os.fspath(path)
-    text = read_urdf_text(path, xacro_args)
+    text = read_urdf_text(path, xacro_args, package_path=package_path, xacro_budget=xacro_budget, xacro_env=xacro_env)
     return parse_urdf(text, source=path, package_path=package_path)

@@ -51,8 +51,14 @@ def parse_xml(text: str | bytes, source: str | None = None) -> XElement:
     def end(tag: str) -> None:
         stack.pop()
 
+    def entity(*_args: object) -> None:
+        raise URDFError("entity declarations are not allowed in a robot model", file=source,
+                        line=parser.CurrentLineNumber)
+
     parser.StartElementHandler = start
     parser.EndElementHandler = end
+    parser.EntityDeclHandler = entity  # a URDF needs none; they are how XML files multiply themselves
+    parser.SetParamEntityParsing(expat.XML_PARAM_ENTITY_PARSING_NEVER)
     try:
         parser.Parse(text, True)
     except expat.ExpatError as e:

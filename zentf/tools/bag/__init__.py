@@ -18,7 +18,7 @@ from .formats import BagFormat, detect_format
 from .info import bag_info
 from .native import (LATCHED_TOPICS, MESSAGE_ENCODING, PROFILE, BagMessage, BagReader, BagWriter, is_latched_key,
                      rebase_key)
-from .offline import load_buffer
+from .offline import load_buffer, load_buffer_at
 from .playback import Player, PlayStats, Recorder
 from .ros2record import Ros2BagWriter
 from .ros2write import Ros2Writer
@@ -27,4 +27,4 @@ from .source import Bag, open_bag, zentf_topic
 __all__ = ["BagError", "UnknownFormatError", "MissingDependencyError", "BagFormat", "detect_format", "BagMessage",
            "BagWriter", "BagReader", "Recorder", "Player", "PlayStats", "bag_info", "rebase_key", "is_latched_key",
            "write_drones_demo", "PROFILE", "MESSAGE_ENCODING", "LATCHED_TOPICS", "Bag", "open_bag", "zentf_topic",
-           "load_buffer", "convert", "Ros2Writer", "Ros2BagWriter"]
+           "load_buffer", "load_buffer_at", "convert", "Ros2Writer", "Ros2BagWriter"]

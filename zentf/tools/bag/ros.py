@@ -158,84 +158,42 @@ class RosBag:
                     return
 
     def _ros1(self, want: set[str] | None) -> Iterator[tuple[RosConnection, int, bytes]]:
-        from rosbags.rosbag1 import Reader
-
-        try:
-            reader = Reader(self.path)
-            reader.open()
-        except Exception as e:  # noqa: BLE001 - no usable index: scan the file linearly
-            log.debug("rosbags cannot open %s (%s); scanning it linearly", self.path, e)
-            yield from self._ros1_scan(want)
-            return
-        try:
-            conns = {}
-            for c in reader.connections:
-                conns[c.id] = self.connections[c.id] = RosConnection(
-                    c.topic, c.msgtype, _is_latched(c.topic, bool(c.ext.latching)), c.ext.callerid or "",
-                    c.msgdef.data, "ros1msg")
-            sel = [c for c in reader.connections if want is None or c.topic in want]
-            for c, t, raw in self._until_damaged(
-                    reader, sel, lambda n, e: f"stopped at a damaged chunk ({type(e).__name__}: {str(e)[:80]})"):
-                yield conns[c.id], t, raw
-        finally:
-            reader.close()
-
-    def _until_damaged(self, reader: Any, sel: list[Any],
-                       problem: Callable[[int, Exception], str]) -> Iterator[tuple[Any, int, bytes]]:
-        """rosbags' messages of the ``sel`` connections; damage inside the file ends the reading, and
-        ``problem(messages read, error)`` says where (``self.problem``)."""
-        it = reader.messages(connections=sel) if sel else iter(())
-        n = 0
-        while True:
-            try:
-                item = next(it)
-            except StopIteration:
-                return
-            except Exception as e:  # noqa: BLE001 - damage inside the file: stop, say where
-                self.problem = problem(n, e)
-                return
-            n += 1
-            yield item
-
-    def _ros1_scan(self, want: set[str] | None) -> Iterator[tuple[RosConnection, int, bytes]]:
         from .ros1scan import Ros1Scan
 
         scan = Ros1Scan(self.path)
         conns: dict[int, RosConnection] = {}
-        for c, t, raw in scan:
-            conn = conns.get(c.id)
-            if conn is None:
-                conn = conns[c.id] = self.connections[c.id] = RosConnection(
-                    c.topic, c.msgtype, _is_latched(c.topic, c.latching), c.callerid, c.msgdef, "ros1msg")
-            if want is None or conn.topic in want:
-                yield conn, t, raw
-        self.skipped_chunks = scan.skipped_chunks
-        self.problem = scan.problem or "no index (the recorder did not close the file); read linearly"
+        try:
+            for c, t, raw in scan:
+                conn = conns.get(c.id)
+                if conn is None or conn.topic != c.topic:
+                    conn = conns[c.id] = self.connections[c.id] = RosConnection(
+                        c.topic, c.msgtype, _is_latched(c.topic, c.latching), c.callerid, c.msgdef, "ros1msg")
+                if want is None or conn.topic in want:
+                    yield conn, t, raw
+        finally:
+            self.skipped_chunks = scan.skipped_chunks
+            self.problem = scan.problem
 
     def _sqlite(self, want: set[str] | None) -> Iterator[tuple[RosConnection, int, bytes]]:
-        from rosbags.rosbag2 import Reader
+        from .ros2sqlite import SqliteBag
 
+        bag = SqliteBag(self.path)
+        conns = {}
+        for t in bag.topics:
+            conns[(t.file, t.id)] = self.connections[(t.file, t.id)] = RosConnection(
+                t.name, t.type, _is_latched(t.name, latched_qos(t.qos)), "", t.msgdef, t.msgdef_kind)
+        sel = [t for t in bag.topics if want is None or t.name in want]
+        n = 0
         try:
-            reader = Reader(self.path)
-            reader.open()
-        except Exception as e:  # noqa: BLE001 - nothing readable
-            raise BagError(f"{self.path}: cannot open the rosbag2 SQLite bag ({_one_line(e)})") from None
-        try:
-            conns = {}
-            for c in reader.connections:
-                kind = {"MSG": "ros2msg", "IDL": "ros2idl"}.get(getattr(c.msgdef.format, "name", ""), "")
-                conns[c.id] = self.connections[c.id] = RosConnection(
-                    c.topic, c.msgtype, _is_latched(c.topic, latched_qos(getattr(c.ext, "offered_qos_profiles", None))),
-                    "", c.msgdef.data if kind else "", kind)
-            sel = [c for c in reader.connections if want is None or c.topic in want]
-            for c, t, raw in self._until_damaged(reader, sel,
-                                                 lambda n, e: f"stopped after {n} messages ({_one_line(e)})"):
-                yield conns[c.id], t, raw
-        finally:
-            try:
-                reader.close()
-            except Exception:  # noqa: BLE001
-                pass
+            for t, stamp, raw in bag.rows(sel):
+                n += 1
+                yield conns[(t.file, t.id)], stamp, raw
+        except Exception as e:  # noqa: BLE001 - damage inside the database: stop, say where
+            self.problem = f"stopped after {n} messages ({_one_line(e)})"
+            return
+        if bag.problems:
+            more = f" (and {len(bag.problems) - 1} more)" if len(bag.problems) > 1 else ""
+            self.problem = f"{bag.problems[0]}{more}; read {n} messages"
 
 
 def _one_line(e: BaseException) -> str:
