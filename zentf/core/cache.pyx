@@ -1085,6 +1085,12 @@ cdef class StaticCache(CacheBase):
         memcpy(&dv[0, 0], self._v, 7 * sizeof(double))
         return None, d
 
+    @property
+    def sample(self) -> tuple:
+        """(parent, tx, ty, tz, qx, qy, qz, qw)."""
+        cdef double* v = self._v
+        return (self._parent, v[0], v[1], v[2], v[3], v[4], v[5], v[6])
+
     def error(self, int64_t t) -> str:
         return ""
 
