@@ -152,9 +152,9 @@ def test_lookup_transforms_matches_single_lookups_on_dense_random_buffers() -> N
         logging.getLogger("zentf.core.buffer_core").setLevel(logging.NOTSET)
 
 
-def test_lookup_transforms_lets_inserts_through_between_chunks() -> None:
-    """The lock is taken per chunk, so a listener may append newer samples during a batch; the
-    tables are rebuilt when data changed, and answers about the past stay exactly the same."""
+def test_lookup_transforms_lets_inserts_through_during_a_batch() -> None:
+    """The lock is held only while a piece is planned, so a listener may append newer samples during
+    a batch, and answers about the past stay exactly the same."""
     import threading
 
     core = moving_tree()
@@ -212,7 +212,7 @@ CHAIN_PAIRS = [("w", "cam"), ("cam", "w"), ("a", "cam"), ("cam", "a"), ("b", "a"
 def test_lookup_transforms_sorted_chain_matches_loop(non_unit: bool, fast_path: str,
                                                      monkeypatch: pytest.MonkeyPatch) -> None:
     """Sorted times (run-length interval gather), statics, early outs on either side, samples hit
-    exactly (including the newest), 8k-time chunk borders, non-unit quaternions as tf2 stores them."""
+    exactly (including the newest), 8k-time numpy pass borders, non-unit quaternions as tf2 stores them."""
     core = sorted_chain(non_unit)
     kernel_runs = []
     real = batch._run_kernel
