@@ -10,8 +10,8 @@ from .common import CliOptions, node_options, open_graph_session, status, wire_p
 __all__ = ["graph_snapshot", "graph_namespace"]
 
 #: A fresh peer-mode session may answer a liveliness query before the router has sent it the
-#: current tokens (measured: empty replies in ~1/3 of fresh sessions, tokens up to ~0.25 s late),
-#: so one-shot peer listings also watch token arrivals and wait until they stop for this long.
+#: current tokens (an empty reply, or tokens arriving up to about a quarter of a second late), so
+#: one-shot peer listings also watch token arrivals and wait until they stop for this long.
 #: Client sessions (the local profile's listings: a client of the rendezvous) need no such wait:
 #: their router or peer answers the query from every token it holds.
 QUIET = 0.25

@@ -95,10 +95,8 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
 
         def show(ts: Any) -> None:
             tr, rot = ts.transform.translation, ts.transform.rotation
-            stamp = ts.header.stamp
-            stamp_ns = stamp.nanoseconds if hasattr(stamp, "nanoseconds") else int(stamp)
-            sys.stdout.write(format_echo(stamp_ns, (tr.x, tr.y, tr.z), (rot.x, rot.y, rot.z, rot.w), precision)
-                             + "\n")
+            xyzw = (rot.x, rot.y, rot.z, rot.w)
+            sys.stdout.write(format_echo(ts.header.stamp.nanoseconds, (tr.x, tr.y, tr.z), xyzw, precision) + "\n")
             sys.stdout.flush()
 
         # Phase 1: wait for the first transform (woken by every insert), saying why once a second.
@@ -237,15 +235,6 @@ def write_graph(dot_text: str, output: Optional[str], default_stem: str) -> tupl
     return dot_path, (None if problem else img_path), problem
 
 
-def _frame_stats(buffer: Any) -> list:
-    """view_frames' per-edge figures from the buffer (frame_info, else tf2's YAML report)."""
-    from .format import parse_frames_yaml, stats_from_frame_info
-
-    if hasattr(buffer, "frame_info"):
-        return stats_from_frame_info(buffer.frame_info())
-    return parse_frames_yaml(buffer.all_frames_as_yaml())
-
-
 @tf.command("frames", context_settings=CONTEXT_SETTINGS)
 @click.option("--output", "-o", default=None, metavar="NAME",
               help="Write NAME.gv and NAME.pdf (a .svg/.png suffix picks that format). Default: frames_<date>.")
@@ -259,7 +248,7 @@ def frames(output: Optional[str], wait: float, print_tree: bool, *, opts: CliOpt
     Every edge is labelled with its broadcaster, average rate, most recent and oldest transform
     and buffer length; disconnected trees are drawn as separate clusters.
     """
-    from .format import format_frame_tree, frames_dot
+    from .format import format_frame_tree, frames_dot, printable, stats_from_frame_info
 
     node, buffer, listener = _listen(opts, "view_frames")
     try:
@@ -268,8 +257,8 @@ def frames(output: Optional[str], wait: float, print_tree: bool, *, opts: CliOpt
             while (left := deadline - time.monotonic()) > 0 and node.ok():
                 st.update(f"Listening to tf for {wait:g} s ({left:.1f} s left)")
                 time.sleep(min(0.1, left))
-        stats = _frame_stats(buffer)
-        recorded = _now_sec(node)
+        stats = stats_from_frame_info(buffer.frame_info())  # view_frames' per-edge figures
+        recorded = node.get_clock().now().nanoseconds / 1e9
         interrupted = not node.ok()
     finally:
         _close(node, listener)
@@ -284,14 +273,7 @@ def frames(output: Optional[str], wait: float, print_tree: bool, *, opts: CliOpt
         print(format_frame_tree(stats))
     print(f"Wrote {dot_path}" + (f" and {img_path}" if img_path else ""))
     if problem:
-        sys.stderr.write(f"zentf: warning: {problem}\n")
-
-
-def _now_sec(node: Any) -> float:
-    try:
-        return node.get_clock().now().nanoseconds / 1e9
-    except Exception:  # noqa: BLE001
-        return time.time()
+        sys.stderr.write(f"zentf: warning: {printable(problem)}\n")
 
 
 def _tf_topics(opts: CliOptions) -> str:

@@ -92,15 +92,19 @@ def render_sample(payload: bytes, encoding: str, as_json: bool, key: str = "", p
         data = value.to_dict() if hasattr(value, "to_dict") else value
     except ValueError:
         known = False
+    from .format import printable
+
     if not known:
         if as_json:
             return json.dumps({"encoding": str(encoding), "size": len(payload), "raw_hex": payload.hex()})
-        return f"# raw payload: {len(payload)} bytes, encoding {encoding}\n{payload!r}\n---"
-    if as_json:
+        return f"# raw payload: {len(payload)} bytes, encoding {printable(encoding)}\n{payload!r}\n---"
+    if as_json:  # (json.dumps escapes every control and non-ASCII character)
         return json.dumps(data, default=_json_default, separators=(",", ":"))
     import yaml
 
-    return yaml.safe_dump(data, sort_keys=False, default_flow_style=False, allow_unicode=True).rstrip() + "\n---"
+    # YAML keeps NEL, bidi overrides and other format characters raw under allow_unicode: each line escaped
+    text = yaml.safe_dump(data, sort_keys=False, default_flow_style=False, allow_unicode=True).rstrip()
+    return "\n".join(printable(line) for line in text.split("\n")) + "\n---"
 
 
 def _json_default(obj: Any) -> Any:

@@ -28,7 +28,7 @@ _SEVEN = struct.Struct("<7d")
 #: Frame names decoded once, by their UTF-8 bytes (a tree has tens to hundreds). The one cache of every
 #: TFMessage decoder (this module's, zentf.transport.wire.codec's per-element path, zentf/transport/ingest/tfwire.pyx): when full it
 #: starts over and names longer than the buffer takes are not kept, so forged names cost at most
-#: ~4096 x 0.6 kB (issue 10: 100,000 kept up to ~60 MB of 256-byte names).
+#: ~4096 x 0.6 kB, whatever number of distinct names a peer sends.
 FRAME_CACHE_SIZE = 4096
 _FRAMES: dict[bytes, str] = {}
 

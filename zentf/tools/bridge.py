@@ -17,7 +17,8 @@ from typing import Any
 
 from ..transport.broadcaster import StaticTransformBroadcaster
 from ..core.messages import TFMessage, message_type
-from ..transport.node import Node, RateLimitedLog
+from ..core.ratelimit import RateLimitedLogger
+from ..transport.node import Node
 from ..transport.wire.profiles import parse_ros2_attachment
 from ..transport.entities import undeclare_all
 
@@ -87,7 +88,7 @@ class Ros2Bridge:
         self._z = _Side(zentf_node)
         self._r = _Side(ros2_node)
         self._self_name = zentf_node.get_fully_qualified_name()
-        self._complain = RateLimitedLog(log)
+        self._complain = RateLimitedLogger(log)
         self._subs: list[Any] = []
         self._tokens: list[Any] = []
         topics = [t for t in DEFAULT_TOPICS if (tf or not t[0].startswith("tf")) and (clock or t[0] != "/clock")]
@@ -146,7 +147,8 @@ class Ros2Bridge:
                 counts[fq] = counts.get(fq, 0) + 1
             except Exception as e:  # noqa: BLE001 - one bad message must not stop the bridge
                 self.stats.dropped += 1
-                self._complain(f"{fq}:{type(e).__name__}", f"not relayed from {profile.name} '{fq}': {e}")
+                self._complain.log(logging.WARNING, (fq, type(e).__name__), "not relayed from %s '%s': %s",
+                                   profile.name, fq, e)
 
         return relay
 

@@ -17,6 +17,8 @@ from typing import Any
 
 from ..transport.wire import codec as wire
 from ..core.messages import Marker, MarkerArray, PointStamped, PoseStamped
+from ..core.ratelimit import RateLimitedLogger
+from ..core.text import printable
 from ..transport.entities import undeclare_all
 
 __all__ = ["Viewer", "frame_path", "VIEW_TYPES", "require_rerun"]
@@ -83,9 +85,7 @@ class Viewer:
         self.ticks = 0
         self.problems = 0
         self._warned_fixed = 0.0
-        from ..transport.node import RateLimitedLog
-
-        self._complain = RateLimitedLog(log)
+        self._complain = RateLimitedLogger(log)
         self.rec.log("tf", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self.robot = None
         if robot_description:  # RViz's RobotModel: the URDF from the latched topic, drawn on its frames
@@ -124,7 +124,7 @@ class Viewer:
                 self._log_message(key, msg)
             except Exception as e:  # noqa: BLE001 - one bad message must not stop the view
                 self.problems += 1
-                self._complain(f"bad:{key}", f"dropped bad {type_name} on '{key}': {e}")
+                self._complain.log(logging.WARNING, ("bad", key), "dropped bad %s on '%s': %s", type_name, key, e)
         if self.robot is not None:
             self.robot.draw(self._shown_frames, frame_path)
         self.ticks += 1
@@ -139,8 +139,8 @@ class Viewer:
         if self.fixed_frame not in frames:
             if time.monotonic() - self._warned_fixed > 5.0:
                 self._warned_fixed = time.monotonic()
-                log.warning("fixed frame '%s' is not in the tf tree (frames: %s)", self.fixed_frame,
-                            ", ".join(sorted(frames)))
+                log.warning("fixed frame '%s' is not in the tf tree (frames: %s)", printable(self.fixed_frame),
+                            printable(", ".join(sorted(frames)), 2000))
             return
         origins: dict[str, list[float]] = {}
         for frame in frames:

@@ -2,9 +2,9 @@
 
 A flood of big messages passes through buffers that Zenoh's threads and the listener's thread allocate
 and free again; glibc's allocator keeps the freed pages in the arena of the thread that used them
-(each thread has its own), so the process's RSS stays at its peak after the flood has been handled
-(bench/abuse.py: ~18 MB of a listener's 25 MB above idle after 100k forged frames was such free
-memory). ``malloc_trim(0)`` returns the free pages of every arena. Other C libraries (musl, macOS)
+(each thread has its own), so the process's RSS stays at its peak after the flood has been handled;
+after a flood of forged frames most of a listener's growth is such free memory (docs/performance.md).
+``malloc_trim(0)`` returns the free pages of every arena. Other C libraries (musl, macOS)
 have no such call: there ``release_free_memory`` does nothing.
 """
 from __future__ import annotations

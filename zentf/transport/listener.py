@@ -46,8 +46,8 @@ _OTHERS = b"\x00others"
 #: as a dictionary key (a node name is at most 256 characters, a ROS 2 GID 16 bytes).
 MAX_SENDER_KEY = 1024
 #: When the ring runs empty after at least this many ``tf`` messages (a burst is over), the memory the
-#: process freed meanwhile goes back to the OS (zentf.transport.heap; measured: 197 releases, 97 ms in all, in
-#: bench/abuse.py's two 1M-sample floods, ~1% of the listener thread's time).
+#: process freed meanwhile goes back to the OS (zentf.transport.heap): often enough to bound a flood's
+#: memory, rarely enough to cost about 1% of the listener thread's time (docs/performance.md).
 RELEASE_AFTER = 256
 #: The tail of a flood: when the ring runs empty within TAIL_WINDOW s of such a release, with fewer
 #: messages since, the memory goes back once the ring has stayed quiet for TAIL_DELAY s (a timer: the
