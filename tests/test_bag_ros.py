@@ -273,8 +273,9 @@ def test_round_trip_drones_to_ros2_mcap_read_back_by_rosbags_and_mcap_ros2(tmp_p
                     abs=1e-12)
         else:
             assert [mk.text for mk in msg.markers] == [mk["text"] for mk in plain["markers"]]
-            assert [(p.x, p.y, p.z) for p in msg.markers[0].points] == pytest.approx(
-                [(p["x"], p["y"], p["z"]) for p in plain["markers"][0]["points"]], abs=1e-12)
+            # flat lists: pytest.approx compares sequences of numbers, not nested ones
+            assert [c for p in msg.markers[0].points for c in (p.x, p.y, p.z)] == pytest.approx(
+                [p[k] for p in plain["markers"][0]["points"] for k in "xyz"], abs=1e-12)
     r = run("bag", "convert", str(DRONES), str(single), check=False)
     assert r.returncode == 2 and "exists already" in r.stderr
 

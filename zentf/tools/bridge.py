@@ -41,7 +41,8 @@ class BridgeStats:
 
 
 class _Side:
-    """One side's node plus the publishers the bridge made there (created on the first message of a type)."""
+    """One side's node plus the publishers the bridge made there (created on the first message of a type),
+    and how to tell the bridge's own samples when they come back (echoes)."""
 
     def __init__(self, node: Node) -> None:
         self.node = node
@@ -49,13 +50,15 @@ class _Side:
         self.statics: dict[str, StaticTransformBroadcaster] = {}
         self.gids: set[bytes] = set()
         self.lock = threading.Lock()
+        self._self_name = node.get_fully_qualified_name().encode()
 
-    def publisher(self, topic: str, type_name: str) -> Any:
+    def publisher(self, topic: str, type_name: str, *, latched: bool = False) -> Any:
         with self.lock:
             pub = self.pubs.get((topic, type_name))
             if pub is None:
                 pub = self.node.create_publisher(topic, message_type(type_name),
-                                                 100 if type_name == TFMessage.TYPE_NAME else 10)
+                                                 1 if latched else 100 if type_name == TFMessage.TYPE_NAME else 10,
+                                                 latched=latched)
                 self._remember(pub)
                 self.pubs[(topic, type_name)] = pub
             return pub
@@ -73,6 +76,20 @@ class _Side:
         if gid is not None:
             self.gids.add(gid)
 
+    def is_own(self, sample: Any) -> bool:
+        """Whether a sample is one this side's node published (its name on zentf's wire, one of its
+        publisher GIDs on ROS 2's)."""
+        att = sample.attachment
+        if att is None:
+            return False
+        raw = att.to_bytes()
+        if self.node.wire.name == "zentf":
+            return raw == self._self_name
+        try:
+            return parse_ros2_attachment(raw)[2] in self.gids
+        except ValueError:
+            return False
+
 
 class Ros2Bridge:
     """Relays ``topics`` (tf, tf_static and /clock by default, plus ``extra_topics``) between a zentf node
@@ -87,7 +104,6 @@ class Ros2Bridge:
         self.stats = BridgeStats()
         self._z = _Side(zentf_node)
         self._r = _Side(ros2_node)
-        self._self_name = zentf_node.get_fully_qualified_name()
         self._complain = RateLimitedLogger(log)
         self._subs: list[Any] = []
         self._tokens: list[Any] = []
@@ -112,18 +128,6 @@ class Ros2Bridge:
                                                              latched=latched))
 
     # ---- relaying
-    def _is_echo(self, src: _Side, sample: Any) -> bool:
-        att = sample.attachment
-        if att is None:
-            return False
-        raw = att.to_bytes()
-        if src is self._z:
-            return raw == self._self_name.encode()
-        try:
-            return parse_ros2_attachment(raw)[2] in src.gids
-        except ValueError:
-            return False
-
     def _relay_factory(self, src: _Side, dst: _Side, topic: str, fq: str, latched: bool) -> Any:
         counts = self.stats.to_ros2 if dst is self._r else self.stats.to_zentf
         counts.setdefault(fq, 0)
@@ -132,7 +136,7 @@ class Ros2Bridge:
 
         def relay(sample: Any) -> None:  # Zenoh thread: decode, re-encode, publish; never raises
             try:
-                if self._is_echo(src, sample):
+                if src.is_own(sample):
                     self.stats.echoes += 1
                     return
                 key = str(sample.key_expr)
