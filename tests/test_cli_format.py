@@ -190,3 +190,23 @@ def test_monitor_stats_rates_delays_and_report() -> None:
     chain_text = format_monitor_text(stats, "for world to av1", chain=["av1", "world"], net=(0.002, 0.004))
     assert "Chain is: av1 -> world\nNet delay     avg = 2.000 ms: max = 4.000 ms" in chain_text
     assert "av2" not in chain_text.split("All Broadcasters:")[0]  # only chain frames listed
+
+
+def test_monitor_stats_take_delays_on_the_clock_they_are_given() -> None:
+    """Sim time: delays against /clock, none while the clock has not ticked, and the wall delays
+    gathered before /clock appeared are dropped when it does."""
+    from zentf.cli.tf import MonitorStats, format_monitor_text
+
+    now: list = [None]
+    stats = MonitorStats(clock=lambda: now[0])
+    sample = lambda stamp_s: ("odom", "base_link", int(stamp_s * 1e9), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)  # noqa: E731
+    stats.set_transforms_raw([sample(930.0)], "/gazebo", False)  # sim time, no /clock yet: no delay
+    assert stats.rows()[0][4:6] == (0.0, 0.0) and not stats.frames["base_link"].delays
+    now[0] = 1_800_000_000 * 10**9  # a wall reading: a delay of decades ...
+    stats.set_transforms_raw([sample(930.0)], "/gazebo", False)
+    stats.reset_delays()  # ... dropped when the clock switches
+    now[0] = 930_050_000_000
+    stats.set_transforms_raw([sample(930.0)], "/gazebo", False)
+    assert stats.rows()[0][4] == pytest.approx(0.050) and stats.node_rows()[0][2] == pytest.approx(0.050)
+    text = format_monitor_text(stats, "for all Frames", clock="sim time from /clock (published)")
+    assert text.startswith("RESULTS: for all Frames\nClock: sim time from /clock (published)\n")

@@ -59,7 +59,7 @@ class LazyGroup(click.Group):
 
 
 _COMMANDS: dict[str, tuple[str, str]] = {
-    "tf": ("zentf.cli.tf:tf", "Transforms: echo, monitor, frames (tf2_echo, tf2_monitor, view_frames)."),
+    "tf": ("zentf.cli.tf:tf", "Transforms: echo, monitor, frames, doctor, why (tf2_echo, tf2_monitor, view_frames)."),
     "topic": ("zentf.cli.topic:topic", "Topics: list, echo, hz, pub."),
     "node": ("zentf.cli.node:node", "Nodes: list, info."),
     "graph": ("zentf.cli.graph:graph", "The node <-> topic graph (rqt_graph) as DOT + image + text."),
@@ -79,6 +79,7 @@ _COMMANDS: dict[str, tuple[str, str]] = {
     "bridge": ("zentf.cli.bridge:bridge", "Relay tf, tf_static, /clock and topics to and from a ROS 2 graph."),
     "service": ("zentf.cli.service:service", "Services: list, type, call."),
     "param": ("zentf.cli.param:param", "Node parameters over the network: list, get, set, dump."),
+    "interface": ("zentf.cli.interface:interface", "Message and service types: list, show, proto (ros2 interface)."),
 }
 
 

@@ -157,8 +157,9 @@ def _q(name: str) -> str:
 _TREE_COLOURS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"]
 
 
-def frames_dot(stats: Sequence[FrameStat], recorded_at: float | None = None) -> str:
-    """view_frames DOT: one cluster per disconnected tree, every edge labelled with its figures."""
+def frames_dot(stats: Sequence[FrameStat], recorded_at: float | None = None, clock: str = "") -> str:
+    """view_frames DOT: one cluster per disconnected tree, every edge labelled with its figures; ``clock``
+    names the clock of the recording time and the ages."""
     if not stats:
         return 'digraph G {\n  "No tf data received";\n}\n'
     out = ["digraph G {", "  rankdir=TB;", '  node [shape=ellipse, fontname="Helvetica"];',
@@ -183,10 +184,13 @@ def frames_dot(stats: Sequence[FrameStat], recorded_at: float | None = None) -> 
             label = (f"Broadcaster: {_esc(e.broadcaster)}\\nAverage rate: {e.rate:.3f} Hz\\n{recent}\\n"
                      f"Oldest transform: {e.oldest:.3f}\\nBuffer length: {e.buffer_length:.3f} sec\\n")
             out.append(f'  {_q(e.parent)} -> {_q(e.child)} [label="{label}", color="{colour}"];')
-    if recorded_at is not None:
+    if recorded_at is not None or clock:
         out.append("  subgraph cluster_legend {")
         out.append('    style=bold; color=black; label="view_frames Result";')
-        out.append(f'    "Recorded at time: {recorded_at:.3f}" [shape=plaintext];')
+        if recorded_at is not None:
+            out.append(f'    "Recorded at time: {recorded_at:.3f}" [shape=plaintext];')
+        if clock:
+            out.append(f'    {_q("Clock: " + clock)} [shape=plaintext];')
         out.append("  }")
     out.append("}")
     return "\n".join(out) + "\n"

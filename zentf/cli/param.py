@@ -61,6 +61,9 @@ def _reach(node: Any, fq: str, timeout: float) -> Any:
 def _client(opts: CliOptions, node_name: str, timeout: float) -> Iterator[Any]:
     """A ParameterClient of NODE (name in --namespace, or /ns/name)."""
     fq = _fq(opts, node_name)
+    from .introspect import require_node
+
+    require_node(opts, fq)  # not running: say so now, the timeout is for a node that is there
     with _tool_node(opts) as node:
         yield _reach(node, fq, timeout)
 

@@ -97,11 +97,14 @@ def service_call(name: str, type_name: str, values: str, timeout: float, *, opts
 
     request = parse_message(srv.Request.TYPE_NAME, values)  # one CliError line (exit 2) naming what is wrong
     full = _full_name(opts, name)
+    from .introspect import require_service
+
+    require_service(opts, full)  # nobody offers it: say so now, the timeout is for a server that is there
     node = open_node(opts, "service")
     try:
         client = node.create_client(full, srv)
         if not client.wait_for_service(timeout):
-            raise CliError(f"service {full} is not available (waited {timeout:g} s; see 'zentf service list')")
+            raise CliError(f"service {printable(full)} is in the graph but not reachable (waited {timeout:g} s)")
         print(f"requester: making request: {request!r}")
         try:
             response = client.call(request, timeout=timeout)

@@ -17,7 +17,7 @@ __all__ = ["topic", "resolve_type_name", "render_sample"]
 
 @click.group("topic", context_settings=CONTEXT_SETTINGS)
 def topic() -> None:
-    """Topics: list, info, echo, hz, pub."""
+    """Topics: list, info, type, find, echo, hz, pub."""
 
 
 def _resolve(opts: CliOptions, name: str) -> tuple[str, str]:
@@ -79,6 +79,39 @@ def topic_info(name: str, wait: float, *, opts: CliOptions) -> None:
     print(f"Subscription count: {len(t.subscribers)}")
     for n in t.subscribers:
         print(f"  {p(n)}")
+
+
+@topic.command("type", context_settings=CONTEXT_SETTINGS)
+@click.argument("name")
+@liveliness_wait_option
+@with_options
+def topic_type(name: str, wait: float, *, opts: CliOptions) -> None:
+    """The type of topic NAME, as its live publishers and subscribers declare it (ros2 topic type)."""
+    from .format import printable
+    from .introspect import graph_snapshot
+
+    fq, _ = _resolve(opts, name)
+    t = graph_snapshot(opts, wait, None)[1].get(fq)
+    if t is None:
+        raise CliError(f"unknown topic {fq}: no live node publishes or subscribes it")
+    for type_name in sorted(t.types) or ["?"]:
+        print(printable(type_name))
+
+
+@topic.command("find", context_settings=CONTEXT_SETTINGS)
+@click.argument("type_name", metavar="TYPE")
+@liveliness_wait_option
+@with_options
+def topic_find(type_name: str, wait: float, *, opts: CliOptions) -> None:
+    """The topics of type TYPE ('geometry_msgs/msg/Point' or 'geometry_msgs/Point'; ros2 topic find)."""
+    from .format import printable
+    from .introspect import graph_namespace, graph_snapshot
+
+    parts = type_name.strip().split("/")
+    want = {type_name.strip()} | ({f"{parts[0]}/msg/{parts[1]}"} if len(parts) == 2 else set())
+    for t in sorted(graph_snapshot(opts, wait, graph_namespace(opts))[1].values(), key=lambda t: t.name):
+        if want & set(t.types):
+            print(printable(t.name))
 
 
 def render_sample(payload: bytes, encoding: str, as_json: bool, key: str = "", profile: Any = None) -> str:

@@ -490,7 +490,7 @@ cdef class BufferCore:
         self._version += 1
         return 1
 
-    # decoded samples straight from a payload (zentf/transport/ingest/tfwire.pyx): set_transforms_raw without tuples
+    # decoded samples straight from a payload (zentf/transport/ingest/handler.pyx): set_transforms_raw without tuples
     cdef int ingest_begin_c(self) except -1:
         """Take the lock for a run of ingest_one_c calls."""
         self._lock.acquire_c()

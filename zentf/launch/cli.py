@@ -222,6 +222,7 @@ def clock(command: str, factor: Optional[float], timeout: float, as_json: bool, 
         if factor is not None:
             raise click.UsageError(f"'{command}' takes no value")
         payload = command
+    _require_clock(opts)  # none in the graph: say so now, the timeout is for a clock that is there
     zopts = node_options(opts, "clock").zenoh
     try:  # a one-shot query, as the graph listings make (zentf.cli.common.open_graph_session)
         session, _ = zopts.open_query_session()
@@ -239,6 +240,22 @@ def clock(command: str, factor: Optional[float], timeout: float, as_json: bool, 
         click.echo(f"sim time {state['time']:.3f} s, rate {state['rate']:g}x, "
                    f"{'paused' if state['paused'] else 'running'}")
     return 0
+
+
+def _require_clock(opts: CliOptions) -> None:
+    """CliError at once when no launcher's sim clock is in the graph, naming who publishes /clock if anyone
+    (a bag player's clock takes no pause/resume/rate)."""
+    from zentf.cli.introspect import PRESENCE_WAIT, graph_snapshot, name_list
+
+    from .sim_clock import CLOCK_NODE_PREFIX
+
+    nodes, topics = graph_snapshot(opts, PRESENCE_WAIT, None)
+    if any(fq.rsplit("/", 1)[-1].startswith(CLOCK_NODE_PREFIX) for fq in nodes):
+        return
+    publishers = topics["/clock"].publishers if "/clock" in topics else []
+    who = (f"/clock is published by {name_list(publishers)}, which takes no pause/resume/rate" if publishers
+           else "nothing publishes /clock")
+    raise CliError(f"no sim clock to control: no `zentf launch` with a clock: section is running ({who})")
 
 
 def _say_error(line: str) -> None:

@@ -19,14 +19,9 @@ from ...ros.tf import tf_samples
 
 __all__ = ["tf_cdr_to_msgpack", "cdr_to_message", "message_to_cdr", "check_cdr"]
 
-try:  # the compiled decoder (zentf/transport/ingest/tfwire.pyx): None for anything doubtful, then the Python one decides
-    from ...transport.ingest.tfwire import cdr_tf as _cdr_tf
-except ImportError:  # pragma: no cover - the compiled core is not built
-    _cdr_tf = None
-try:  # CDR straight to msgpack in C (tfconvert.pyx): None for anything doubtful
-    from .tfconvert import tf_cdr_to_msgpack as _compiled
-except ImportError:  # pragma: no cover - not built
-    _compiled = None
+# the compiled decoder: None for anything doubtful, then the Python one (tf_samples) names what is wrong
+from ...transport.ingest.decoders import cdr_tf as _cdr_tf
+from .tfconvert import tf_cdr_to_msgpack as _compiled  # CDR straight to msgpack in C: None for anything doubtful
 
 _NS = 1_000_000_000
 _STAMP = b"\x83\xa6header\x82\xa5stamp\x82\xa3sec\xce"
@@ -66,16 +61,15 @@ def tf_cdr_to_msgpack(cdr: bytes) -> tuple[bytes, int]:
     """(zentf payload, transforms left out) of a CDR TFMessage: what zentf's TransformBroadcaster would
     send for it. Elements that cannot be read (bad stamp, name not UTF-8) are left out and counted;
     ValueError if the payload is not a CDR TFMessage at all."""
-    if _compiled is not None:
-        out = _compiled(cdr)
-        if out is not None:
-            return out, 0
+    out = _compiled(cdr)
+    if out is not None:
+        return out, 0
     return _python_tf_cdr_to_msgpack(cdr)
 
 
 def _python_tf_cdr_to_msgpack(cdr: bytes) -> tuple[bytes, int]:
-    """tf_cdr_to_msgpack without the compiled module (and for what it finds doubtful)."""
-    samples = _cdr_tf(cdr) if _cdr_tf is not None else None
+    """tf_cdr_to_msgpack of what the compiled converter finds doubtful: what can be read of it."""
+    samples = _cdr_tf(cdr)
     bad = 0
     if samples is None:
         try:
@@ -114,7 +108,7 @@ def check_cdr(cdr: bytes, type_name: str) -> None:
     """ValueError unless ``cdr`` is a well-formed CDR message of ``type_name`` (a ROS 2 payload from
     the zentf side goes to DDS readers as it is, so it is read once first)."""
     if type_name == TFMessage.TYPE_NAME:
-        if _cdr_tf is not None and _cdr_tf(cdr) is not None:
+        if _cdr_tf(cdr) is not None:
             return
         try:
             _samples, bad, problem = tf_samples(cdr)
