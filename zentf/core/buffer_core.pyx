@@ -776,8 +776,8 @@ cdef class BufferCore:
         return _make_ts_c(target_frame, source_frame, stamp, out)
 
     def lookup_transform_core(self, target_frame: str, source_frame: str, time: TimeArg) -> TransformStamped:
-        """tf2_py spelling."""
-        return self.lookup_transform(target_frame, source_frame, time)
+        """tf2_py spelling (BufferCore's own lookup: never waits, also on a Buffer)."""
+        return BufferCore.lookup_transform(self, target_frame, source_frame, time)
 
     def _lookup(self, target: str, source: str, t: int) -> tuple:
         """(stamp, tx, ty, tz, qx, qy, qz, qw) or a tf2 exception; call with the lock held."""
@@ -1021,8 +1021,9 @@ cdef class BufferCore:
 
     def lookup_transform_full_core(self, target_frame: str, target_time: TimeArg, source_frame: str,
                                    source_time: TimeArg, fixed_frame: str) -> TransformStamped:
-        """tf2_py spelling."""
-        return self.lookup_transform_full(target_frame, target_time, source_frame, source_time, fixed_frame)
+        """tf2_py spelling (BufferCore's own lookup: never waits, also on a Buffer)."""
+        return BufferCore.lookup_transform_full(self, target_frame, target_time, source_frame, source_time,
+                                                fixed_frame)
 
     def can_transform(self, target_frame: str, source_frame: str, time: TimeArg,
                       return_debug_tuple: bool = False) -> Union[bool, tuple[bool, str]]:
@@ -1033,8 +1034,8 @@ cdef class BufferCore:
         return (ok, msg) if return_debug_tuple else ok
 
     def can_transform_core(self, target_frame: str, source_frame: str, time: TimeArg) -> tuple[bool, str]:
-        """tf2_py spelling: always (bool, reason)."""
-        return self.can_transform(target_frame, source_frame, time, True)  # type: ignore[return-value]
+        """tf2_py spelling: always (bool, reason), at once (a Buffer's can_transform would wait)."""
+        return BufferCore.can_transform(self, target_frame, source_frame, time, True)  # type: ignore[return-value]
 
     def can_transform_full(self, target_frame: str, target_time: TimeArg, source_frame: str,
                            source_time: TimeArg, fixed_frame: str,
@@ -1048,9 +1049,9 @@ cdef class BufferCore:
 
     def can_transform_full_core(self, target_frame: str, target_time: TimeArg, source_frame: str,
                                 source_time: TimeArg, fixed_frame: str) -> tuple[bool, str]:
-        """tf2_py spelling: always (bool, reason)."""
-        return self.can_transform_full(target_frame, target_time, source_frame, source_time,  # type: ignore[return-value]
-                                       fixed_frame, True)
+        """tf2_py spelling: always (bool, reason), at once (a Buffer's can_transform_full would wait)."""
+        return BufferCore.can_transform_full(self, target_frame, target_time, source_frame,  # type: ignore[return-value]
+                                             source_time, fixed_frame, True)
 
     def _can_full(self, target: str, tt: int, source: str, st: int, fixed: str) -> tuple[bool, str]:
         """tf2 0.7.6's advanced canTransform, including its message quirks (probed)."""
