@@ -165,7 +165,7 @@ def lookup_transforms(core: Any, target_frame: str, source_frame: str, times: An
             continue
         links, n_source = plan
         tf = (ts[lo:hi] - t_lo).astype(float)
-        rows = _compose_chain(kern, [_Link(s, v, t_lo) for s, v in links], n_source, tf)
+        rows = _compose_chain(kern, _links(links, t_lo), n_source, tf)
         if order is None and hi - lo == n:
             out = rows                    # the whole series in one piece: no copy
         else:
@@ -232,48 +232,19 @@ class _Link:
     last sample itself (tf2 returns it as is from its stamp on). Stamps are float ns relative to
     the piece's first time. With x = (t - st[j])·ω the value is p0 + (t - st[j])·vel and
     q0·cos x + a·sin x (tf2's slerp rewritten: one sin, one cos). Zero angles have ω = a = 0.
+    Built by ``_links`` for a whole chain at once.
     """
 
-    __slots__ = ("stamps", "k", "theta", "value", "unit")
+    __slots__ = ("stamps", "k", "theta", "theta_max", "value", "unit")
 
-    def __init__(self, stamps: Optional[np.ndarray], d: np.ndarray, base: int) -> None:
+    def __init__(self, stamps: Optional[np.ndarray], k: Any, theta: Any, theta_max: float, value: Any,
+                 unit: bool) -> None:
         self.stamps = stamps
-        if stamps is None:            # static: one value at every time
-            v = np.empty((9, 1))
-            v[0:7, 0] = d[0, [0, 1, 2, 6, 3, 4, 5]]
-            v[7:9] = v[4:6]
-            self.value = v
-            self.unit = bool(abs(float(d[0, 3:] @ d[0, 3:]) - 1.0) <= _UNIT_TOL)
-            return
-        m = stamps.shape[0]
-        k = np.zeros((16, m))     # stamp - base, ω, p0 (3), vel (3), q0 (w, x, y, z), a (w, x, y, z)
-        k[0] = stamps - base
-        k[2:5] = d[:, :3].T
-        k[8] = d[:, 6]
-        k[9:12] = d[:, 3:6].T
-        theta = np.zeros(m)
-        if m > 1:
-            p0, p1 = d[:-1], d[1:]
-            q0, q1 = p0[:, 3:], p1[:, 3:]
-            dot = np.einsum("ij,ij->i", q0, q1)
-            c = np.abs(dot) / np.sqrt(np.einsum("ij,ij->i", q0, q0) * np.einsum("ij,ij->i", q1, q1))
-            th = np.arccos(np.minimum(c, 1.0))
-            live = th != 0.0
-            dt = (stamps[1:] - stamps[:-1]).astype(float)
-            k[5:8, :-1] = (p1[:, :3] - p0[:, :3]).T / dt
-            k[1, :-1] = th / dt
-            sin_th = np.where(live, np.sin(th), 1.0)
-            sgn = np.where(dot < 0, -1.0, 1.0)
-            a = (q1 * sgn[:, None] - q0 * np.cos(th)[:, None]) / sin_th[:, None]   # x, y, z, w
-            a[~live] = 0.0
-            k[12, :-1] = a[:, 3]
-            k[13:16, :-1] = a[:, :3].T
-            theta[:-1] = th
         self.k = k
         self.theta = theta
-        # unit samples interpolate to unit quaternions (|q0 cos x + a sin x|² = 1, a ⊥ q0), so the
-        # cheaper rotation formula agrees with q·v·q* to ~1e-15 relative
-        self.unit = bool((np.abs(np.einsum("ij,ij->i", d[:, 3:], d[:, 3:]) - 1.0) <= _UNIT_TOL).all())
+        self.theta_max = theta_max
+        self.value = value
+        self.unit = unit
 
     def rows(self, tf: np.ndarray) -> np.ndarray:
         """The link's value (9, n) at sorted times tf (float ns relative to the piece's first time)."""
@@ -313,6 +284,68 @@ class _Link:
             q += tmp
         v[7:9] = v[4:6]
         return v
+
+
+def _links(plan_links: list[tuple], base: int) -> list[_Link]:
+    """The planned links' constants, computed for all the chain's samples in one pass (per link,
+    the numpy calls of a short series over a deep chain cost more than its arithmetic)."""
+    out: list[Optional[_Link]] = [None] * len(plan_links)
+    dyn = []
+    for i, (stamps, d) in enumerate(plan_links):
+        if stamps is None:            # static: one value at every time
+            v = np.empty((9, 1))
+            v[0:7, 0] = d[0, [0, 1, 2, 6, 3, 4, 5]]
+            v[7:9] = v[4:6]
+            out[i] = _Link(None, None, None, 0.0, v, bool(abs(float(d[0, 3:] @ d[0, 3:]) - 1.0) <= _UNIT_TOL))
+        else:
+            dyn.append(i)
+    if not dyn:
+        return out  # type: ignore[return-value]
+    sizes = np.array([plan_links[i][0].shape[0] for i in dyn], np.int64)
+    starts = np.zeros(len(dyn), np.int64)
+    np.cumsum(sizes[:-1], out=starts[1:])
+    st = np.concatenate([plan_links[i][0] for i in dyn])
+    d = np.concatenate([plan_links[i][1] for i in dyn]).T.copy()   # rows px, py, pz, qx, qy, qz, qw
+    m = st.shape[0]
+    k = np.zeros((16, m))     # stamp - base, ω, p0 (3), vel (3), q0 (w, x, y, z), a (w, x, y, z)
+    k[0] = st - base
+    k[2:5] = d[0:3]
+    k[8] = d[6]
+    k[9:12] = d[3:6]
+    theta = np.zeros(m)
+    if m > 1:
+        # pair j interpolates sample j to j + 1; a pair across two links' samples is no interval
+        seams = starts[1:] - 1
+        q0, q1 = d[3:7, :-1], d[3:7, 1:]
+        dot = q0[0] * q1[0] + q0[1] * q1[1] + q0[2] * q1[2] + q0[3] * q1[3]
+        n0 = q0[0] * q0[0] + q0[1] * q0[1] + q0[2] * q0[2] + q0[3] * q0[3]
+        n1 = q1[0] * q1[0] + q1[1] * q1[1] + q1[2] * q1[2] + q1[3] * q1[3]
+        th = np.arccos(np.minimum(np.abs(dot) / np.sqrt(n0 * n1), 1.0))
+        th[seams] = 0.0
+        live = th != 0.0
+        dt = (st[1:] - st[:-1]).astype(float)
+        dt[seams] = 1.0
+        vel = k[5:8, :-1]
+        np.subtract(d[0:3, 1:], d[0:3, :-1], out=vel)
+        vel /= dt
+        vel[:, seams] = 0.0
+        k[1, :-1] = th / dt
+        sin_th = np.where(live, np.sin(th), 1.0)
+        sgn = np.where(dot < 0, -1.0, 1.0)
+        a = (q1 * sgn - q0 * np.cos(th)) / sin_th    # rows x, y, z, w
+        a[:, ~live] = 0.0
+        k[12, :-1] = a[3]
+        k[13:16, :-1] = a[0:3]
+        theta[:-1] = th
+    # unit samples interpolate to unit quaternions (|q0 cos x + a sin x|² = 1, a ⊥ q0), so the
+    # cheaper rotation formula agrees with q·v·q* to ~1e-15 relative
+    norm2 = d[3] * d[3] + d[4] * d[4] + d[5] * d[5] + d[6] * d[6]
+    unit = np.logical_and.reduceat(np.abs(norm2 - 1.0) <= _UNIT_TOL, starts)
+    theta_max = np.maximum.reduceat(theta, starts)
+    for j, i in enumerate(dyn):
+        lo, hi = int(starts[j]), int(starts[j] + sizes[j])
+        out[i] = _Link(plan_links[i][0], k[:, lo:hi], theta[lo:hi], float(theta_max[j]), None, bool(unit[j]))
+    return out  # type: ignore[return-value]
 
 
 def _fold_statics(links: list[_Link]) -> list[tuple]:
@@ -399,7 +432,7 @@ def _run_kernel(kern: Any, sides: tuple[list[tuple], list[tuple]], tf: np.ndarra
         off[li] = total
         cnt[li] = m
         total += m
-        kt[li] = _terms(float(link.theta.max()))
+        kt[li] = _terms(link.theta_max)
         unit[li] = link.unit
     k = np.concatenate([p.T for p in parts]) if parts else np.zeros((1, 16))
     mode = 1 if n_src == n_links else (2 if n_src == 0 else 0)
