@@ -2,7 +2,7 @@
 """Frame names from wire bytes: one interned str per name, shared by every compiled decoder.
 
 Why: a stream of TFMessages repeats the same few names; turning their bytes into a str every time costs an
-allocation and a UTF-8 decode per name. ``zentf.ros.tf``'s bounded dict holds the names (the Python decoders
+allocation and a UTF-8 decode per name. ``zentf.ros.tf``'s dict holds the names, bounded there (the Python decoders
 use it too), and a direct-mapped memo in front makes a hit a hash and a memcmp, with no bytes object.
 """
 from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes_GET_SIZE
@@ -11,11 +11,10 @@ from libc.stdint cimport uint8_t, uint32_t
 from libc.string cimport memcmp
 
 from zentf.core.constants import DEFAULT_MAX_FRAME_ID_LENGTH
-from zentf.ros.tf import FRAME_CACHE_SIZE
 from zentf.ros.tf import _FRAMES as _NAMES
+from zentf.ros.tf import keep_frame_name as _keep
 
 cdef dict _names = _NAMES
-cdef Py_ssize_t _NAMES_MAX = FRAME_CACHE_SIZE
 cdef Py_ssize_t _NAME_MAX_LEN = DEFAULT_MAX_FRAME_ID_LENGTH
 cdef enum:
     SLOTS = 1024
@@ -43,9 +42,7 @@ cdef object frame_name(const uint8_t* p, Py_ssize_t n):
             return None
         if n > _NAME_MAX_LEN:  # a forged huge name is not kept (the buffer refuses it anyway)
             return name
-        if len(_names) >= _NAMES_MAX:
-            _names.clear()
-        _names[raw] = name
+        _keep(raw, name)  # zentf.ros.tf's bounds: names and bytes
     _slot_raw[slot] = raw
     _slot_name[slot] = name
     return name
