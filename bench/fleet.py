@@ -46,15 +46,17 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "bench"))
 sys.path.insert(0, str(REPO / "tests"))
 
 from netns import _die_with_parent, free_port  # noqa: E402  (bench/netns.py's helpers)
 
+sys.path.insert(0, os.environ.get("FLEET_BENCH_TREE") or str(REPO))  # (--tree, in the child processes)
+
 CLIENT = str(REPO / "configs/zenoh/client.json5")
 ROUTER_CONF = str(REPO / "configs/zenoh/router.json5")
 NS = 1_000_000_000
+TREE = str(REPO)  # the zentf the children import (--tree: another checkout, for before/after runs)
 PREFIX = struct.Struct("<qI")  # raw payloads: send time (ns, CLOCK_REALTIME), robot id
 
 
@@ -127,7 +129,8 @@ def percentiles(lat_ns: list[int]) -> dict:
     s = sorted(lat_ns)
     if not s:
         return {"n": 0, "p50": float("nan"), "p99": float("nan")}
-    return {"n": len(s), "p50": s[len(s) // 2] / 1000, "p99": s[min(len(s) - 1, int(0.99 * len(s)))] / 1000}
+    return {"n": len(s), "p50": s[len(s) // 2] / 1000, "p90": s[int(0.9 * len(s))] / 1000,
+            "p99": s[min(len(s) - 1, int(0.99 * len(s)))] / 1000, "top": [x / 1000 for x in s[-5:]]}
 
 
 # ------------------------------------------------------------------ robots (child process)
@@ -262,8 +265,10 @@ def listen(args: argparse.Namespace) -> None:
 
         def stats() -> dict:
             s = listener.stats()
-            return {"messages": s["messages"], "transforms": s["transforms"], "dropped": s["dropped"],
-                    "buffer_bytes": buffer.memory_bytes()}
+            return {"messages": s["messages"], "transforms": s["transforms"], "dropped": s["dropped"]}
+
+        def buffer_bytes() -> int:  # walks every frame under the buffer's lock: asked after the window
+            return buffer.memory_bytes()
         closer = node.shutdown
     else:
         session = _zopts(args.endpoint).open_session()
@@ -280,22 +285,42 @@ def listen(args: argparse.Namespace) -> None:
             if robot_id == 0:
                 lat.append(now - stamp)
 
-        sub = session.declare_subscriber(key, on_sample)
+        if args.raw_ring:  # the listener's way of receiving: a drop-oldest ring read by a Python thread
+            import zenoh
+
+            sub = session.declare_subscriber(key, zenoh.handlers.RingChannel(16384))
+
+            def drain(recv=sub.handler.recv) -> None:
+                while True:
+                    try:
+                        on_sample(recv())
+                    except Exception:  # undeclared
+                        return
+
+            threading.Thread(target=drain, daemon=True).start()
+        else:
+            sub = session.declare_subscriber(key, on_sample)
 
         def stats() -> dict:
-            return {"messages": counts["messages"], "transforms": counts["messages"] * args.frames, "dropped": 0,
-                    "buffer_bytes": 0}
+            return {"messages": counts["messages"], "transforms": counts["messages"] * args.frames, "dropped": 0}
+
+        def buffer_bytes() -> int:
+            return 0
 
         def closer() -> None:
             sub.undeclare()
             session.close()
-    _reply({"ready": True, "rss": rss_kb()})
+    import zentf
+
+    _reply({"ready": True, "rss": rss_kb(), "zentf": zentf.__file__})
     for cmd in _commands():
         if cmd == "mark":
             out = stats()
             out.update(lat=percentiles(lat), rss=rss_kb())
             lat.clear()
             _reply(out)
+        elif cmd == "memory":
+            _reply({"buffer_bytes": buffer_bytes()})
     closer()
 
 
@@ -306,7 +331,7 @@ class Child:
 
     def __init__(self, name: str, prefix: list[str], argv: list[str]) -> None:
         env = {k: v for k, v in os.environ.items() if not k.startswith("ZENTF_")}
-        env.update(PYTHONUNBUFFERED="1", PYTHONPATH=str(REPO))
+        env.update(PYTHONUNBUFFERED="1", PYTHONPATH=TREE, FLEET_BENCH_TREE=TREE)
         self.name = name
         self.err = tempfile.TemporaryFile("w+")  # a pipe nobody reads could fill and stall the child
         self.proc = subprocess.Popen([*prefix, sys.executable, *argv], stdin=subprocess.PIPE,
@@ -400,7 +425,8 @@ def start_routers(args: argparse.Namespace, net, children: list[Child]) -> tuple
 def run_phase(impl: str, n_robots: int, args: argparse.Namespace, net=None) -> dict:
     """Fresh router(s), listeners and robots for one implementation and R; the window's figures."""
     children: list[Child] = []
-    common = ["--impl", impl, "--frames", str(args.frames), "--hz", str(args.hz), "--wire", args.wire]
+    common = ["--impl", impl, "--frames", str(args.frames), "--hz", str(args.hz), "--wire", args.wire,
+              *(["--raw-ring"] if args.raw_ring else [])]
     where_robots = net.cmd("a") if net is not None else []
     where_listen = net.cmd("b") if net is not None else []
     try:
@@ -423,7 +449,9 @@ def run_phase(impl: str, n_robots: int, args: argparse.Namespace, net=None) -> d
             bots.append(c)
             first += count
         for c in [*listeners.values(), *bots]:
-            c.json()
+            ready = c.json()
+            if "zentf" in ready and not ready["zentf"].startswith(TREE + os.sep):
+                raise RuntimeError(f"{c.name} imported {ready['zentf']}, not the tree {TREE}")
         pids = {"robot": listeners["robot"].pid, "fleet": listeners["fleet"].pid}
         pids.update({f"router{k}": r.pid for k, r in enumerate(routers)})
         before = Sample(pids, where_listen)  # routers and listeners without robots
@@ -443,6 +471,8 @@ def run_phase(impl: str, n_robots: int, args: argparse.Namespace, net=None) -> d
         s0, l0, b0 = mark()
         time.sleep(args.seconds)
         s1, l1, b1 = mark()
+        listeners["fleet"].send("memory")
+        fleet_buffer = listeners["fleet"].json()["buffer_bytes"]
         for c in bots:
             c.send("stop")
         for c in bots:
@@ -470,7 +500,7 @@ def run_phase(impl: str, n_robots: int, args: argparse.Namespace, net=None) -> d
         "mem_robots_kB": sum(b["rss"] - m["rss_base"] for b, m in zip(b1, made)) / n_robots,
         "mem_router_kB": sum(s1.rss[k] - before.rss[k] for k in pids if k.startswith("router")) / n_robots,
         "mem_fleet_kB": (s1.rss["fleet"] - before.rss["fleet"]) / n_robots,
-        "fleet_buffer_kB": l1["fleet"]["buffer_bytes"] / 1000 / n_robots,
+        "fleet_buffer_kB": fleet_buffer / 1000 / n_robots,
         "lat_robot": l1["robot"]["lat"],
         "lat_fleet": l1["fleet"]["lat"],
     }
@@ -510,9 +540,10 @@ def _ratio(z: dict, r: dict, key: str, fmt: str | None) -> str:
 
 
 def print_header(args: argparse.Namespace, setup: str) -> None:
-    print(f"fleet: R robots x {args.frames} frames at {args.hz:g} Hz through {setup}; robots share "
-          f"{args.procs} processes (several robots per process: this machine has {os.cpu_count()} cores); "
-          f"{args.seconds:g} s window after {args.warmup:g} s warm-up; wire {args.wire}; ratio = zentf / raw", flush=True)
+    print(f"fleet: R robots x {args.frames} frames at {args.hz:g} Hz through {setup}; the robots share "
+          f"min(R, {args.procs}) processes (several robots per process: this machine has {os.cpu_count()} cores); "
+          f"{args.seconds:g} s window after {args.warmup:g} s warm-up; wire {args.wire}; ratio = zentf / raw"
+          + (" (raw listeners: a ring read by a thread)" if args.raw_ring else ""), flush=True)
     print(f"{'R':>4} {'impl':<6}" + "".join(f" {h:>{w}}" for h, w, _, _ in COLUMNS) + "  load", flush=True)
 
 
@@ -540,13 +571,20 @@ def main() -> None:
     ap.add_argument("--procs", type=int, default=2, help="processes the robots share (2)")
     ap.add_argument("--wire", default="zentf", choices=["zentf", "ros2"])
     ap.add_argument("--netns", action="store_true", help="two routers in network namespaces (root)")
+    ap.add_argument("--raw-ring", action="store_true",
+                    help="raw listeners read a drop-oldest ring from a Python thread (the listener's way of "
+                         "receiving) instead of a callback on Zenoh's thread")
     ap.add_argument("--quick", action="store_true", help="short runs, R = 1,10 unless --robots")
     ap.add_argument("--json", help="write every run's figures to this file")
+    ap.add_argument("--tree", help="a zentf checkout the processes import instead of this one (before/after)")
     args = ap.parse_args()
     if args.role == "robots":
         return robots(args)
     if args.role == "listen":
         return listen(args)
+    if args.tree:
+        global TREE
+        TREE = str(Path(args.tree).resolve())
     if args.seconds is None:
         args.seconds = 1.5 if args.quick else 5.0
     if args.warmup is None:
