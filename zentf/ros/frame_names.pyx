@@ -12,9 +12,13 @@ from libc.string cimport memcmp
 
 from zentf.core.constants import DEFAULT_MAX_FRAME_ID_LENGTH
 from zentf.ros.tf import _FRAMES as _NAMES
-from zentf.ros.tf import keep_frame_name as _keep
+from zentf.ros.tf import _FRAMES_HELD, _ENTRY_BYTES, FRAME_CACHE_BYTES, FRAME_CACHE_SIZE
 
 cdef dict _names = _NAMES
+cdef list _held = _FRAMES_HELD  # estimated bytes in _names, shared with zentf.ros.tf.keep_frame_name
+cdef Py_ssize_t _MAX_NAMES = FRAME_CACHE_SIZE
+cdef Py_ssize_t _MAX_BYTES = FRAME_CACHE_BYTES
+cdef Py_ssize_t _ENTRY = _ENTRY_BYTES
 cdef Py_ssize_t _NAME_MAX_LEN = DEFAULT_MAX_FRAME_ID_LENGTH
 cdef enum:
     SLOTS = 1024
@@ -27,6 +31,7 @@ cdef object frame_name(const uint8_t* p, Py_ssize_t n):
     cdef uint32_t h = 2166136261u
     cdef Py_ssize_t i
     cdef object raw
+    cdef Py_ssize_t cost
     for i in range(n):
         h = (h ^ p[i]) * 16777619u
     cdef Py_ssize_t slot = h & (SLOTS - 1)
@@ -42,7 +47,13 @@ cdef object frame_name(const uint8_t* p, Py_ssize_t n):
             return None
         if n > _NAME_MAX_LEN:  # a forged huge name is not kept (the buffer refuses it anyway)
             return name
-        _keep(raw, name)  # zentf.ros.tf's bounds: names and bytes
+        # zentf.ros.tf.keep_frame_name's bounds (names and bytes), inline: a forged flood is all new names
+        cost = 2 * n + _ENTRY
+        if len(_names) >= _MAX_NAMES or <Py_ssize_t>_held[0] + cost > _MAX_BYTES:
+            _names.clear()
+            _held[0] = 0
+        _names[raw] = name
+        _held[0] = <Py_ssize_t>_held[0] + cost
     _slot_raw[slot] = raw
     _slot_name[slot] = name
     return name

@@ -50,7 +50,7 @@ def bounded_put(cache: dict, held: list, key: Any, value: Any, cost: int) -> Non
 
 
 def keep_frame_name(raw: bytes, name: str) -> None:
-    """Remember a decoded frame name (the compiled decoders call this on a miss)."""
+    """Remember a decoded frame name (zentf/ros/frame_names.pyx does the same inline, in C)."""
     if len(raw) <= DEFAULT_MAX_FRAME_ID_LENGTH:  # a longer one the buffer refuses anyway
         bounded_put(_FRAMES, _FRAMES_HELD, raw, name, 2 * len(raw) + _ENTRY_BYTES)
 
