@@ -53,7 +53,6 @@ from netns import _die_with_parent, free_port  # noqa: E402  (bench/netns.py's h
 
 sys.path.insert(0, os.environ.get("FLEET_BENCH_TREE") or str(REPO))  # (--tree, in the child processes)
 
-CLIENT = str(REPO / "configs/zenoh/client.json5")
 ROUTER_CONF = str(REPO / "configs/zenoh/router.json5")
 NS = 1_000_000_000
 TREE = str(REPO)  # the zentf the children import (--tree: another checkout, for before/after runs)
@@ -87,7 +86,7 @@ def cpu_ns(pid: int) -> int:
 def tcp_received(prefix: list[str]) -> dict[int, int]:
     """Bytes received by each process's TCP sockets (pid -> sum of ss's bytes_received), in the network
     namespace ``prefix`` runs in (/proc/PID/io's rchar does not count socket receives)."""
-    out = subprocess.run([*prefix, "ss", "-tinpH"], capture_output=True, text=True, timeout=20).stdout
+    out = subprocess.run([*prefix, "ss", "-tinp"], capture_output=True, text=True, timeout=20).stdout
     totals: dict[int, int] = {}
     pids: list[int] = []
     for line in out.splitlines():
@@ -104,7 +103,9 @@ def tcp_received(prefix: list[str]) -> dict[int, int]:
 def _zopts(endpoint: str):
     from zentf.transport.options import ZenohOptions
 
-    return ZenohOptions(config_file=CLIENT, connect=[endpoint], mode="client", no_multicast=True)
+    # zentf's own defaults (no config file: its receive pool and loopback-only rules apply), as a robot's
+    # `--connect EP --mode client` gets them
+    return ZenohOptions(connect=[endpoint], mode="client", no_multicast=True)
 
 
 def _node(name: str, namespace: str, args: argparse.Namespace):
