@@ -2,7 +2,7 @@
 with the same traffic as raw Zenoh puts through the same routers, measured in the same run.
 
     python bench/fleet.py [--robots 1,10,50,100] [--frames 50] [--hz 30] [--seconds 5] [--procs 2]
-                          [--netns] [--wire zentf|ros2] [--quick] [--json FILE]
+                          [--netns] [--wire zentf|ros2] [--raw-ring] [--quick] [--json FILE] [--tree DIR]
 
 Every row starts fresh processes, once for zentf and once for raw Zenoh (which first alternates from
 row to row):
@@ -18,16 +18,20 @@ row to row):
 - a per-robot listener (TransformListener on ``/robot0/tf``; raw: a bare callback subscriber on that
   key) and a fleet-wide listener (TransformListener with ``tf_topic="/*/tf"``, what ``--all-namespaces``
   reads; raw: a callback subscriber on ``*/tf``), each a process of its own.
-After a warm-up the bench samples each process (CPU from /proc/PID/task/*/schedstat, bytes read from
-/proc/PID/io's rchar, RSS) and the listeners' counters at the start and end of a ``--seconds`` window.
-Columns: the per-robot listener's CPU (ms a second) and bytes read (kB/s) must stay flat as R grows
+After a warm-up the bench samples each process (CPU from /proc/PID/task/*/schedstat, RSS, the TCP bytes
+its sockets received from ``ss -tinp``) and the listeners' counters at the start and end of a ``--seconds``
+window; the fleet Buffer's own storage (``memory_bytes()``, a walk under the buffer's lock) after it.
+Columns: the per-robot listener's CPU (ms a second) and bytes received (kB/s) must stay flat as R grows
 (it receives only its robot); the fleet listener's ingest (transforms/s accepted by its Buffer) and
 CPU; the routers' CPU per transform sent; memory per robot (robot processes, routers, the fleet
 listener: RSS growth over the process before the robots, divided by R); e2e one-way latency p50/p99
 (stamp taken just before encoding to the Buffer's insert callback, robot 0's messages, at both
 listeners; the callback does one get_latest_common_time, which the fleet listener pays on every
 robot's message); and ``sent`` = messages sent in the window over R x H x seconds (< 100 %: the
-robot processes could not keep up). The ratio line is zentf / raw.
+robot processes could not keep up). The ratio line is zentf / raw. ``--raw-ring``: the raw listeners
+read a drop-oldest ring from a Python thread, the listener's way of receiving, instead of a callback on
+Zenoh's thread (to tell a thread hand-off's latency from zentf's own). ``--tree DIR``: every process
+imports zentf from another checkout (before/after runs). Results and details: docs/performance.md.
 """
 from __future__ import annotations
 
