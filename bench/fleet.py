@@ -40,7 +40,6 @@ import json
 import os
 import re
 import select
-import statistics
 import struct
 import subprocess
 import sys
