@@ -19,6 +19,12 @@ shared memory mapped from other processes, against two references measured the s
 own defaults (shared-memory transport on, in the router, listener and flooder) with no release of
 freed memory after the burst (zentf before it set both), and the frame cap off (``max_frames=None``,
 tf2's unbounded buffer).
+
+Forged ROS 2 TFMessages (``--only forged``): a raw session on a ROS 2 graph puts ``--forged`` big CDR
+TFMessages (``--forged-size`` bytes, each a new shape, frame names without their closing NUL), then a
+valid sentinel; reported for a ``zentf tf echo --wire ros2`` listener and a ``zentf bridge ros2``: peak RSS
+above idle and RSS above idle once the sentinel is through (target <= 50 MB), against the same run of
+the tree ``--reference-tree`` names (a checkout built in place, e.g. the main branch before the fix).
 """
 from __future__ import annotations
 
@@ -200,6 +206,68 @@ def role_flood(args: argparse.Namespace) -> None:
     session.close()
 
 
+def role_forge_ros2(args: argparse.Namespace) -> None:
+    """``--count`` CDR TFMessages of ``--forged-size`` bytes on the ROS 2 graph's /tf (``--kind`` forged:
+    the parent's NUL replaced; nul: valid), then a valid sentinel world -> sentinel."""
+    import struct
+
+    import zenoh
+
+    from zentf.core.messages import TFMessage
+    from zentf.transport.wire.profiles import make_profile
+
+    end = b"\0" if args.kind == "nul" else b"!"
+    key = make_profile("ros2", os.environ["ROS_DOMAIN_ID"]).data_key("/tf", TFMessage.TYPE_NAME)
+    session = zopts(args.endpoint).open_session()
+    pub = session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)
+    while not pub.matching_status.matching:
+        time.sleep(0.01)
+
+    def element(buf: bytearray, parent: bytes, child: bytes, sec: int, x: float, nul: bytes = b"\0") -> None:
+        buf += struct.pack("<iII", sec, 0, len(parent) + 1) + parent + nul
+        buf += b"\0" * ((4 - len(buf)) % 4)  # (alignment counts from the end of the 4-byte header)
+        buf += struct.pack("<I", len(child) + 1) + child + b"\0"
+        buf += b"\0" * ((4 - len(buf)) % 8)
+        buf += struct.pack("<7d", x, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+
+    def message(k: int) -> bytes:
+        buf = bytearray(b"\x00\x01\x00\x00\x00\x00\x00\x00")
+        n = 0
+        while len(buf) < args.forged_size:
+            element(buf, b"p%d" % k, b"c%d" % (n % 9000), 100, 1.0, end)
+            n += 1
+        buf[4:8] = struct.pack("<I", n)
+        return bytes(buf)
+
+    gid = b"F" * 16
+    print("ready", flush=True)
+    sys.stdin.readline()
+    for k in range(args.count):
+        pub.put(message(k), attachment=struct.pack("<qqB16s", k + 1, time.time_ns(), 16, gid))
+    sentinel = bytearray(b"\x00\x01\x00\x00\x01\x00\x00\x00")
+    element(sentinel, b"world", b"sentinel", int(time.time()), 7.0)
+    pub.put(bytes(sentinel), attachment=struct.pack("<qqB16s", args.count + 1, time.time_ns(), 16, gid))
+    print("RESULT {}", flush=True)
+    time.sleep(1.0)
+    session.close()
+
+
+def role_zentf_side(args: argparse.Namespace) -> None:
+    """A raw subscriber on the zentf graph's 'tf': says when the bridge relayed the sentinel."""
+    session = zopts(args.endpoint).open_session()
+    seen = threading.Event()
+
+    def on(sample) -> None:
+        if b"sentinel" in sample.payload.to_bytes():
+            seen.set()
+
+    session.declare_subscriber("tf", on)
+    print("ready", flush=True)
+    seen.wait(600)
+    print("RESULT {}", flush=True)
+    session.close()
+
+
 # ------------------------------------------------------------------ orchestration (this process)
 
 class Child:
@@ -281,7 +349,7 @@ def flood(ep: str, kind: str, count: int, per_msg: int, *extra: str) -> dict:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--role", default="main", choices=["main", "listener", "legit", "flood"])
+    ap.add_argument("--role", default="main", choices=["main", "listener", "legit", "flood", "forge_ros2", "zentf_side"])
     ap.add_argument("--endpoint")
     ap.add_argument("--kind", default="nan")
     ap.add_argument("--count", type=int, default=0)
@@ -292,10 +360,18 @@ def main() -> None:
     ap.add_argument("--per-msg", type=int, default=1, help="samples per flood message")
     ap.add_argument("--frames", type=int, default=100_000, help="distinct frames offered in the memory case")
     ap.add_argument("--runs", type=int, default=3, help="fresh listeners per row in the memory case")
-    ap.add_argument("--only", choices=["flood", "memory"], help="run one part")
+    ap.add_argument("--forged", type=int, default=40, help="forged ROS 2 TFMessages in the forged case")
+    ap.add_argument("--forged-size", type=int, default=1_800_000, help="bytes of each forged TFMessage")
+    ap.add_argument("--reference-tree", help="a zentf checkout (built in place) measured the same way in the forged case")
+    ap.add_argument("--only", choices=["flood", "memory", "forged"], help="run one part")
     args = ap.parse_args()
     if args.role != "main":
-        {"listener": role_listener, "legit": role_legit, "flood": role_flood}[args.role](args)
+        {"listener": role_listener, "legit": role_legit, "flood": role_flood, "forge_ros2": role_forge_ros2,
+         "zentf_side": role_zentf_side}[args.role](args)
+        return
+    if args.only == "forged":
+        print(f"# zentf abuse bench  (python {sys.version.split()[0]}, {os.cpu_count()} cpus; loopback router)")
+        forged_table(args)
         return
 
     print(f"# zentf abuse bench  (python {sys.version.split()[0]}, {os.cpu_count()} cpus; loopback router)")
@@ -353,6 +429,7 @@ def main() -> None:
         router.wait(5)
     if args.only != "flood":
         memory_table(args)  # (a router of its own per row)
+        forged_table(args)
 
 
 def memory_run(ep: str, frames: int, *extra: str) -> dict:
@@ -410,6 +487,103 @@ def memory_table(args: argparse.Namespace) -> None:
     print()
     print("Peak: the listener's high-water mark above idle (the flood's messages waiting in Zenoh's ring and the")
     print("per-sender queues). Noisy on a shared machine; compare the rows of one run, not runs with each other.")
+
+
+
+def rss_kb(pid: int) -> tuple[int, int]:
+    """(VmRSS, VmHWM) of a process, in kB."""
+    out = {}
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            key, _, value = line.partition(":")
+            if key in ("VmRSS", "VmHWM"):
+                out[key] = int(value.split()[0])
+    return out["VmRSS"], out["VmHWM"]
+
+
+def forged_run(tree: str, victim: str, kind: str, count: int, size: int) -> dict:
+    """One victim (run from ``tree``) under ``count`` forged (or valid) ROS 2 TFMessages: MB above idle."""
+    import random
+
+    router, ep = start_router()
+    env = {**os.environ, "PYTHONPATH": tree, "ROS_DOMAIN_ID": str(random.randrange(1, 200)), "ZENTF_CONNECT": ep,
+           "ZENTF_MODE": "client", "ZENTF_NO_MULTICAST": "1", "PYTHONUNBUFFERED": "1"}
+    env.pop("ZENTF_NAMESPACE", None)
+    procs: list[subprocess.Popen] = []
+
+    def start(args: list[str], extra_env: dict | None = None) -> subprocess.Popen:
+        p = subprocess.Popen(args, env={**env, **(extra_env or {})}, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                             stderr=subprocess.STDOUT, text=True, bufsize=1, cwd=tree)  # (-m imports from cwd first)
+        procs.append(p)
+        return p
+
+    def wait_line(p: subprocess.Popen, text: str) -> None:
+        assert p.stdout is not None
+        for line in p.stdout:
+            if text in line:
+                return
+        raise RuntimeError(f"{p.args}: ended before {text!r}")
+
+    try:
+        if victim == "listener":
+            v = start([sys.executable, "-m", "zentf.cli", "tf", "echo", "--wire", "ros2", "world", "sentinel",
+                       "-r", "20"], {"ZENTF_WIRE": "ros2"})
+            wait_line(v, "Waiting for transform")
+            done, done_text = v, "Translation: [7.000"
+        else:
+            v = start([sys.executable, "-m", "zentf.cli", "bridge", "ros2", "--ros2-connect", ep])
+            wait_line(v, "bridging tf")
+            done = start([sys.executable, __file__, "--role", "zentf_side", "--endpoint", ep])
+            wait_line(done, "ready")
+            done_text = "RESULT"
+        time.sleep(2.0)
+        idle = rss_kb(v.pid)[0]
+        f = start([sys.executable, __file__, "--role", "forge_ros2", "--endpoint", ep, "--count", str(count),
+                   "--forged-size", str(size), "--kind", kind])
+        wait_line(f, "ready")
+        assert f.stdin is not None
+        f.stdin.write("go\n")
+        f.stdin.flush()
+        t0 = time.monotonic()
+        wait_line(done, done_text)
+        secs = time.monotonic() - t0
+        if victim == "listener" and v.stdout is not None:  # (tf echo prints at 20 Hz: keep its pipe drained)
+            threading.Thread(target=lambda: [None for _ in v.stdout], daemon=True).start()
+        time.sleep(1.0)  # the release after a burst (the listener's tail timer, the bridge's quiet timer)
+        rss, hwm = rss_kb(v.pid)
+        return {"peak": (hwm - idle) / 1024, "after": (rss - idle) / 1024, "idle": idle / 1024, "secs": secs}
+    finally:
+        for p in procs:
+            p.terminate()
+            try:
+                p.wait(5)
+            except subprocess.TimeoutExpired:
+                p.kill()
+        router.terminate()
+        router.wait(5)
+
+
+def forged_table(args: argparse.Namespace) -> None:
+    trees = [("this tree", str(Path(__file__).resolve().parent.parent))]
+    if args.reference_tree:
+        trees.append((f"reference: {args.reference_tree}", str(Path(args.reference_tree).resolve())))
+    print()
+    print(f"| {args.forged} ROS 2 TFMessages of {args.forged_size / 1e6:.1f} MB, then a sentinel | tree | "
+          "RSS at idle (MB) | peak above idle (MB) | above idle once the sentinel is through (MB) | s to the sentinel |")
+    print("|---|---|---|---|---|---|")
+    for victim, label in (("listener", "`tf echo --wire ros2`"), ("bridge", "`bridge ros2`")):
+        for kind, what in (("forged", "forged (no NUL, a new shape each)"), ("nul", "valid, a new shape each")):
+            for tree_label, tree in trees:
+                try:
+                    r = forged_run(tree, victim, kind, args.forged, args.forged_size)
+                except Exception as e:  # noqa: BLE001 - a reference that cannot run this case: say so
+                    print(f"| {label}, {what} | {tree_label} | failed: {str(e)[:80]} | | | |")
+                    continue
+                target = " (target <= 50)" if tree_label == "this tree" else ""
+                print(f"| {label}, {what} | {tree_label} | {r['idle']:.0f} | {r['peak']:.0f} | "
+                      f"{r['after']:.0f}{target} | {r['secs']:.1f} |")
+    print()
+    print("Peak: the victim's high-water mark above idle (the messages in flight and their decoding).")
 
 
 if __name__ == "__main__":

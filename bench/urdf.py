@@ -376,11 +376,10 @@ def in_process_costs(joints: int, rate: float, n: int = 2000, n_paced: int = 200
         for p in payloads[:n]:
             rsp.on_payload(p)  # the subscriber's own path (the names read in C after the first)
         t_rsp = (time.perf_counter() - t0) / n
-        from zentf.transport.ingest.tfwire import TfIngest  # the listener's own path: compiled decode, insert from C
+        from zentf.transport.ingest.handler import TfIngest  # the listener's own path: compiled decode, insert from C
 
         def ingester(buf: Buffer):
-            return TfIngest(False, lambda p, t, a, s: wire.ingest_tf(p, t, a, s), wire._insert, buf, buf,
-                            None, 0, False)
+            return TfIngest(False, lambda p, t, a, s: wire.ingest_tf(p, t, a, s), buf, buf, None, 0, False)
 
         buf = Buffer()
         ingest = ingester(buf)

@@ -1,4 +1,4 @@
-"""Render the docs' robot picture: r2d2 (urdf_tutorial 06-flexible) in the pose of its RViz screenshot.
+"""Render the docs' robot picture: r2d2 (urdf_tutorial 07-physics) in the pose of its RViz screenshot.
 
     python scripts/render_robot_picture.py [--out docs/urdf_r2d2.png] [--keep-rrd r2d2.rrd]
 
@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
-R2D2 = REPO / "tests" / "data" / "urdf" / "urdf_tutorial" / "urdf" / "06-flexible.urdf"
+R2D2 = REPO / "tests" / "data" / "urdf" / "urdf_tutorial" / "urdf" / "07-physics.urdf"
 POSE = {"gripper_extension": -0.26, "head_swivel": -0.82}
 # RViz's orbit camera of flexible.png: yaw 5.5, pitch 0.33, distance 1.7, focal point (0, 0, 0)
 YAW, PITCH, DISTANCE = 5.5, 0.33, 1.7

@@ -149,7 +149,29 @@ def test_info_every_format(name, fmt, encoding):
     text = run("bag", "info", str(FIXTURES[name])).stdout
     assert re.search(r"format:\s+" + re.escape(info["format"]), text)
     assert re.search(r"/tf\s+\d+ msgs\s+[\d.]+ Hz\s+tf2_msgs/msg/TFMessage", text)
-    assert re.search(r"frames in tf_static: \d+", text) and "odom -> base" in text
+    assert re.search(r"^/tf_static: \d+ transforms? between \d+ frames$", text, re.M) and "odom -> base" in text
+    if name != "nav2_mcap":  # one edge under each topic: two frames each
+        assert "\n/tf: 1 transform between 2 frames\n  odom -> base_footprint\n" in text
+
+
+def test_info_names_topics_as_topic_list_does_and_counts_edges_and_frames():
+    """A zentf recording keeps Zenoh keys ('tf'); info shows the topic names `topic list` prints."""
+    info = json.loads(run("bag", "info", str(DRONES), "--json").stdout)
+    assert {t["key"]: t["topic"] for t in info["topics"]} == {
+        "tf": "/tf", "tf_static": "/tf_static", "visual_markers": "/visual_markers"}
+    text = run("bag", "info", str(DRONES)).stdout
+    assert re.search(r"^  /tf +501 msgs", text, re.M) and not re.search(r"^  tf ", text, re.M)
+    assert "\n/tf: 2 transforms between 3 frames\n  world -> av1\n  world -> av2\n" in text
+
+
+def test_a_rosbag2_metadata_yaml_stands_for_its_folder():
+    """ros2 bag tools take a bag's folder or its metadata.yaml; so does every zentf bag command."""
+    meta = ROS2_DIR / "metadata.yaml"
+    by_meta = json.loads(run("bag", "info", str(meta), "--json").stdout)
+    by_dir = json.loads(run("bag", "info", str(ROS2_DIR), "--json").stdout)
+    assert {k: v for k, v in by_meta.items() if k != "path"} == {k: v for k, v in by_dir.items() if k != "path"}
+    r = run("tf", "echo", "odom", "base_link", "--bag", str(meta))
+    assert r.stdout.startswith("At time ") and "- Translation:" in r.stdout
 
 
 def test_unknown_formats_are_named_in_one_line(tmp_path):
@@ -273,8 +295,9 @@ def test_round_trip_drones_to_ros2_mcap_read_back_by_rosbags_and_mcap_ros2(tmp_p
                     abs=1e-12)
         else:
             assert [mk.text for mk in msg.markers] == [mk["text"] for mk in plain["markers"]]
-            assert [(p.x, p.y, p.z) for p in msg.markers[0].points] == pytest.approx(
-                [(p["x"], p["y"], p["z"]) for p in plain["markers"][0]["points"]], abs=1e-12)
+            # flat lists: pytest.approx compares sequences of numbers, not nested ones
+            assert [c for p in msg.markers[0].points for c in (p.x, p.y, p.z)] == pytest.approx(
+                [p[k] for p in plain["markers"][0]["points"] for k in "xyz"], abs=1e-12)
     r = run("bag", "convert", str(DRONES), str(single), check=False)
     assert r.returncode == 2 and "exists already" in r.stderr
 

@@ -56,9 +56,10 @@ def test_nav2_played_with_clock_into_a_sim_time_listener_gives_the_reference_loo
                         ["base_footprint", "odom", t]]
     qfile = tmp_path / "queries.json"
     qfile.write_text(json.dumps(queries))
-    with __import__("rosbags.highlevel", fromlist=["AnyReader"]).AnyReader([NAV2]) as r:
-        end = r.end_time
-    listener = spawn.python(LISTENER, "-p", "use_sim_time:=true", "--until", str(end - 10**8),
+    # nav2's tf is stamped in Gazebo time and was recorded with a wall clock: the played /clock follows
+    # the stamps (see Player.clock_offset), so the listener waits for the last stamps' time
+    end = stamps[-1]
+    listener = spawn.python(LISTENER, "-p", "use_sim_time:=true", "--until", str(end - 10**9),
                             "--queries", str(qfile), "--timeout", "120", env=own_env)
     listener.wait_for_line(r'"ready": true', 30)
     play = spawn([*ZENTF, "bag", "play", str(NAV2), "--clock", "--rate", "10", "--delay", "0.5"], env=own_env)

@@ -9,7 +9,7 @@ import pytest
 
 from zentf.cli.format import (FrameStat, NodeDesc, format_echo, format_frame_tree, format_hz,
                               format_node_graph, format_stamp, frame_trees, frames_dot,
-                              matrix_from_quaternion, node_graph_dot, parse_frames_yaml,
+                              matrix_from_quaternion, node_graph_dot,
                               rpy_from_quaternion)
 
 
@@ -62,41 +62,14 @@ def test_stamp_zero_padded() -> None:
     assert format_stamp(12_500_000_000) == "12.500000000"
 
 
-_YAML = """\
-av1: 
-  parent: 'world'
-  broadcaster: '/frames_publisher'
-  rate: 50.000
-  most_recent_transform: 101.000
-  oldest_transform: 91.000
-  buffer_length: 10.000
-av2: 
-  parent: 'world'
-  broadcaster: '/frames_publisher'
-  rate: 50.000
-  most_recent_transform: 101.000
-  oldest_transform: 91.000
-  buffer_length: 10.000
-laser: 
-  parent: 'base_link'
-  broadcaster: '/static_laser'
-  rate: 10000.000
-  most_recent_transform: 0.000
-  oldest_transform: 0.000
-  buffer_length: 0.000
-"""
-
-
-def test_parse_frames_yaml() -> None:
-    stats = parse_frames_yaml(_YAML)
-    assert [s.child for s in stats] == ["av1", "av2", "laser"]
-    assert stats[0].parent == "world" and stats[0].rate == 50.0 and not stats[0].is_static
-    assert stats[2].is_static and stats[2].broadcaster == "/static_laser"
-    assert parse_frames_yaml("{}") == [] and parse_frames_yaml("[]") == [] and parse_frames_yaml("") == []
+#: view_frames' figures of the drones and a static laser (what BufferCore.frame_info gives, as FrameStats)
+_STATS = [FrameStat("av1", "world", "/frames_publisher", 50.0, 101.0, 91.0, 10.0, static=False),
+          FrameStat("av2", "world", "/frames_publisher", 50.0, 101.0, 91.0, 10.0, static=False),
+          FrameStat("laser", "base_link", "/static_laser", 10000.0, 0.0, 0.0, 0.0, static=True)]
 
 
 def test_frame_trees_and_text_tree_show_disconnected_trees() -> None:
-    stats = parse_frames_yaml(_YAML) + [FrameStat("camera", "base_link", "/static_cam", 10000.0),
+    stats = _STATS + [FrameStat("camera", "base_link", "/static_cam", 10000.0),
                                         FrameStat("lens", "camera", "/static_cam", 10000.0)]
     trees = frame_trees(stats)
     assert [root for root, _ in trees] == ["base_link", "world"]
@@ -123,7 +96,7 @@ def test_frame_trees_survive_a_loop() -> None:
 
 
 def test_frames_dot_edges_labels_and_clusters() -> None:
-    dot = frames_dot(parse_frames_yaml(_YAML), recorded_at=101.5)
+    dot = frames_dot(_STATS, recorded_at=101.5)
     assert '"world" -> "av1"' in dot and '"world" -> "av2"' in dot and '"base_link" -> "laser"' in dot
     assert dot.count("subgraph cluster_") == 3  # two trees + legend
     assert "Broadcaster: /frames_publisher\\nAverage rate: 50.000 Hz" in dot
@@ -140,7 +113,7 @@ def test_frames_dot_empty_and_quoting() -> None:
 
 @pytest.mark.skipif(shutil.which("dot") is None, reason="graphviz not installed")
 def test_frames_dot_is_valid_graphviz() -> None:
-    for dot in (frames_dot(parse_frames_yaml(_YAML), 1.0), frames_dot([]),
+    for dot in (frames_dot(_STATS, 1.0), frames_dot([]),
                 node_graph_dot([NodeDesc("/a", {"/tf": "tf2_msgs/msg/TFMessage"}, {})])):
         proc = subprocess.run(["dot", "-Tsvg"], input=dot, capture_output=True, text=True, timeout=30)
         assert proc.returncode == 0, proc.stderr
@@ -219,3 +192,23 @@ def test_monitor_stats_rates_delays_and_report() -> None:
     chain_text = format_monitor_text(stats, "for world to av1", chain=["av1", "world"], net=(0.002, 0.004))
     assert "Chain is: av1 -> world\nNet delay     avg = 2.000 ms: max = 4.000 ms" in chain_text
     assert "av2" not in chain_text.split("All Broadcasters:")[0]  # only chain frames listed
+
+
+def test_monitor_stats_take_delays_on_the_clock_they_are_given() -> None:
+    """Sim time: delays against /clock, none while the clock has not ticked, and the wall delays
+    gathered before /clock appeared are dropped when it does."""
+    from zentf.cli.tf import MonitorStats, format_monitor_text
+
+    now: list = [None]
+    stats = MonitorStats(clock=lambda: now[0])
+    sample = lambda stamp_s: ("odom", "base_link", int(stamp_s * 1e9), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)  # noqa: E731
+    stats.set_transforms_raw([sample(930.0)], "/gazebo", False)  # sim time, no /clock yet: no delay
+    assert stats.rows()[0][4:6] == (0.0, 0.0) and not stats.frames["base_link"].delays
+    now[0] = 1_800_000_000 * 10**9  # a wall reading: a delay of decades ...
+    stats.set_transforms_raw([sample(930.0)], "/gazebo", False)
+    stats.reset_delays()  # ... dropped when the clock switches
+    now[0] = 930_050_000_000
+    stats.set_transforms_raw([sample(930.0)], "/gazebo", False)
+    assert stats.rows()[0][4] == pytest.approx(0.050) and stats.node_rows()[0][2] == pytest.approx(0.050)
+    text = format_monitor_text(stats, "for all Frames", clock="sim time from /clock (published)")
+    assert text.startswith("RESULTS: for all Frames\nClock: sim time from /clock (published)\n")

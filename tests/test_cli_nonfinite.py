@@ -1,4 +1,4 @@
-"""Every float option and argument of every `zentf` command refuses NaN and ±inf (issue 10, point 6).
+"""Every float option and argument of every `zentf` command refuses NaN and ±inf.
 
 The parameters are enumerated from the click tree, so a float option added later is tested (and must
 use zentf.cli.common.finite_float) without anyone listing it here.
@@ -60,7 +60,7 @@ def _argv(path: tuple[str, ...], cmd: click.Command, target: click.Parameter, va
     return argv
 
 
-def test_the_tree_has_the_float_options_the_issue_names():
+def test_the_enumeration_finds_the_float_options_of_every_command_group():
     names = {(" ".join(path), p.name) for path, _, p in FLOAT_PARAMS}
     for expected in [("topic echo", "timeout"), ("topic pub", "wait_matching"), ("launch", "stop_timeout"),
                      ("tf echo", "timeout"), ("topic hz", "duration"), ("bag record", "duration"),

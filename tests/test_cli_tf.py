@@ -5,7 +5,8 @@ import re
 import shutil
 
 import pytest
-from cli_helpers import ZENTF, zentf
+from cli_helpers import ZENTF, assert_one_line_error, zentf
+from conftest import REPO, Proc, child_env
 
 NUM = r"(-?\d+\.\d+)"
 
@@ -32,6 +33,17 @@ def test_tf_echo_waits_says_why_then_prints_camera_from_laser(spawn):
     echo.wait_for_line(r"^\s+0\.878\s+-0\.479\s+0\.000\s+0\.900$", 5)
     assert echo.wait(30) == 0, echo.output()
     assert len([ln for ln in echo.lines if ln.startswith("At time")]) == 2
+
+
+def test_tf_echo_says_why_it_waits_at_most_once_a_second(spawn, zenoh_env):
+    """A lookup in the future fails with a new reason at every insert (the latest stamp moves): still one
+    line a second at most."""
+    frames = spawn.python("-m", "nodes.frames_publisher")
+    frames.wait_for_line(r"publishing av1 and av2 in world", 30)
+    proc = zentf(["tf", "echo", "world", "av1", "--time", "9000000000", "--timeout", "3"], zenoh_env)
+    waiting = [ln for ln in proc.stderr.splitlines() if ln.startswith("Waiting for transform world -> av1:")]
+    assert proc.returncode == 1 and "into the future" in proc.stderr, proc.stderr
+    assert 1 <= len(waiting) <= 4, proc.stderr  # 3 s: at 0, 1, 2 (and 3) s
 
 
 def test_tf_monitor_reports_the_drones_at_about_50_hz(spawn, zenoh_env):
@@ -86,6 +98,16 @@ def test_tf_frames_writes_dot_with_edges_and_an_image(spawn, zenoh_env, tmp_path
         assert f"Wrote {tmp_path / 'frames.gv'} and {pdf}" in proc.stdout
 
 
+def test_tf_frames_with_nothing_on_tf_names_the_namespaced_tf_topics(spawn, zenoh_env, test_namespace):
+    """tf under robot namespaces only: the error says where tf is and how to look there."""
+    _static(spawn, "1", "2", "3", "0", "0", "0", "map", "odom", "--namespace", f"{test_namespace}/robot1")
+    proc = zentf(["tf", "frames", "-w", "0.5"], zenoh_env)
+    err = assert_one_line_error(proc, f"no tf data received in 0.5 s on /{test_namespace}/tf, "
+                                      f"/{test_namespace}/tf_static; tf is published on "
+                                      f"/{test_namespace}/robot1/tf_static")
+    assert f"(e.g. zentf -n {test_namespace}/robot1 tf frames)" in err
+
+
 @pytest.mark.skipif(shutil.which("dot") is None, reason="graphviz not installed")
 def test_tf_frames_svg_output(spawn, zenoh_env, tmp_path):
     _static(spawn, "1", "2", "3", "0", "0", "0", "map", "odom")
@@ -94,3 +116,31 @@ def test_tf_frames_svg_output(spawn, zenoh_env, tmp_path):
     svg = (tmp_path / "tree.svg").read_text()
     assert "<svg" in svg and "odom" in svg
     assert '"map" -> "odom"' in (tmp_path / "tree.gv").read_text()
+
+
+def test_tools_read_sim_time_while_a_bag_plays_with_its_clock(isolated_router, test_namespace, tmp_path):
+    """nav2's run: tf stamped in Gazebo time (~930 s), recorded with a wall clock. Under `bag play --clock`
+    the tools take /clock by themselves, as ROS tools do with use_sim_time: delays and ages in sim time
+    (against the wall clock they read ~1.8e12 ms); `zentf clock` says the bag's clock takes no commands."""
+    env = child_env(isolated_router, test_namespace)
+    play = Proc([*ZENTF, "bag", "play", str(REPO / "tests" / "data" / "nav2_turtlebot.mcap"), "--clock"], env=env)
+    try:
+        play.wait_for_line(r"/clock follows the recording's tf stamps, -\d+ s from its log times", 30)
+        play.wait_for_line(r"playing: t = ", 30)
+        mon = zentf(["tf", "monitor", "--duration", "2"], env)
+        assert mon.returncode == 0, mon.stderr
+        assert "\nClock: sim time from /clock (published)\n" in mon.stdout, mon.stdout
+        rows = re.findall(rf"^(\S+)\s+(\S+)\s+\S*tf\s+{NUM}\s+{NUM}\s+{NUM}$", mon.stdout, re.M)
+        assert {r[0] for r in rows} >= {"base_link", "odom"}, mon.stdout
+        for frame, _parent, _rate, avg, mx in rows:
+            assert abs(float(avg)) < 5000 and abs(float(mx)) < 5000, mon.stdout  # ms: sim time, not 1e12
+        frames = zentf(["tf", "frames", "-w", "1", "-o", str(tmp_path / "nav2")], env)
+        assert frames.returncode == 0, frames.stderr
+        dot = (tmp_path / "nav2.gv").read_text()
+        assert re.search(r'"Recorded at time: 9\d\d\.\d+"', dot) and "Clock: sim time from /clock" in dot, dot
+        ages = [float(a) for a in re.findall(r"\( (-?\d+\.\d+) sec old\)", dot)]
+        assert ages and all(abs(a) < 5 for a in ages), dot
+        clock = zentf(["clock", "--timeout", "30"], env, timeout=20)
+        assert_one_line_error(clock, "no sim clock to control", f"/clock is published by /{test_namespace}/_zentf_bag_play_", code=1)
+    finally:
+        play.stop()

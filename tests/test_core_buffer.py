@@ -293,6 +293,10 @@ def test_frame_reports_match_tf2_text() -> None:
     assert info["t"]["static"] and info["t"]["broadcaster"] == "auth2"
     assert set(core.get_frames()) == {"a", "b", "x", "y", "s", "t"}
     assert "digraph G {" in core._all_frames_as_dot()
+    dynamic_only = BufferCore()
+    dynamic_only.set_transform(ts("a", "b", 1), "auth")
+    dynamic_only.clear()
+    assert dynamic_only.all_frames_as_yaml() == ""  # tf2: '{}' only while no frame was ever named
 
 
 def test_chain_as_vector() -> None:

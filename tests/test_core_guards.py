@@ -11,7 +11,8 @@ import logging
 import pytest
 
 from zentf.core.buffer_core import BufferCore
-from zentf.core.ratelimit import RateLimitedLogger, escape
+from zentf.core.ratelimit import ARG_LIMIT, RateLimitedLogger
+from zentf.core.text import printable
 
 S = 1_000_000_000
 Q = (0.0, 0.0, 0.0, 1.0)
@@ -107,10 +108,10 @@ def test_log_lines_escape_control_characters_in_frame_ids_and_senders(caplog) ->
     assert r"evil\x1b[2J\r\nTF_FAKE: all good\x07" in text
 
 
-def test_escape_keeps_printable_names_and_cuts_long_ones() -> None:
-    assert escape("base_link") == "base_link" and escape("bäse/λ") == "bäse/λ"
-    assert escape("a\nb") == r"a\nb"
-    long = escape("x" * 100_000)
+def test_printable_keeps_printable_names_and_cuts_long_ones() -> None:
+    assert printable("base_link") == "base_link" and printable("bäse/λ") == "bäse/λ"
+    assert printable("a\nb") == r"a\nb"
+    long = printable("x" * 100_000, ARG_LIMIT)
     assert len(long) < 300 and long.endswith("...(100000 chars)")
 
 

@@ -142,10 +142,12 @@ def test_paused_clock_freezes_av1_and_zentf_clock_controls_it(drones_with_clock,
 
 
 def test_zentf_clock_without_a_launcher_says_so(clock_env):
-    r = subprocess.run([sys.executable, "-m", "zentf.cli", "clock", "pause", "--timeout", "0.5"], env=clock_env,
-                       capture_output=True, text=True, timeout=60)
+    # none in the graph: one line at once (the 30 s timeout is for a clock that is there but silent)
+    r = subprocess.run([sys.executable, "-m", "zentf.cli", "clock", "pause", "--timeout", "30"], env=clock_env,
+                       capture_output=True, text=True, timeout=20)
     assert r.returncode == 1
-    assert "no sim clock answered on @zentf/clock/control" in r.stderr and len(r.stderr.splitlines()) == 1
+    assert r.stderr == ("zentf: error: no sim clock to control: no `zentf launch` with a clock: section is "
+                        "running (nothing publishes /clock)\n")
     r = subprocess.run([sys.executable, "-m", "zentf.cli", "clock", "rate", "0"], env=clock_env,
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 2 and "must be a finite number > 0" in r.stderr

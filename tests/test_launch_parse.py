@@ -396,5 +396,5 @@ def test_a_yaml_alias_bomb_is_refused_in_one_line_quickly_in_bounded_memory(tmp_
     assert time.monotonic() - t0 < 30
     params = write(tmp_path, "params.yaml", "base: &b {gain: 1}\nother: *b\n")  # params files too
     g = write(tmp_path, "g.yaml", f"nodes: [{{cmd: [true], params_file: {params}}}]\n")
-    assert str(refused(g)) == f"{params}:2: YAML alias *b is not allowed in a launch file " \
+    assert str(refused(g)) == f"{params}:2: YAML alias *b is not allowed " \
                               "(aliases can expand without bound; write the value out)"

@@ -239,6 +239,16 @@ def test_a_required_node_exiting_takes_the_graph_down_with_its_code(tmp_path, la
     assert dead_within(pids, 5) == []
 
 
+def test_a_required_node_ending_cleanly_ends_the_launch_without_an_error(caplog):
+    """teleop's 'q' exits 0: the launch stops, exit 0, and the line saying so is info, not ERROR."""
+    nodes = [NodeSpec("teleop", "", ["sh", "-c", "exit 0"], required=True)]
+    caplog.set_level(logging.INFO, logger="zentf.launch")
+    assert Supervisor(nodes, base_env=base_env(), out=io.BytesIO()).run() == 0
+    said = [(r.levelno, r.getMessage()) for r in caplog.records if "teleop exited" in r.getMessage()]
+    assert said == [(logging.INFO, "teleop exited with code 0; it is required, so stopping everything")], said
+    assert not [r for r in caplog.records if r.levelno >= logging.ERROR]
+
+
 def launch_tree(tmp_path, launch) -> tuple[Proc, list[int], str]:
     """A graph of a shell with a grandchild, a node ignoring SIGINT/SIGTERM, a plain sleeper, a node with
     a setsid() daemon, one with a child in another process group and a shell ignoring SIGINT/SIGTERM

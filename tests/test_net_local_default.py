@@ -1,4 +1,4 @@
-"""Safe by default (issue 10, point 1): with no configuration a zentf graph is reachable from its own
+"""Safe by default: with no configuration a zentf graph is reachable from its own
 machine only; ``--lan`` is the one explicit choice that opens it to the LAN, and says so at start.
 
 Host a runs a zero-configuration graph (static-transform-publisher + tf echo, separate processes);
@@ -75,7 +75,7 @@ def test_lan_is_the_explicit_choice_and_says_so(net: Topology, run_in) -> None:
     state = _state(intruder)
     while not (state["samples"] and state["tokens"]):
         state = _state(intruder)
-    echo.wait_for_line(r"- Translation: \[666\.000, ", 30)  # what the issue reported, now only with --lan
+    echo.wait_for_line(r"- Translation: \[666\.000, ", 30)  # a LAN peer's forged frame, only with --lan
 
 
 
@@ -118,9 +118,10 @@ def test_readme_first_command_and_the_cli_work_with_zero_configuration(spawn, lo
 
 
 def test_an_immediate_node_list_names_every_local_node(spawn, local_env) -> None:
-    """A short-lived listing is complete at once (issue 10): it asks the rendezvous, which every local
+    """A short-lived listing is complete at once: it asks the rendezvous, which every local
     peer links to, rather than only the peers gossip has linked it to by then. --wait 0 leaves no
-    time to settle, so the answer must come whole from the first query; repeated, as it was a race."""
+    time to settle, so the answer must come whole from the first query; repeated, as a race would show
+    only sometimes."""
     names = [f"/mesh{i}" for i in range(5)]
     for i, name in enumerate(names):
         p = spawn([*ZENTF, "static-transform-publisher", "--frame-id", f"f{i}", "--child-frame-id", f"g{i}",

@@ -259,9 +259,9 @@ def test_a_ros2_sender_is_its_publisher_gid_for_the_listener_queues() -> None:
 
 def test_a_ros2_backlog_is_queued_as_cdr_bytes_and_inserted_in_order(ros2_options) -> None:
     """Under --wire ros2 a listener's per-sender queue also keeps a backlog as the CDR payloads' bytes
-    (tfwire.TfHandler.enqueue: the Zenoh samples go at once), and every transform still gets in, in the
+    (TfHandler.queued: the Zenoh samples go at once), and every transform still gets in, in the
     order sent (the sender is its publisher GID, one queue)."""
-    from zentf.transport.ingest import tfwire
+    from zentf.transport.ingest import thread
     from zentf.transport.broadcaster import TransformBroadcaster
     from zentf.transport.buffer import Buffer
     from zentf.core.messages import Header, Transform, TransformStamped, Vector3
@@ -286,7 +286,7 @@ def test_a_ros2_backlog_is_queued_as_cdr_bytes_and_inserted_in_order(ros2_option
         listener = TransformListener(buf, sub_node)
         tf = TransformBroadcaster(pub_node)
         assert tf.wait_for_subscribers(10)
-        before = tfwire.payload_messages()
+        before = thread.payload_messages()
         t0 = time.time_ns()
         msgs = [TransformStamped(Header(Time(nanoseconds=t0 + i), "world"), "seq", Transform(Vector3(float(i), 0, 0)))
                 for i in range(count)]
@@ -294,7 +294,7 @@ def test_a_ros2_backlog_is_queued_as_cdr_bytes_and_inserted_in_order(ros2_option
             tf.send_transform(m)
         assert _wait(lambda: bool(xs) and xs[-1] == count - 1, 30), (xs[-3:], listener.stats())
         assert xs == [float(i) for i in range(count)], [b for a, b in zip(xs, xs[1:]) if b != a + 1][:5]
-        assert tfwire.payload_messages() - before > count // 2
+        assert thread.payload_messages() - before > count // 2
         assert listener.stats()["dropped"] == 0
     finally:
         pub_node.shutdown()

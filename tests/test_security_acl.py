@@ -79,8 +79,8 @@ def _zentf(*args: str) -> list[str]:
 
 
 def test_unlisted_client_cannot_jump_the_clock(tmp_path: Path, spawn, test_namespace: str) -> None:
-    """The issue's attack: an allowed-nothing client published /clock going back (every sim-time
-    listener cleared its buffer). Both publish at 20 Hz; the listener only ever hears the owner."""
+    """An allowed-nothing client publishes /clock going back (which would make every sim-time
+    listener clear its buffer). Both publish at 20 Hz; the listener only ever hears the owner."""
     certs = make_certs(tmp_path / "certs")
     _, ep = start_tls_router(spawn, machine_dir(tmp_path, certs, "router"), ROUTER_ACL)
     flags = client_flags(ep, test_namespace)
@@ -100,7 +100,7 @@ def test_unlisted_client_cannot_jump_the_clock(tmp_path: Path, spawn, test_names
 
 
 def test_unlisted_client_cannot_squat_a_node_name(tmp_path: Path, spawn, test_namespace: str) -> None:
-    """The issue's attack: a certified client declared robot-a's node name, which then refused to start."""
+    """A certified client declares robot-a's node name (which would keep robot-a from starting)."""
     certs = make_certs(tmp_path / "certs")
     _, ep = start_tls_router(spawn, machine_dir(tmp_path, certs, "router"), ROUTER_ACL)
     flags = client_flags(ep, test_namespace)

@@ -251,7 +251,7 @@ SEQUENCE = RAW_TF_PUBLISHER + textwrap.dedent("""
 
 def test_backlogged_senders_are_inserted_whole_and_each_in_order(spawn, node_options) -> None:
     """Two senders flood at once, faster than the listener inserts (a Python insert callback slows it):
-    the listener's per-sender queues and its runs of one backlogged sender (tfwire.serve) must still
+    the listener's per-sender queues and its runs of one backlogged sender (zentf/transport/ingest/thread.pyx) must still
     insert every message of each sender, in the order sent (the ring never overflows: 2 x 4000 < 16384)."""
     import subprocess
 
@@ -308,7 +308,7 @@ def test_a_backlog_is_queued_as_payload_bytes_and_its_bad_messages_still_get_the
     Zenoh samples (which pin Zenoh's receive buffers): a cut-short TFMessage and one with a bad element
     among them still get their one line each, naming the topic's key and the sender, and every good
     message of the backlog is inserted in order."""
-    from zentf.transport.ingest import tfwire
+    from zentf.transport.ingest import thread
 
     count = 3000
     xs: list[float] = []
@@ -322,11 +322,11 @@ def test_a_backlog_is_queued_as_payload_bytes_and_its_bad_messages_still_get_the
 
         buf.add_insert_callback(on_insert)
         tl = TransformListener(buf, node)
-        before = tfwire.payload_messages()
+        before = thread.payload_messages()
         spawn.python("-c", BACKLOG_WITH_BAD, str(count)).wait_for_line("^sent", timeout=60)
         assert buf.wait_for(lambda: xs and xs[-1] == count - 1, 60), (xs[-3:], tl.stats())
         stats = tl.stats()
-        queued = tfwire.payload_messages() - before
+        queued = thread.payload_messages() - before
     key = f"{node_options.namespace.strip('/')}/tf"
     text = "\n".join(r.getMessage() for r in caplog.records)
     assert xs == [float(i) for i in range(count)], [b for a, b in zip(xs, xs[1:]) if b != a + 1][:5]

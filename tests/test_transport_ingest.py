@@ -12,7 +12,7 @@ import sys
 import msgpack
 import pytest
 
-from zentf.transport.ingest import tfwire
+from zentf.transport.ingest import decoders, tf_encoder
 from zentf.transport.wire import codec as wire
 from zentf.core.buffer_core import BufferCore
 from zentf.core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
@@ -113,7 +113,7 @@ def _no_nan(value: object) -> object:
 
 
 def test_compiled_transform_encoder_writes_what_the_dict_path_writes() -> None:
-    """tfwire.ts_payload / ts_item (send_transform's path) against msgpack packing tf_to_plain's dicts."""
+    """tf_encoder.ts_payload / ts_item (send_transform's path) against msgpack packing tf_to_plain's dicts."""
     rng = random.Random(15)
     odd = [float("nan"), float("inf"), -float("inf"), -0.0, 5e-324, 1.7976931348623157e308, 7, True]
     for i in range(3000):
@@ -121,8 +121,8 @@ def test_compiled_transform_encoder_writes_what_the_dict_path_writes() -> None:
         t = tsm(rng.choice([0, rng.randrange(2**32 * S), 2**32 * S - 1]), x=rng.choice(odd + [rng.uniform(-1e9, 1e9)]),
                 parent=name, child=name[::-1] + str(i % 7), w=rng.choice(odd + [1.0]))
         want = _no_nan(msgpack.unpackb(plain_payload([t])))
-        assert _no_nan(msgpack.unpackb(tfwire.ts_payload(t))) == want
-        assert _no_nan(msgpack.unpackb(b"\x81\xaatransforms\x91" + tfwire.ts_item(t))) == want
+        assert _no_nan(msgpack.unpackb(tf_encoder.ts_payload(t))) == want
+        assert _no_nan(msgpack.unpackb(b"\x81\xaatransforms\x91" + tf_encoder.ts_item(t))) == want
     # the same name objects again (the writer's last-names memo) and in turns with others: each call
     # writes its own message's names
     a, b, c = "base", "arm" + str(rng.random()), "arm" + str(rng.random())
@@ -130,7 +130,7 @@ def test_compiled_transform_encoder_writes_what_the_dict_path_writes() -> None:
     for i in range(30):
         t = msgs[(i // 2) % 3]
         t.header.stamp = Time(nanoseconds=i * S + 1)
-        assert _no_nan(msgpack.unpackb(tfwire.ts_payload(t))) == _no_nan(msgpack.unpackb(plain_payload([t])))
+        assert _no_nan(msgpack.unpackb(tf_encoder.ts_payload(t))) == _no_nan(msgpack.unpackb(plain_payload([t])))
     # fields of other types than the messages' own (a Vector3 subclass, an object with x, y, z): read by
     # name, as the dict path reads them
     class MyVector(Vector3):
@@ -143,12 +143,12 @@ def test_compiled_transform_encoder_writes_what_the_dict_path_writes() -> None:
         t = tsm(9 * S)
         t.transform.translation = tr  # type: ignore[assignment]
         want = _no_nan(msgpack.unpackb(plain_payload([t])))
-        assert _no_nan(msgpack.unpackb(tfwire.ts_payload(t))) == want
+        assert _no_nan(msgpack.unpackb(tf_encoder.ts_payload(t))) == want
         assert want["transforms"][0]["transform"]["translation"] == {"x": tr.x, "y": tr.y, "z": tr.z}
     # unusual: left to the dict path (which packs it or says why not)
     for t in (tsm(2**32 * S), tsm(5, x="bad"), tsm(5, parent="\udc80"), wire.tf_to_plain(tsm(5)),
               TransformStamped(Header(Time(nanoseconds=5), 5), "a")):  # type: ignore[arg-type]
-        assert tfwire.ts_payload(t) is None and tfwire.ts_item(t) is None
+        assert tf_encoder.ts_payload(t) is None and tf_encoder.ts_item(t) is None
 
 
 def test_encode_tf_nan_and_ingest_round_trip() -> None:
@@ -202,28 +202,29 @@ def mutated_payload(rng: random.Random) -> bytes:
     return data
 
 
-def test_fast_decoder_agrees_with_per_element_path(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Whatever the msgspec path accepts, the per-element path reads the same; anything else falls back."""
-    assert wire._TF_DECODER is not None  # msgspec is installed (a dependency)
+def test_compiled_decoder_agrees_with_per_element_path() -> None:
+    """Whatever the compiled decoder accepts, the per-element path reads the same with nothing wrong;
+    anything else ingest_tf reads with the per-element path (its counts, its problem, its exception)."""
     rng = random.Random(7)
     payloads = [mutated_payload(rng) for _ in range(3000)]
-    fast, slow = Recorder(), Recorder()
-
-    def run(core: Recorder) -> list:
-        out = []
-        for p in payloads:
-            try:
-                out.append(wire.ingest_tf(p, core, "/a", False))
-            except ValueError as e:
-                out.append(str(e))
-        return out
-
-    results_fast = run(fast)
-    monkeypatch.setattr(wire, "_TF_DECODER", None)
-    results_slow = run(slow)
-    assert results_fast == results_slow
-    assert fast.samples == slow.samples
-    assert sum(r[2] for r in results_fast if isinstance(r, tuple)) > 100  # the mutations did hit
+    ingested, read = Recorder(), Recorder()
+    results = []
+    for p in payloads:
+        try:
+            results.append(wire.ingest_tf(p, ingested, "/a", False))
+        except ValueError as e:
+            results.append(str(e))
+            continue
+        samples, malformed, problem = wire.tf_samples(p)
+        fast = decoders.msgpack_tf(p)
+        if fast is not None:
+            assert (malformed, problem) == (0, None)
+            assert [(*s[:3], *map(repr, s[3:])) for s in fast] == [(*s[:3], *map(repr, s[3:])) for s in samples]
+        assert results[-1] == (len(samples), 0, malformed, problem)
+        if samples:
+            read.set_transforms_raw(samples if fast is None else fast, "/a", False)
+    assert ingested.samples == read.samples
+    assert sum(r[2] for r in results if isinstance(r, tuple)) > 100  # the mutations did hit
 
 
 def test_per_element_path_keeps_few_frame_names(monkeypatch: pytest.MonkeyPatch) -> None:

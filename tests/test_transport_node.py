@@ -52,7 +52,7 @@ def test_private_names_and_remaps() -> None:
 
 def test_options_flags_over_env(tmp_path) -> None:
     pfile = tmp_path / "p.yaml"
-    pfile.write_text("talker:\n  ros__parameters:\n    rate: 5\n    frame: map\n")
+    pfile.write_text("/envns/talker:\n  ros__parameters:\n    rate: 5\n    frame: map\n")
     env = {"ZENTF_NODE_NAME": "envname", "ZENTF_NAMESPACE": "envns", "ZENTF_PARAMS": json.dumps({"a": 1, "rate": 1}),
            "ZENTF_CONNECT": "tcp/127.0.0.1:1,tcp/127.0.0.1:2", "ZENTF_NO_MULTICAST": "1",
            "ZENTF_REMAP": json.dumps({"tf": "/tf"}), "ZENTF_PARAMS_FILE": str(pfile)}

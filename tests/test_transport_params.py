@@ -46,8 +46,9 @@ def test_param_list_get_set_dump_on_turtlesim(sim, zenoh_env, test_namespace):
     dumped = yaml.safe_load(_ok(zentf(["param", "dump", "turtlesim"], zenoh_env)))
     assert dumped == {f"/{test_namespace}/turtlesim": {"ros__parameters": {
         "rate": 20.0, "spawn_first": True, "use_sim_time": False}}}
-    assert_one_line_error(zentf(["param", "get", "nobody", "rate", "--timeout", "0.5"], zenoh_env),
-                          f"node /{test_namespace}/nobody is not running", code=1)
+    # not in the graph: one line at once naming who is (the 30 s timeout is never waited out)
+    assert_one_line_error(zentf(["param", "get", "nobody", "rate", "--timeout", "30"], zenoh_env, timeout=20),
+                          f"node /{test_namespace}/nobody is not running (running: /{test_namespace}/turtlesim", code=1)
 
 
 def test_param_list_without_node_lists_every_node(sim, spawn, zenoh_env, test_namespace):

@@ -127,8 +127,16 @@ def test_zentf_service_list_type_call(server, zenoh_env, test_namespace):
                           "unknown field 'dat'", code=2)
     assert_one_line_error(zentf(["service", "call", "echo", "nope/srv/X", "{}"], zenoh_env),
                           "unknown service type 'nope/srv/X'", code=2)
-    assert_one_line_error(zentf(["service", "call", "absent", "std_srvs/srv/Empty", "--timeout", "0.5"], zenoh_env),
-                          f"service {ns}/absent is not available", code=1)
+    # nobody offers it: one line at once naming what is offered (the 30 s timeout is never waited out)
+    assert_one_line_error(zentf(["service", "call", "absent", "std_srvs/srv/Empty", "--timeout", "30"], zenoh_env,
+                                timeout=20),
+                          f"service {ns}/absent is not offered by any node (offered: {ns}/echo, {ns}/fail, {ns}/stall",
+                          code=1)
+    # a server that is there but does not answer: the timeout applies
+    started = time.monotonic()
+    assert_one_line_error(zentf(["service", "call", "stall", "std_srvs/srv/Trigger", "--timeout", "1"], zenoh_env),
+                          f"service {ns}/stall: no response within 1 s", code=1)
+    assert time.monotonic() - started >= 1.0
     assert_one_line_error(zentf(["service", "type", "absent", "--wait", "0.5"], zenoh_env),
                           f"unknown service {ns}/absent", code=1)
 

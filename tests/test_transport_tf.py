@@ -148,11 +148,11 @@ def test_broadcaster_accepts_dicts_and_lists(node_options) -> None:
 
 
 def test_compiled_send_transform_sends_what_the_python_path_sends(node_options, zenoh_session) -> None:
-    """send_transform(one TransformStamped) runs compiled (tfwire.OneTransformSender) to Zenoh's put:
+    """send_transform(one TransformStamped) runs compiled (tf_encoder.OneTransformSender) to Zenoh's put:
     a raw subscriber on the tf key gets the payload and attachment the Python path sends for the same
     transform given as a list; a subclass overriding send_transform keeps its override."""
     from zentf.transport.listener import wire_key
-    from zentf.transport.ingest.tfwire import OneTransformSender
+    from zentf.transport.ingest.tf_encoder import OneTransformSender
 
     got: list[tuple[bytes, bytes]] = []
     arrived = threading.Condition()

@@ -1,9 +1,11 @@
-"""The compiled TFMessage decoders (zentf/transport/ingest/tfwire.pyx) against the pure-Python paths they stand in front of.
+"""The compiled TFMessage decoders (zentf/transport/ingest/decoders.pyx) against the Python path of each wire
+that names what is wrong in a malformed message.
 
 Whatever the compiled decoder accepts must be exactly what the Python path reads (same tuples, same
-interned names); whatever it doubts goes to the Python path, so a malformed, truncated or lying payload
-gives the same counts, the same one-line problem or the same exception as without it. Both wires:
-zentf (msgpack, wire.ingest_tf) and ROS 2 (CDR, Ros2Profile.ingest_tf / zentf.ros.tf_samples).
+interned names, nothing malformed); whatever it doubts the ingest gives to the Python path, so a
+malformed, truncated or lying payload gets that path's counts, one-line problem or exception. Both wires:
+zentf (msgpack: decoders.msgpack_tf, wire.tf_samples, wire.ingest_tf) and ROS 2 (CDR: decoders.cdr_tf,
+zentf.ros.tf_samples, Ros2Profile.ingest_tf).
 """
 from __future__ import annotations
 
@@ -19,7 +21,7 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from zentf.transport.ingest import tfwire
+from zentf.transport.ingest import decoders
 from zentf.transport.wire import codec as wire
 from zentf.transport.wire import profiles as profile
 from zentf.transport.clock import Clock
@@ -29,7 +31,7 @@ from zentf.core.messages import Header, Quaternion, Transform, TransformStamped,
 from zentf.core.time import Time
 from zentf.transport.listener import _FutureGuard
 from zentf.ros import CdrError, encode_tf as cdr_encode_tf, tf_samples
-from zentf.transport.ingest.tfwire import TfIngest
+from zentf.transport.ingest.handler import TfIngest
 
 NS = 1_000_000_000
 MAX_SEC = (2**63 - 1) // NS
@@ -53,28 +55,10 @@ class Recorder:
         return len(samples)
 
 
-def ingest_all(ingest, payloads: list[bytes]) -> tuple[list, list]:
-    """(results or exception lines, what reached the core) of every payload."""
-    core = Recorder()
-    out: list = []
-    for p in payloads:
-        try:
-            out.append(ingest(p, core, "/a", False))
-        except (ValueError, CdrError) as e:
-            out.append(f"{type(e).__name__}: {e}")
-    return out, core.calls
-
-
-def python_only(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Switch the compiled decoders off (the paths a build without the extension runs)."""
-    monkeypatch.setattr(wire, "_compiled_tf", None)
-    monkeypatch.setattr(profile, "_compiled_cdr_tf", None)
-
-
 def test_the_compiled_decoders_are_built_and_used() -> None:
-    """pip install builds zentf/transport/ingest/tfwire.pyx; the listener's paths pick it up (else these tests prove nothing)."""
-    assert wire._compiled_tf is tfwire.msgpack_tf
-    assert profile._compiled_cdr_tf is tfwire.cdr_tf
+    """pip install builds zentf/transport/ingest/decoders.pyx; both wires' ingest use it (else these tests prove nothing)."""
+    assert wire.msgpack_tf is decoders.msgpack_tf and profile.cdr_tf is decoders.cdr_tf
+    assert decoders.__file__.endswith(".so")
 
 
 # ------------------------------------------------------------------ well-formed messages (hypothesis)
@@ -116,32 +100,19 @@ def test_msgpack_compiled_equals_python_on_well_formed_messages(items: list, sin
         payload = msgpack.packb(msg, use_single_float=single_float)
     except OverflowError:  # a double beyond float32 (the single-float variant only)
         assume(False)
-    compiled = tfwire.msgpack_tf(payload)
+    compiled = decoders.msgpack_tf(payload)
     assert compiled is not None  # well-formed: no doubt
     core = Recorder()
     assert wire.ingest_tf(payload, core, "/a", False) == (len(items), 0, 0, None)
     assert core.calls == ([(norm(compiled), "/a", False)] if items else [])
-    saved = wire._compiled_tf, wire._TF_DECODER
-    try:
-        wire._compiled_tf = None                     # the msgspec path a build without the extension runs
-        ref = Recorder()
-        assert wire.ingest_tf(payload, ref, "/a", False) == (len(items), 0, 0, None)
-        assert ref.calls == core.calls
-        wire._TF_DECODER = None                      # the per-element path (msgpack raw=True, ``+ 0.0``)
-        elem = Recorder()
-        assert wire.ingest_tf(payload, elem, "/a", False) == (len(items), 0, 0, None)
-    finally:
-        wire._compiled_tf, wire._TF_DECODER = saved
-    # the same values; only the sign of a zero differs there (-0.0 + 0.0 is 0.0), as msgspec's path did
-    plus_zero = [(*s[:3], *(v + 0.0 for v in s[3:])) for s in compiled]
-    assert elem.calls == ([(norm(plus_zero), "/a", False)] if items else [])
+    assert wire.tf_samples(payload) == (compiled, 0, None) or norm(wire.tf_samples(payload)[0]) == norm(compiled)
 
 
 @settings(max_examples=300, deadline=None)
 @given(items=st.lists(transforms(cdr=True), max_size=20), tail=st.binary(max_size=9))
 def test_cdr_compiled_equals_python_on_well_formed_messages(items: list, tail: bytes) -> None:
     payload = cdr_encode_tf(items) + tail  # bytes after the last element are ignored by both
-    compiled = tfwire.cdr_tf(payload)
+    compiled = decoders.cdr_tf(payload)
     samples, malformed, problem = tf_samples(payload)
     assert (malformed, problem) == (0, None)
     assert compiled is not None and norm(compiled) == norm(samples)
@@ -152,28 +123,28 @@ def test_broadcaster_payloads_take_the_compiled_path() -> None:
     ts = [TransformStamped(Header(Time(sec=5, nanosec=7), "world"), f"f{i}",
                            Transform(Vector3(1.0, 2.0, 3.0), Quaternion(0.0, 0.0, 0.0, 1.0))) for i in range(3)]
     expected = [("world", f"f{i}", 5 * NS + 7, 1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0) for i in range(3)]
-    assert tfwire.msgpack_tf(wire.encode_tf(ts)) == expected
-    assert tfwire.msgpack_tf(wire.encode_tf(ts[:1])) == expected[:1]
-    assert tfwire.cdr_tf(cdr_encode_tf(ts)) == expected
-    assert tfwire.msgpack_tf(wire.encode_tf([])) == [] and tfwire.cdr_tf(cdr_encode_tf([])) == []
+    assert decoders.msgpack_tf(wire.encode_tf(ts)) == expected
+    assert decoders.msgpack_tf(wire.encode_tf(ts[:1])) == expected[:1]
+    assert decoders.cdr_tf(cdr_encode_tf(ts)) == expected
+    assert decoders.msgpack_tf(wire.encode_tf([])) == [] and decoders.cdr_tf(cdr_encode_tf([])) == []
 
 
 def test_frame_names_are_interned_and_the_cache_is_bounded() -> None:
-    a = tfwire.msgpack_tf(msgpack.packb({"transforms": [transform_dict("map", "odom_frame")]}))[0]
-    b = tfwire.cdr_tf(cdr_encode_tf([transform_dict("map", "odom_frame")]))[0]
+    a = decoders.msgpack_tf(msgpack.packb({"transforms": [transform_dict("map", "odom_frame")]}))[0]
+    b = decoders.cdr_tf(cdr_encode_tf([transform_dict("map", "odom_frame")]))[0]
     assert a[0] is b[0] and a[1] is b[1]  # one str object per name, whichever wire brought it
     long_name = "n" * 300
-    assert tfwire.msgpack_tf(msgpack.packb({"transforms": [transform_dict(long_name, "c")]}))[0][0] == long_name
-    assert long_name.encode() not in tfwire._NAMES  # forged huge names are not kept
-    assert tfwire.FRAME_CACHE_SIZE == wire.FRAME_CACHE_SIZE
+    assert decoders.msgpack_tf(msgpack.packb({"transforms": [transform_dict(long_name, "c")]}))[0][0] == long_name
+    assert long_name.encode() not in decoders._NAMES  # forged huge names are not kept
+    assert decoders.FRAME_CACHE_SIZE == wire.FRAME_CACHE_SIZE
     names = [f"forged_{'x' * 200}_{i}" for i in range(15_000)]
     for i in range(0, len(names), 500):  # forged names by the thousand: read right, the cache starts over
         batch = names[i:i + 500]
-        samples = tfwire.msgpack_tf(msgpack.packb({"transforms": [transform_dict("p", c) for c in batch]}))
+        samples = decoders.msgpack_tf(msgpack.packb({"transforms": [transform_dict("p", c) for c in batch]}))
         assert [s[1] for s in samples] == batch
-        assert [s[1] for s in tfwire.cdr_tf(cdr_encode_tf([transform_dict("p", c) for c in batch]))] == batch
-        held = sum(sys.getsizeof(k) + sys.getsizeof(v) for k, v in tfwire._NAMES.items())
-        assert len(tfwire._NAMES) <= tfwire.FRAME_CACHE_SIZE and held < 3_000_000, (i, held)
+        assert [s[1] for s in decoders.cdr_tf(cdr_encode_tf([transform_dict("p", c) for c in batch]))] == batch
+        held = sum(sys.getsizeof(k) + sys.getsizeof(v) for k, v in decoders._NAMES.items())
+        assert len(decoders._NAMES) <= decoders.FRAME_CACHE_SIZE and held < 3_000_000, (i, held)
 
 
 # ------------------------------------------------------------------ anything else: same as before
@@ -203,7 +174,32 @@ def mutations(payload: bytes, rng: random.Random, n: int) -> list[bytes]:
     return out
 
 
-def test_msgpack_malformed_payloads_give_the_same_problems(monkeypatch: pytest.MonkeyPatch) -> None:
+def agrees_with_the_python_path(payloads: list[bytes], compiled, python, ingest) -> list:
+    """For each payload: the compiled decoder reads exactly what the Python path reads with nothing wrong,
+    or doubts it; the ingest's result is the Python path's (counts, problem, or its exception)."""
+    results = []
+    for p in payloads:
+        fast = compiled(p)
+        try:
+            samples, malformed, problem = python(p)
+        except (ValueError, CdrError) as e:
+            assert fast is None, p
+            expected = f"{type(e).__name__}: {e}"
+        else:
+            if fast is not None:
+                assert (norm(fast), malformed, problem) == (norm(samples), 0, None), p
+            expected = (len(samples), 0, malformed, problem)
+        try:
+            got = ingest(p, Recorder(), "/a", False)
+        except (ValueError, CdrError) as e:
+            got = f"{type(e).__name__}: {e}"
+        assert got == expected, p
+        results.append(got)
+    assert all("\n" not in str(r) for r in results)
+    return results
+
+
+def test_msgpack_malformed_payloads_give_the_python_paths_problems() -> None:
     rng = random.Random(15)
     good = msgpack.packb({"transforms": [transform_dict("world", "a", 3, 5), transform_dict("a", "bé", 4, 6, -2.5)]})
     lying = [
@@ -224,33 +220,27 @@ def test_msgpack_malformed_payloads_give_the_same_problems(monkeypatch: pytest.M
         msgpack.packb({"transforms": [transform_dict("\udcff", "c")]}, unicode_errors="surrogateescape"),
     ]
     payloads = [good, *lying, *mutations(good, rng, 3000)]
-    with_compiled = ingest_all(wire.ingest_tf, payloads)
-    python_only(monkeypatch)
-    assert ingest_all(wire.ingest_tf, payloads) == with_compiled
-    assert all("\n" not in str(r) for r in with_compiled[0])
-    problems = [r for r in with_compiled[0] if isinstance(r, str) or r[2]]
+    results = agrees_with_the_python_path(payloads, decoders.msgpack_tf, wire.tf_samples, wire.ingest_tf)
+    problems = [r for r in results if isinstance(r, str) or r[2]]
     assert len(problems) > 1000  # the mutations did hit
 
 
-def test_cdr_malformed_payloads_give_the_same_problems(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_cdr_malformed_payloads_give_the_python_paths_problems() -> None:
     rng = random.Random(14)
     good = cdr_encode_tf([transform_dict("world", "a", 3, 5), transform_dict("a", "bé", 4, 6, -2.5)])
     no_nul = bytearray(good)
-    no_nul[12 + 4 + 5] = ord("!")  # 'world' + NUL: the NUL replaced (tf_samples does not look at it)
+    no_nul[8 + 8 + 4 + 5] = ord("!")  # after count, stamp, length and "world": its NUL replaced (malformed)
     lying = [bytes(no_nul), good[:4] + struct.pack("<I", 10**6) + good[8:], b"\x00\x00\x00\x00" + good[4:],
              good[:4] + struct.pack("<I", 0) + good[8:], struct.pack("<4sI", b"\x00\x01\x00\x00", 1) + b"\x00" * 72]
     payloads = [good, *lying, *mutations(good, rng, 3000)]
-    ingest = profile.Ros2Profile().ingest_tf
-    with_compiled = ingest_all(ingest, payloads)
-    python_only(monkeypatch)
-    assert ingest_all(ingest, payloads) == with_compiled
-    assert all("\n" not in str(r) for r in with_compiled[0])
-    assert len([r for r in with_compiled[0] if isinstance(r, str) or r[2]]) > 1000
+    results = agrees_with_the_python_path(payloads, decoders.cdr_tf, tf_samples, profile.Ros2Profile().ingest_tf)
+    assert results[1] == (1, 0, 1, "transforms[0]: frame_id has no closing NUL")
+    assert len([r for r in results if isinstance(r, str) or r[2]]) > 1000
 
 
 def test_payloads_that_are_not_bytes_take_the_python_path() -> None:
     good = msgpack.packb({"transforms": [transform_dict()]})
-    assert tfwire.msgpack_tf(bytearray(good)) is None and tfwire.cdr_tf(memoryview(cdr_encode_tf([]))) is None
+    assert decoders.msgpack_tf(bytearray(good)) is None and decoders.cdr_tf(memoryview(cdr_encode_tf([]))) is None
     core = Recorder()
     assert wire.ingest_tf(bytearray(good), core, "/a", False) == (1, 0, 0, None)
 
@@ -264,7 +254,7 @@ def listener_ingest(wire_name: str, compiled: bool, clock: Clock, is_static: boo
     prof = profile.make_profile(wire_name)
     target = buffer if is_static else guard
     if compiled:
-        return TfIngest(wire_name == "ros2", prof.ingest_tf, wire._insert, target, buffer,
+        return TfIngest(wire_name == "ros2", prof.ingest_tf, target, buffer,
                         None if is_static else guard.now_ns, guard.tolerance_ns, is_static), buffer, guard
     return (lambda p, a: prof.ingest_tf(p, target, a, is_static)), buffer, guard
 
@@ -324,7 +314,7 @@ def test_every_tf_message_of_a_real_bag_decodes_like_rosbags() -> None:
                          t.transform.translation.x, t.transform.translation.y, t.transform.translation.z,
                          t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
                          t.transform.rotation.w) for t in ref.transforms]
-            assert tfwire.cdr_tf(bytes(message.data)) == expected
+            assert decoders.cdr_tf(bytes(message.data)) == expected
             transforms += len(expected)
     assert transforms == 7313
 
@@ -350,11 +340,11 @@ def test_canonical_layout_reads_like_the_general_path(items: list, single_float:
         payload = msgpack.packb({"transforms": [canonical(*i) for i in items]}, use_single_float=single_float)
     except OverflowError:
         assume(False)
-    before = tfwire.canonical_hits()
-    fast, general = tfwire.msgpack_tf(payload), tfwire.msgpack_tf(payload, canonical=False)
+    before = decoders.canonical_hits()
+    fast, general = decoders.msgpack_tf(payload), decoders.msgpack_tf(payload, canonical=False)
     assert norm(fast) == norm(general)
     if fast is not None:
-        assert tfwire.canonical_hits() - before == len(items)  # every element took the fast path
+        assert decoders.canonical_hits() - before == len(items)  # every element took the fast path
         if not single_float:
             assert norm(fast) == norm([(p, c, s * NS + n, *map(float, vals)) for p, c, s, n, vals in items])
 
@@ -367,16 +357,16 @@ def test_zentf_encoders_take_the_canonical_path_and_mutations_agree() -> None:
     plain = [wire.tf_to_plain(t) for t in ts]
     plain[1]["transform"]["translation"]["x"] = 7  # an int where zentf writes a float64 (the dict path)
     for payload in (wire.encode_tf(ts), wire.encode_tf(ts[:1]), wire.encode_tf(plain)):
-        before = tfwire.canonical_hits()
-        got = tfwire.msgpack_tf(payload)
-        assert tfwire.canonical_hits() - before == len(got) > 0
-        assert norm(got) == norm(tfwire.msgpack_tf(payload, canonical=False))
+        before = decoders.canonical_hits()
+        got = decoders.msgpack_tf(payload)
+        assert decoders.canonical_hits() - before == len(got) > 0
+        assert norm(got) == norm(decoders.msgpack_tf(payload, canonical=False))
     rng = random.Random(1515)
     good = wire.encode_tf(ts)
     taken = 0
     for p in mutations(good, rng, 4000):
-        fast = tfwire.msgpack_tf(p)
-        assert norm(fast) == norm(tfwire.msgpack_tf(p, canonical=False)), p
+        fast = decoders.msgpack_tf(p)
+        assert norm(fast) == norm(decoders.msgpack_tf(p, canonical=False)), p
         taken += fast is not None
     assert taken > 100  # some mutations (a changed value, a name) are still well-formed
 
@@ -464,11 +454,11 @@ def test_the_encoding_is_checked_when_the_payload_is_not_a_tfmessage(node_option
 # ---------------------------------------------------------------- JointState, out
 
 def test_compiled_joint_state_encoder_writes_the_generic_bytes() -> None:
-    """tfwire.js_payload (wire.encode's JointState path) gives msgpack.packb(msg.to_dict())'s bytes when
+    """joint_state_encoder.js_payload (wire.encode's JointState path) gives msgpack.packb(msg.to_dict())'s bytes when
     every number is a float, the same decoded message when some are ints, and None (the generic path)
     for anything unusual; the cached name list is not reused after the names change."""
     from zentf.core.messages import Header as H, JointState
-    from zentf.transport.ingest.tfwire import js_payload
+    from zentf.transport.ingest.joint_state_encoder import js_payload
 
     rng = random.Random(12)
     for i in range(2000):
@@ -493,3 +483,56 @@ def test_compiled_joint_state_encoder_writes_the_generic_bytes() -> None:
                 wire.encode(odd)
         else:
             assert wire.encode(odd) == want
+
+
+# ---------------------------------------------------------------- TransformStamped, out on ROS 2's wire
+
+def test_compiled_cdr_sender_writes_the_encoders_bytes_and_rmw_zenohs_attachment() -> None:
+    """tf_encoder.cdr_ts_payload gives zentf.ros.encode_tf's bytes for one TransformStamped (names of any
+    length and script, any stamp CDR holds) and None for what that encoder must judge; OneTransformSenderCdr
+    puts it with rmw_zenoh's attachment: the publisher's next sequence number, the time, its GID."""
+    import itertools
+    import time
+
+    from zentf.transport.ingest.tf_encoder import OneTransformSenderCdr, cdr_ts_payload
+    from zentf.transport.wire.profiles import parse_ros2_attachment
+
+    rng = random.Random(31)
+    for _ in range(3000):
+        parent = "".join(rng.choice("ab/é_π") for _ in range(rng.randrange(0, 12)))
+        child = "".join(rng.choice("xy/ç") for _ in range(rng.randrange(0, 9)))
+        ns = rng.choice([0, NS - 1, (2**31 - 1) * NS + NS - 1, rng.randrange(2**31 * NS)])
+        ts = TransformStamped(Header(Time(nanoseconds=ns), parent), child, Transform(
+            Vector3(rng.uniform(-9, 9), math.inf, -0.0), Quaternion(0.0, math.nan, 0.6, 0.8)))
+        assert cdr_ts_payload(ts) == cdr_encode_tf([ts]), (parent, child, ns)
+    late = TransformStamped(Header(Time(nanoseconds=2**31 * NS), "a"), "b")  # beyond int32 seconds
+    assert cdr_ts_payload(late) is None and cdr_ts_payload(transform_dict()) is None
+    sent, slow = [], []
+    seq = itertools.count(1)
+    sender = OneTransformSenderCdr(lambda p, attachment: sent.append((p, attachment)), seq, b"G" * 16, slow.append)
+    one = TransformStamped(Header(Time(sec=5), "world"), "c", Transform(Vector3(1.0, 2.0, 3.0),
+                                                                           Quaternion(0.0, 0.0, 0.0, 1.0)))
+    before = time.time_ns()
+    sender(one)
+    sender(one)
+    sender([one])  # a list: the Python method
+    assert slow == [[one]] and next(seq) == 3
+    assert [p for p, _ in sent] == [cdr_encode_tf([one])] * 2
+    atts = [parse_ros2_attachment(a) for _, a in sent]
+    assert [a[0] for a in atts] == [1, 2] and all(a[2] == b"G" * 16 for a in atts)
+    assert all(before <= a[1] <= time.time_ns() for a in atts)
+
+
+def test_the_ros2_sender_key_is_the_publisher_gid() -> None:
+    """Ros2Profile.sender_of (read in C by the listener's thread): the GID of rmw_zenoh's attachment, whose
+    sequence number and time change with every sample; any other attachment is its own key."""
+    from zentf.transport.wire.profiles import Ros2Profile, ros2_attachment
+
+    key = Ros2Profile().sender_of
+    rng = random.Random(33)
+    for _ in range(500):
+        gid = bytes(rng.randrange(256) for _ in range(16))
+        assert key(ros2_attachment(rng.randrange(2**62), rng.randrange(2**62), gid)) == gid
+        other = bytes(rng.randrange(256) for _ in range(rng.choice([0, 1, 32, 33, 34])))
+        if not (len(other) == 33 and other[16] == 16):
+            assert key(other) == other

@@ -191,19 +191,12 @@ def test_urdf_check_and_graph(tmp_path) -> None:
         assert "dot" in proc.stderr
 
 
-@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "numpy"])
-def test_rsp_plans_mimics_throttle_and_bad_values(node_options, monkeypatch, compiled) -> None:
-    """In process (the payloads captured before they leave): what one JointState turns into, through the
-    compiled hot path (zentf/tools/jointtf.pyx) and through the numpy one."""
+def test_rsp_plans_mimics_throttle_and_bad_values(node_options) -> None:
+    """In process (the payloads captured before they leave): what one JointState turns into."""
     from zentf.transport.wire import codec as wire
     from zentf.transport.node import Node
-    from zentf.tools import robot_state_publisher as rsp_module
     from zentf.tools.robot_state_publisher import RobotStatePublisher
 
-    if compiled:
-        assert rsp_module.JointTfFiller is not None, "zentf/tools/jointtf.pyx not built (python setup.py build_ext)"
-    else:
-        monkeypatch.setattr(rsp_module, "JointTfFiller", None)
     with Node("rsp_unit", options=node_options) as node:
         rsp = RobotStatePublisher(node, load_urdf(MY_ROBOT), publish_frequency=10.0)
         sent: list[dict] = []
@@ -246,16 +239,15 @@ def test_rsp_plans_mimics_throttle_and_bad_values(node_options, monkeypatch, com
             assert t["header"]["frame_id"] == j.parent
 
 
-def test_rsp_compiled_payload_equals_the_numpy_one(node_options, monkeypatch) -> None:
-    """The compiled filler gives the numpy path's TFMessage (names, stamps, values within 1e-15) for random
-    joint subsets with unknown names and mimics, on a 30-joint chain and on my_robot."""
+def test_rsp_payload_equals_forward_kinematics(node_options) -> None:
+    """The compiled filler's TFMessage equals the model's forward kinematics (frame ids, stamps, each
+    joint's transform within 1e-12) for random joint subsets with unknown names and mimics, on a 30-joint
+    chain and on my_robot."""
     from zentf.transport.wire import codec as wire
     from zentf.transport.node import Node
-    from zentf.tools import robot_state_publisher as rsp_module
     from zentf.tools.robot_state_publisher import RobotStatePublisher
     from zentf.urdf import parse_urdf
 
-    assert rsp_module.JointTfFiller is not None, "zentf/tools/jointtf.pyx not built (python setup.py build_ext)"
     chain = ['<robot name="chain"><link name="l0"/>']
     for i in range(1, 31):
         kind = ("revolute", "continuous", "prismatic")[i % 3]
@@ -269,23 +261,25 @@ def test_rsp_compiled_payload_equals_the_numpy_one(node_options, monkeypatch) ->
             rsp = RobotStatePublisher(node, robot, ignore_timestamp=True)
             sent: list[dict] = []
             rsp._tf.publish_bytes = lambda p: sent.append(wire.unpack(p))
+            kin = Kinematics(robot)
             names = list(rsp._index)
             for trial in range(40):
                 subset = [str(n) for n in rng.permutation(names)[: rng.integers(1, len(names) + 1)]] + ["bogus"]
                 position = [float(v) for v in rng.uniform(-3, 3, len(subset))]
                 assert rsp.process(subset, position, 7, trial)
-                plan = rsp._plan(subset)
-                assert plan.filler is not None
-                monkeypatch.setattr(plan, "filler", None)
-                assert rsp.process(subset, position, 7, trial)
-                monkeypatch.undo()
-                compiled, reference = sent[-2]["transforms"], sent[-1]["transforms"]
-                assert len(compiled) == len(reference) >= len(subset) - 1
-                for a, b in zip(compiled, reference):
-                    assert (a["header"], a["child_frame_id"]) == (b["header"], b["child_frame_id"])
-                    for part in ("translation", "rotation"):
-                        for axis, value in b["transform"][part].items():
-                            assert abs(a["transform"][part][axis] - value) <= 1e-15
+                given = dict(zip(subset, position))
+                for j in robot.joints.values():  # a mimic not named follows its master
+                    if j.mimic is not None and j.name not in given and j.mimic.joint in given:
+                        given[j.name] = given[j.mimic.joint] * j.mimic.multiplier + j.mimic.offset
+                published = sent[-1]["transforms"]
+                assert {t["child_frame_id"] for t in published} == {
+                    robot.joints[n].child for n in given if n in robot.joints and robot.joints[n].movable}
+                for t in published:
+                    j = robot.joints[robot.parent_joint[t["child_frame_id"]]]
+                    assert t["header"] == {"stamp": {"sec": 7, "nanosec": trial}, "frame_id": j.parent}
+                    tr = t["transform"]
+                    m = _matrix([tr["translation"][a] for a in "xyz"], [tr["rotation"][a] for a in "xyzw"])
+                    assert np.abs(m - kin.joint_transform(j.name, given[j.name])).max() < 1e-12
 
 
 @pytest.mark.parametrize("case", ["unknown parent", "parent is child", "loop", "two parents", "missing attribute",

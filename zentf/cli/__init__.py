@@ -1,9 +1,8 @@
 """The `zentf` command: tf echo/monitor/frames, topic/node introspection, graph, launch, clock.
 
-Built on a lazy click group rather than typer: typer 0.29 imports pydantic to coerce any
-non-bool parameter (+0.16 s per run, measured with `python -X importtime`), which alone would
-break the start-up targets. Each subcommand's module is imported only when it runs, and Zenoh
-only inside the command that needs it.
+Built on a lazy click group rather than typer: typer imports pydantic to coerce any non-bool
+parameter, which alone costs more start-up time than the CLI's budget (docs/performance.md). Each
+subcommand's module is imported only when it runs, and Zenoh only inside the command that needs it.
 """
 from __future__ import annotations
 
@@ -14,7 +13,7 @@ from typing import Any, Optional, Sequence
 
 import click
 
-from .common import CONTEXT_SETTINGS, CliError, clean_error
+from .common import CONTEXT_SETTINGS, CliError, clean_error, global_options
 
 __all__ = ["cli", "main", "LazyGroup"]
 
@@ -60,7 +59,7 @@ class LazyGroup(click.Group):
 
 
 _COMMANDS: dict[str, tuple[str, str]] = {
-    "tf": ("zentf.cli.tf:tf", "Transforms: echo, monitor, frames (tf2_echo, tf2_monitor, view_frames)."),
+    "tf": ("zentf.cli.tf:tf", "Transforms: echo, monitor, frames, doctor, why (tf2_echo, tf2_monitor, view_frames)."),
     "topic": ("zentf.cli.topic:topic", "Topics: list, echo, hz, pub."),
     "node": ("zentf.cli.node:node", "Nodes: list, info."),
     "graph": ("zentf.cli.graph:graph", "The node <-> topic graph (rqt_graph) as DOT + image + text."),
@@ -80,23 +79,20 @@ _COMMANDS: dict[str, tuple[str, str]] = {
     "bridge": ("zentf.cli.bridge:bridge", "Relay tf, tf_static, /clock and topics to and from a ROS 2 graph."),
     "service": ("zentf.cli.service:service", "Services: list, type, call."),
     "param": ("zentf.cli.param:param", "Node parameters over the network: list, get, set, dump."),
+    "interface": ("zentf.cli.interface:interface", "Message and service types: list, show, proto (ros2 interface)."),
 }
 
 
 @click.group("zentf", cls=LazyGroup, lazy=_COMMANDS, context_settings=CONTEXT_SETTINGS)
-@click.option("--debug", is_flag=True, help="Show tracebacks and debug logs.")
+@global_options
 @click.version_option("0.1.0", "--version", prog_name="zentf", message="%(prog)s %(version)s")
-def cli(debug: bool) -> None:
+def cli(**_shared: object) -> None:
     """tf2's tools for robots whose processes talk over Zenoh.
 
-    Every command takes --namespace, the Zenoh options (--connect, --listen, --mode,
-    --no-multicast, --lan, --zenoh-config) and --wire (zentf, or ros2 for a ROS 2 graph);
-    the ZENTF_* environment variables give their defaults.
+    Every command takes the options below, before or after its name (`zentf -n robot1 tf frames`,
+    `zentf tf frames -n robot1`; after it wins); the ZENTF_* environment variables give their
+    defaults. Programs (`zentf run NAME`) take them too, plus --name, -p, --params-file and -r.
     """
-
-
-def _debug_requested(argv: Sequence[str]) -> bool:
-    return "--debug" in argv or os.environ.get("ZENTF_DEBUG", "") not in ("", "0")
 
 
 def _error(msg: str) -> None:
@@ -110,10 +106,19 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     """Console entry point: run the command, turning every failure into one line and an exit code."""
     import logging
 
+    from zentf.core.text import stderr_log_handler  # names from the network in a log line are escaped
+
+    from .common import debug_requested
+
     args = list(sys.argv[1:] if argv is None else argv)
-    debug = _debug_requested(args)
+    try:
+        debug = debug_requested(args)
+    except CliError as exc:
+        _error(str(exc))
+        return exc.code
+
     logging.basicConfig(level=logging.DEBUG if debug else logging.WARNING,
-                        format="[%(levelname)s] %(name)s: %(message)s")
+                        handlers=[stderr_log_handler("[%(levelname)s] %(name)s: %(message)s")])
     try:
         rv = cli.main(args=args, prog_name="zentf", standalone_mode=False)
         return rv if isinstance(rv, int) else 0
@@ -152,10 +157,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 def _report_crash(exc: Exception) -> int:
     from zentf.core.exceptions import TransformException
 
-    try:
-        from zentf.transport.options import OptionsError
-    except ImportError:  # pragma: no cover - transport not installed
-        OptionsError = ValueError  # type: ignore[misc,assignment]  # noqa: N806
+    from zentf.transport.options import OptionsError
     if isinstance(exc, TransformException):
         _error(f"{type(exc).__name__}: {clean_error(exc)}")
         return 1

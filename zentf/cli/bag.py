@@ -230,7 +230,7 @@ def _format_info(info: dict[str, Any]) -> str:
              f"messages:   {info['messages']}",
              f"complete:   {'yes' if info['complete'] else 'no (' + printable(info['problem']) + ')'}",
              "topics:"]
-    keys = [printable(t["key"]) for t in info["topics"]]
+    keys = [printable(t["topic"]) for t in info["topics"]]  # named as `topic list` names them
     width = max((len(k) for k in keys), default=0)
     for key, t in zip(keys, info["topics"]):
         rate = f"{t['frequency']:8.2f} Hz" if t["frequency"] else " " * 11
@@ -238,7 +238,8 @@ def _format_info(info: dict[str, Any]) -> str:
         lines.append(f"  {key:<{width}}  {t['count']:7d} msgs {rate}  {printable(t['type'] or '?')}{extra}")
     for topic, edges in info["tf_edges"].items():
         if edges:
-            lines.append(f"frames in {topic}: {len({f for e in edges for f in e})}")
+            frames = len({f for e in edges for f in e})
+            lines.append(f"/{topic}: {len(edges)} transform{'s' * (len(edges) != 1)} between {frames} frames")
             lines.extend(f"  {printable(parent)} -> {printable(child)}" for parent, child in edges)
     return "\n".join(lines)
 
@@ -280,6 +281,9 @@ def bag_play(file: str, clock: bool, clock_hz: float, rate: float, loop: bool, s
             progress = _Progress()
             _err(f"playing {file} at rate {rate:g}{' with /clock' if clock else ''}{' in a loop' if loop else ''}"
                  " (Ctrl-C to stop)")
+            if player.clock_offset:
+                _err(f"/clock follows the recording's tf stamps, {player.clock_offset / 1e9:+.0f} s from its log "
+                     "times (a sim-time graph recorded with a wall clock)")
             if delay:
                 stop.wait(delay)
 

@@ -8,15 +8,15 @@ import re
 import sys
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any, Callable, Iterator, Optional
+from typing import Any, Callable, Iterator, Optional, Sequence
 
 import click
 
 __all__ = ["CliError", "CliOptions", "CONTEXT_SETTINGS", "FiniteFloat", "FiniteFloatRange", "StampSeconds",
            "NumberArgsCommand", "finite_float", "liveliness_wait_option", "with_options", "open_node", "open_session",
            "open_graph_session",
-           "node_options", "status", "cli_node_name", "clean_error", "wire_profile"]
+           "node_options", "status", "cli_node_name", "clean_error", "wire_profile", "debug_requested", "global_options",
+           "outer_argv", "cli_options"]
 
 
 class CliError(Exception):
@@ -120,7 +120,7 @@ class CliOptions:
     """The namespace + Zenoh options every command accepts (flags win over ZENTF_* env vars)."""
 
     namespace: Optional[str] = None
-    zenoh_config: Optional[Path] = None
+    zenoh_config: Optional[str] = None
     connect: list[str] = field(default_factory=list)
     listen: list[str] = field(default_factory=list)
     mode: Optional[str] = None
@@ -129,50 +129,66 @@ class CliOptions:
     lan: bool = False
     wire: Optional[str] = None
 
-    def argv(self) -> list[str]:
-        """The same options as a node command line (architecture contract), for child programs."""
+    def argv(self, groups: tuple[str, ...] = ("node", "zenoh")) -> list[str]:
+        """The same options as a node program's command line, for the programs the CLI starts (``groups``:
+        of SHARED_OPTIONS, e.g. ("zenoh",) for the router)."""
         out: list[str] = []
-        if self.namespace is not None:
-            out += ["--namespace", self.namespace]
-        if self.zenoh_config is not None:
-            out += ["--zenoh-config", str(self.zenoh_config)]
-        for ep in self.connect:
-            out += ["--connect", ep]
-        for ep in self.listen:
-            out += ["--listen", ep]
-        if self.mode:
-            out += ["--mode", self.mode]
-        if self.no_multicast:
-            out.append("--no-multicast")
-        if self.lan:
-            out.append("--lan")
-        if self.wire:
-            out += ["--wire", self.wire]
+        for opt in cli_options():
+            if opt.group not in groups:
+                continue
+            value = getattr(self, opt.dest)
+            if opt.kind == "flag":
+                out += [opt.flags[0]] if value else []
+            elif opt.kind == "repeat":
+                for v in value:
+                    out += [opt.flags[0], v]
+            elif value is not None:
+                out += [opt.flags[0], str(value)]
         return out
 
 
-_SHARED = [
-    click.option("--namespace", "-n", default=None, metavar="NS",
-                 help="Namespace of the graph (topic 'tf' is key 'NS/tf'). [env ZENTF_NAMESPACE]"),
-    click.option("--zenoh-config", type=click.Path(dir_okay=False, path_type=Path), default=None,
-                 metavar="FILE", help="Zenoh JSON5 config file. [env ZENTF_ZENOH_CONFIG]"),
-    click.option("--connect", multiple=True, metavar="EP",
-                 help="Endpoint to connect to, e.g. tcp/10.0.0.2:7447 (repeat). [env ZENTF_CONNECT]"),
-    click.option("--listen", multiple=True, metavar="EP",
-                 help="Endpoint to listen on (repeat). [env ZENTF_LISTEN]"),
-    click.option("--mode", type=click.Choice(["peer", "client", "router"]), default=None,
-                 help="Zenoh mode. [env ZENTF_MODE]"),
-    click.option("--no-multicast", is_flag=True, default=False,
-                 help="Turn multicast scouting off. [env ZENTF_NO_MULTICAST=1]"),
-    click.option("--lan", is_flag=True, default=False,
-                 help="Reach other machines (every interface, multicast scouting; unauthenticated). Default: "
-                      "this machine only. [env ZENTF_LAN=1]"),
-    click.option("--debug", is_flag=True, default=False, help="Show tracebacks and debug logs."),
-    click.option("--wire", type=click.Choice(["zentf", "ros2"]), default=None,
-                 help="Wire format: zentf, or ros2 to work on a ROS 2 (rmw_zenoh) graph; ROS_DOMAIN_ID "
-                      "picks the domain. [env ZENTF_WIRE]"),
-]
-_SHARED_NAMES = ("namespace", "zenoh_config", "connect", "listen", "mode", "no_multicast", "lan", "debug", "wire")
+def cli_options() -> tuple[Any, ...]:
+    """The shared options the CLI takes (zentf.transport.options.SHARED_OPTIONS minus a node's identity)."""
+    from zentf.transport.shared_options import SHARED_OPTIONS
+
+    return tuple(o for o in SHARED_OPTIONS if not o.programs_only)
+
+
+def _click_option(opt: Any) -> Callable[[Any], Any]:
+    """A click option from a SharedOption: the flags, metavar, choices and help of the programs' argparse."""
+    kw: dict[str, Any] = {"help": opt.help_text}
+    if opt.kind == "flag":
+        kw.update(is_flag=True, default=False)
+    else:
+        kw.update(default=None, metavar=opt.metavar)
+        if opt.kind == "repeat":
+            kw["multiple"] = True
+        if opt.choices:
+            kw["type"] = click.Choice(opt.choices)
+    return click.option(*opt.flags, opt.dest, **kw)
+
+
+def _shared_values(kwargs: dict[str, Any]) -> CliOptions:
+    """CliOptions from a command's parsed values, each one not given there taken from before the
+    subcommand (`zentf -n robot1 tf frames`: the root group holds the same options)."""
+    ctx = click.get_current_context(silent=True)
+    outer = ctx.find_root().params if ctx is not None else {}
+    values: dict[str, Any] = {}
+    for opt in cli_options():
+        value = kwargs.pop(opt.dest, None)
+        if value in (None, False, ()):
+            value = outer.get(opt.dest, value)
+        values[opt.dest] = list(value or ()) if opt.kind == "repeat" else (bool(value) if opt.kind == "flag"
+                                                                             else value)
+    return CliOptions(**values)
+
+
+def global_options(func: Callable[..., Any]) -> Callable[..., Any]:
+    """The shared options on the root group, so they may come before the subcommand; the commands read
+    them from there (``with_options``), a value given after the subcommand wins."""
+    for opt in reversed(cli_options()):
+        func = _click_option(opt)(func)
+    return func
 
 
 def with_options(func: Callable[..., Any]) -> Callable[..., Any]:
@@ -180,19 +196,32 @@ def with_options(func: Callable[..., Any]) -> Callable[..., Any]:
 
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
-        shared = {name: kwargs.pop(name, None) for name in _SHARED_NAMES}
-        opts = CliOptions(
-            namespace=shared["namespace"], zenoh_config=shared["zenoh_config"],
-            connect=list(shared["connect"] or ()), listen=list(shared["listen"] or ()),
-            mode=shared["mode"], no_multicast=bool(shared["no_multicast"]), debug=bool(shared["debug"]),
-            lan=bool(shared["lan"]), wire=shared["wire"])
+        opts = _shared_values(kwargs)
         if opts.debug:
             _enable_debug()
         return func(*args, opts=opts, **kwargs)
 
-    for deco in reversed(_SHARED):
-        wrapper = deco(wrapper)
+    for opt in reversed(cli_options()):
+        wrapper = _click_option(opt)(wrapper)
     return wrapper
+
+
+def outer_argv(groups: tuple[str, ...] = ("node", "zenoh")) -> list[str]:
+    """The shared options given before the subcommand, as a node program's command line (for the commands
+    that hand their arguments to a program: run, static-transform-publisher, ...)."""
+    return _shared_values({}).argv(groups)
+
+
+def debug_requested(argv: Sequence[str]) -> bool:
+    """--debug among the arguments, or ZENTF_DEBUG a yes word (parse_bool); another word is a CliError."""
+    from zentf.core.text import parse_bool
+
+    if "--debug" in argv:
+        return True
+    try:
+        return parse_bool(os.environ.get("ZENTF_DEBUG", ""), "ZENTF_DEBUG")
+    except ValueError as exc:
+        raise CliError(str(exc), code=2) from None
 
 
 def _enable_debug() -> None:
@@ -217,8 +246,7 @@ def node_options(opts: CliOptions, name: str) -> Any:
         if opts.namespace is not None:
             base.namespace = opts.namespace
         base.zenoh = ZenohOptions.from_values(
-            str(opts.zenoh_config) if opts.zenoh_config is not None else None,
-            opts.connect, opts.listen, opts.mode, opts.no_multicast, lan=opts.lan)
+            opts.zenoh_config, opts.connect, opts.listen, opts.mode, opts.no_multicast, lan=opts.lan)
         if opts.wire:
             base.wire = opts.wire
         base._check()

@@ -15,4 +15,6 @@ def router(ctx: click.Context) -> int:
     """Run a Zenoh router for multi-machine graphs (see 'zentf router --help')."""
     from ..transport.router import main
 
-    return main(list(ctx.args), prog="zentf router")
+    from .common import outer_argv
+
+    return main([*outer_argv(("zenoh",)), *ctx.args], prog="zentf router")

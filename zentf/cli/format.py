@@ -2,38 +2,17 @@
 from __future__ import annotations
 
 import math
-import re
 import statistics
 from dataclasses import dataclass, field
-from typing import Iterable, Mapping, Sequence
+from typing import Any, Iterable, Mapping, Sequence
+
+from zentf.core.text import printable  # names from the network, printed: the one escaping rule
 
 __all__ = [
     "printable", "FrameStat", "NodeDesc", "rpy_from_quaternion", "matrix_from_quaternion", "format_echo",
-    "parse_frames_yaml", "frame_trees", "format_frame_tree", "frames_dot", "node_graph_dot",
+    "frame_trees", "format_frame_tree", "frames_dot", "node_graph_dot",
     "format_node_graph", "format_hz", "format_stamp", "stats_from_frame_info",
 ]
-
-
-# --------------------------------------------------------------------------------------------
-# Names from the network on a terminal.
-# --------------------------------------------------------------------------------------------
-
-# C0 and C1 controls (ESC, CR, LF, BEL, ...), DEL, line/paragraph separators and bidi overrides.
-_UNSAFE = re.compile("[\x00-\x1f\x7f-\x9f\u2028\u2029\u202a-\u202e\u2066-\u2069]")
-_NAMED = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
-
-
-def _escape_char(m: "re.Match[str]") -> str:
-    c = m.group()
-    return _NAMED.get(c) or (f"\\x{ord(c):02x}" if ord(c) < 0x100 else f"\\u{ord(c):04x}")
-
-
-def printable(text: object) -> str:
-    """A frame id, topic or node name as it may be printed: control characters written as Python
-    escapes (ESC -> \\x1b, LF -> \\n), so a name sent by anyone cannot move the cursor, recolour the
-    terminal or forge output lines (what `topic echo`'s YAML does for message strings)."""
-    text = str(text)
-    return _UNSAFE.sub(_escape_char, text) if _UNSAFE.search(text) else text
 
 
 # --------------------------------------------------------------------------------------------
@@ -128,26 +107,6 @@ class FrameStat:
         return self.most_recent == 0.0 and self.oldest == 0.0
 
 
-def parse_frames_yaml(text: str) -> list[FrameStat]:
-    """FrameStats from tf2's allFramesAsYAML text ('{}' / '[]' / '' when empty)."""
-    import yaml
-
-    data = yaml.safe_load(text) if text and text.strip() else None
-    if not data or not isinstance(data, dict):
-        return []
-    out = []
-    for child, d in data.items():
-        d = d or {}
-        out.append(FrameStat(
-            child=str(child), parent=str(d.get("parent", "")),
-            broadcaster=str(d.get("broadcaster", "no recorded authority")),
-            rate=float(d.get("rate", 0.0)), most_recent=float(d.get("most_recent_transform", 0.0)),
-            oldest=float(d.get("oldest_transform", 0.0)), buffer_length=float(d.get("buffer_length", 0.0)),
-            delay=float(d["transform_delay"]) if "transform_delay" in d else None,
-        ))
-    return out
-
-
 def frame_trees(stats: Sequence[FrameStat]) -> list[tuple[str, list[FrameStat]]]:
     """Group edges into trees: [(root, edges in depth-first order)], roots sorted; cycles kept too."""
     by_parent: dict[str, list[FrameStat]] = {}
@@ -230,8 +189,9 @@ def _q(name: str) -> str:
 _TREE_COLOURS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"]
 
 
-def frames_dot(stats: Sequence[FrameStat], recorded_at: float | None = None) -> str:
-    """view_frames DOT: one cluster per disconnected tree, every edge labelled with its figures."""
+def frames_dot(stats: Sequence[FrameStat], recorded_at: float | None = None, clock: str = "") -> str:
+    """view_frames DOT: one cluster per disconnected tree, every edge labelled with its figures; ``clock``
+    names the clock of the recording time and the ages."""
     if not stats:
         return 'digraph G {\n  "No tf data received";\n}\n'
     out = ["digraph G {", "  rankdir=TB;", '  node [shape=ellipse, fontname="Helvetica"];',
@@ -256,10 +216,13 @@ def frames_dot(stats: Sequence[FrameStat], recorded_at: float | None = None) -> 
             label = (f"Broadcaster: {_esc(e.broadcaster)}\\nAverage rate: {e.rate:.3f} Hz\\n{recent}\\n"
                      f"Oldest transform: {e.oldest:.3f}\\nBuffer length: {e.buffer_length:.3f} sec\\n")
             out.append(f'  {_q(e.parent)} -> {_q(e.child)} [label="{label}", color="{colour}"];')
-    if recorded_at is not None:
+    if recorded_at is not None or clock:
         out.append("  subgraph cluster_legend {")
         out.append('    style=bold; color=black; label="view_frames Result";')
-        out.append(f'    "Recorded at time: {recorded_at:.3f}" [shape=plaintext];')
+        if recorded_at is not None:
+            out.append(f'    "Recorded at time: {recorded_at:.3f}" [shape=plaintext];')
+        if clock:
+            out.append(f'    {_q("Clock: " + clock)} [shape=plaintext];')
         out.append("  }")
     out.append("}")
     return "\n".join(out) + "\n"
@@ -329,10 +292,8 @@ def format_hz(arrivals: Sequence[float]) -> str | None:
             f"\tmin: {min(deltas):.3f}s max: {max(deltas):.3f}s std dev: {std:.5f}s window: {len(arrivals)}")
 
 
-def _sec(t: object) -> float:
-    if hasattr(t, "nanoseconds"):
-        return t.nanoseconds / 1e9  # type: ignore[attr-defined]
-    return float(t)  # type: ignore[arg-type]
+def _sec(t: Any) -> float:
+    return t.nanoseconds / 1e9
 
 
 def stats_from_frame_info(infos: Iterable[Mapping]) -> list[FrameStat]:

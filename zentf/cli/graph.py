@@ -21,7 +21,7 @@ __all__ = ["graph"]
 @with_options
 def graph(output: Optional[str], print_dot: bool, show_all: bool, wait: float, *, opts: CliOptions) -> None:
     """The node <-> topic graph: who publishes (node -> topic) and subscribes (topic -> node)."""
-    from .format import NodeDesc, format_node_graph, node_graph_dot
+    from .format import NodeDesc, format_node_graph, node_graph_dot, printable
     from .introspect import graph_namespace, graph_snapshot
     from .node import is_hidden
 
@@ -39,4 +39,4 @@ def graph(output: Optional[str], print_dot: bool, show_all: bool, wait: float, *
         dot_path, img_path, problem = write_graph(dot_text, output, "graph")
         print(f"Wrote {dot_path}" + (f" and {img_path}" if img_path else ""))
         if problem:
-            sys.stderr.write(f"zentf: warning: {problem}\n")
+            sys.stderr.write(f"zentf: warning: {printable(problem)}\n")

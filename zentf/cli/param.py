@@ -7,6 +7,7 @@ from typing import Any, Iterator, Optional
 import click
 
 from .common import CONTEXT_SETTINGS, CliError, CliOptions, finite_float, liveliness_wait_option, with_options
+from .format import printable  # parameter names and values come from the node: never raw on the terminal
 
 __all__ = ["param"]
 
@@ -60,6 +61,9 @@ def _reach(node: Any, fq: str, timeout: float) -> Any:
 def _client(opts: CliOptions, node_name: str, timeout: float) -> Iterator[Any]:
     """A ParameterClient of NODE (name in --namespace, or /ns/name)."""
     fq = _fq(opts, node_name)
+    from .introspect import require_node
+
+    require_node(opts, fq)  # not running: say so now, the timeout is for a node that is there
     with _tool_node(opts) as node:
         yield _reach(node, fq, timeout)
 
@@ -89,7 +93,7 @@ def param_list(node_name: Optional[str], timeout: float, wait: float, *, opts: C
     if node_name is not None:
         with _client(opts, node_name, timeout) as client:
             for name in _call(client.list, timeout):
-                print(f"  {name}")
+                print(f"  {printable(name)}")
         return
     from .introspect import graph_namespace, graph_snapshot
     from .node import is_hidden
@@ -100,9 +104,9 @@ def param_list(node_name: Optional[str], timeout: float, wait: float, *, opts: C
             if not any(s.endswith("/list_parameters") for s, _ in nodes[fq].services):
                 continue
             names = _call(_reach(tool, fq, timeout).list, timeout)
-            print(f"{fq}:")
+            print(f"{printable(fq)}:")
             for name in names:
-                print(f"  {name}")
+                print(f"  {printable(name)}")
 
 
 @param.command("get", context_settings=CONTEXT_SETTINGS)
@@ -119,10 +123,10 @@ def param_get(node_name: str, name: str, hide_type: bool, timeout: float, *, opt
         raise CliError(f"parameter {name} is not set on {_fq(opts, node_name)}")
     text = _yaml(value) if not isinstance(value, str) else value
     if hide_type:
-        print(text)
+        print(printable(text))
     else:
         kind = _KIND.get(type(value), "Array")
-        print(f"{kind} value is: {text}")
+        print(f"{kind} value is: {printable(text)}")
 
 
 @param.command("set", context_settings={**CONTEXT_SETTINGS, "ignore_unknown_options": True})  # VALUE may be -1

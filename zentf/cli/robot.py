@@ -10,7 +10,7 @@ from typing import Any
 
 import click
 
-from .common import CliError
+from .common import CliError, outer_argv
 
 __all__ = ["robot_state_publisher", "joint_state_publisher"]
 
@@ -36,7 +36,7 @@ def _start(name: str, args: list[str], *, model_optional: bool = False, check: b
 @click.pass_context
 def robot_state_publisher(ctx: click.Context) -> int:
     """robot_state_publisher: URDF + joint_states -> tf, tf_static, robot_description."""
-    rsp, p, _ = _start("robot_state_publisher", list(ctx.args))
+    rsp, p, _ = _start("robot_state_publisher", [*outer_argv(), *ctx.args])
     return 0 if p is None else rsp.run(p)
 
 
@@ -45,5 +45,5 @@ def robot_state_publisher(ctx: click.Context) -> int:
 @click.pass_context
 def joint_state_publisher(ctx: click.Context) -> int:
     """joint_state_publisher (and its GUI as a local web page)."""
-    jsp, p, initial = _start("joint_state_publisher", list(ctx.args), model_optional=True, check=True)
+    jsp, p, initial = _start("joint_state_publisher", [*outer_argv(), *ctx.args], model_optional=True, check=True)
     return 0 if p is None else jsp.run(p, initial)

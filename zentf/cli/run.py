@@ -6,7 +6,7 @@ import importlib
 import click
 
 from ..tools.programs import PROGRAMS, module_of
-from .common import CliError
+from .common import CliError, outer_argv
 
 __all__ = ["run"]
 
@@ -42,4 +42,4 @@ def run(ctx: click.Context) -> int:
         raise CliError(str(exc.args[0]), code=2) from None
     from ..transport.program import finish
 
-    finish(module.main(args[1:]))
+    finish(module.main([*outer_argv(), *args[1:]]))

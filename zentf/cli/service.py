@@ -4,6 +4,7 @@ from __future__ import annotations
 import click
 
 from .common import CONTEXT_SETTINGS, CliError, CliOptions, finite_float, liveliness_wait_option, with_options
+from .format import printable  # service names and types come from the graph: never raw on the terminal
 
 __all__ = ["service"]
 
@@ -55,7 +56,7 @@ def service_list(show_types: bool, show_all: bool, count_only: bool, wait: float
         print(len(services))
         return
     for name in sorted(services):
-        print(f"{name} [{', '.join(sorted(services[name]))}]" if show_types else name)
+        print(printable(f"{name} [{', '.join(sorted(services[name]))}]" if show_types else name))
 
 
 @service.command("type", context_settings=CONTEXT_SETTINGS)
@@ -69,7 +70,7 @@ def service_type_cmd(name: str, wait: float, *, opts: CliOptions) -> None:
     if not types:
         raise CliError(f"unknown service {full}: no live server has that name (see 'zentf service list')")
     for t in sorted(types):
-        print(t)
+        print(printable(t))
 
 
 @service.command("call", context_settings=CONTEXT_SETTINGS)
@@ -96,11 +97,14 @@ def service_call(name: str, type_name: str, values: str, timeout: float, *, opts
 
     request = parse_message(srv.Request.TYPE_NAME, values)  # one CliError line (exit 2) naming what is wrong
     full = _full_name(opts, name)
+    from .introspect import require_service
+
+    require_service(opts, full)  # nobody offers it: say so now, the timeout is for a server that is there
     node = open_node(opts, "service")
     try:
         client = node.create_client(full, srv)
         if not client.wait_for_service(timeout):
-            raise CliError(f"service {full} is not available (waited {timeout:g} s; see 'zentf service list')")
+            raise CliError(f"service {printable(full)} is in the graph but not reachable (waited {timeout:g} s)")
         print(f"requester: making request: {request!r}")
         try:
             response = client.call(request, timeout=timeout)

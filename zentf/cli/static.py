@@ -14,5 +14,7 @@ def static_transform_publisher(ctx: click.Context) -> int:
     """tf2_ros static_transform_publisher: flags or positional forms, plus the node options."""
     from ..tools.static_transform_publisher import main as node_main
 
-    rv = node_main(list(ctx.args))
+    from .common import outer_argv
+
+    rv = node_main([*outer_argv(), *ctx.args])
     return rv if isinstance(rv, int) else 0

@@ -1,42 +1,52 @@
-"""`zentf tf echo | monitor | frames`: tf2_echo, tf2_monitor and view_frames over Zenoh."""
+"""`zentf tf echo | monitor | frames | doctor | why`: tf2_echo, tf2_monitor, view_frames and the tf doctor over Zenoh."""
 from __future__ import annotations
 
 import sys
 import time
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any, Callable, Optional
 
 import click
 
-from .common import CONTEXT_SETTINGS, CliError, CliOptions, NumberArgsCommand, StampSeconds, finite_float, status, with_options
+from .common import CONTEXT_SETTINGS, CliError, CliOptions, StampSeconds, finite_float, status, with_options
+from .tf_topics import TfToolCommand, TfTopics, open_tf_listeners, tf_topic_options
+from .toolclock import ToolClock, use_sim_time_option
 
 __all__ = ["tf"]
 
 
 @click.group("tf", context_settings=CONTEXT_SETTINGS)
 def tf() -> None:
-    """Transforms: echo (tf2_echo), monitor (tf2_monitor), frames (view_frames)."""
+    """Transforms: echo (tf2_echo), monitor (tf2_monitor), frames (view_frames), doctor, why.
+
+    Every tf tool reads the namespace's tf and tf_static, or the topics --tf-topic /
+    --tf-static-topic / --ros-args -r /tf:=TOPIC name, or every namespace's (--all-namespaces).
+    """
 
 
-def _listen(opts: CliOptions, tool: str) -> tuple[Any, Any, Any]:
-    """Node + Buffer + TransformListener (tf and tf_static of the namespace)."""
+def _listen(opts: CliOptions, tool: str, topics: Optional[TfTopics] = None) -> tuple[Any, Any, Any]:
+    """Node + Buffer + TransformListeners (the namespace's tf and tf_static, or ``topics``)."""
     from zentf.transport.buffer import Buffer
-    from zentf.transport.listener import TransformListener
 
     from .common import open_node
 
     node = open_node(opts, tool)
     try:
         buffer = Buffer()
-        listener = TransformListener(buffer, node)
+        listeners = open_tf_listeners(buffer, node, topics or TfTopics())
+    except ValueError as exc:  # a bad topic pattern
+        node.shutdown()
+        raise CliError(str(exc), code=2) from exc
     except BaseException:
         node.shutdown()
         raise
-    return node, buffer, listener
+    return node, buffer, listeners
 
 
 def _close(node: Any, listener: Any = None) -> None:
-    for obj, meth in ((listener, "unregister"), (node, "shutdown")):
+    listeners = listener if isinstance(listener, list) else [listener]
+    calls = [(obj, "unregister") for obj in listeners] + [(node, "shutdown")]
+    for obj, meth in calls:
         fn = getattr(obj, meth, None) if obj is not None else None
         if fn is not None:
             try:
@@ -45,7 +55,7 @@ def _close(node: Any, listener: Any = None) -> None:
                 pass
 
 
-@tf.command("echo", cls=NumberArgsCommand, context_settings=CONTEXT_SETTINGS)
+@tf.command("echo", cls=TfToolCommand, context_settings=CONTEXT_SETTINGS)
 @click.argument("source")
 @click.argument("target")
 @click.argument("rate_arg", metavar="[RATE]", required=False, type=finite_float(min=0.001))
@@ -65,10 +75,12 @@ def _close(node: Any, listener: Any = None) -> None:
               help="With --bag: load only transforms stamped from this time (s) on (statics always).")
 @click.option("--end", "end", type=StampSeconds(), default=None,
               help="With --bag: load only transforms stamped up to this time (s).")
+@tf_topic_options
+@use_sim_time_option
 @with_options
 def echo(source: str, target: str, rate_arg: Optional[float], rate: float, precision: int,
          at_time: Optional[float], count: Optional[int], timeout: Optional[float], bag_file: Optional[str],
-         start: Optional[float], end: Optional[float], *, opts: CliOptions) -> None:
+         start: Optional[float], end: Optional[float], use_sim_time: bool, *, tf_topics: TfTopics, opts: CliOptions) -> None:
     """Print the pose of TARGET in SOURCE at a fixed rate, like tf2_echo.
 
     As in tf2_echo the first argument is the frame the result is expressed in
@@ -88,23 +100,23 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
         return
     if start is not None or end is not None:
         raise click.BadParameter("only with --bag", param_hint="'--start'/'--end'")
-    node, buffer, listener = _listen(opts, "tf_echo")
+    node, buffer, listener = _listen(opts, "tf_echo", tf_topics)
+    clock = None
     try:
+        clock = ToolClock(node, use_sim_time)
         when = Time() if at_time is None else Time.from_sec(at_time)
         period = 1.0 / (rate_arg if rate_arg is not None else rate)
 
         def show(ts: Any) -> None:
             tr, rot = ts.transform.translation, ts.transform.rotation
-            stamp = ts.header.stamp
-            stamp_ns = stamp.nanoseconds if hasattr(stamp, "nanoseconds") else int(stamp)
-            sys.stdout.write(format_echo(stamp_ns, (tr.x, tr.y, tr.z), (rot.x, rot.y, rot.z, rot.w), precision)
-                             + "\n")
+            xyzw = (rot.x, rot.y, rot.z, rot.w)
+            sys.stdout.write(format_echo(ts.header.stamp.nanoseconds, (tr.x, tr.y, tr.z), xyzw, precision) + "\n")
             sys.stdout.flush()
 
         # Phase 1: wait for the first transform (woken by every insert), saying why once a second.
         started = time.monotonic()
         deadline = None if timeout is None else started + timeout
-        last_reason, last_reason_at = "", float("-inf")
+        last_reason_at = float("-inf")
         first = None
         with status(f"Waiting for transform {source} -> {target}") as st:
             while first is None and node.ok():
@@ -118,10 +130,10 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
                     now = time.monotonic()
                     if deadline is not None and now >= deadline:
                         raise CliError(f"no transform {source} -> {target} after {timeout:g} s: {reason}") from exc
-                    if reason != last_reason or now - last_reason_at >= 1.0:
+                    if now - last_reason_at >= 1.0:  # at most once a second, even as the reason changes
                         sys.stderr.write(printable(f"Waiting for transform {source} -> {target}: {reason}") + "\n")
                         sys.stderr.flush()
-                        last_reason, last_reason_at = reason, now
+                        last_reason_at = now
                     left = "" if deadline is None else f" ({max(0.0, deadline - now):.1f} s left)"
                     st.update(printable(f"Waiting for transform {source} -> {target}{left}: {reason}"))
         if first is None:  # Ctrl-C / SIGTERM while waiting
@@ -140,9 +152,13 @@ def echo(source: str, target: str, rate_arg: Optional[float], rate: float, preci
                 show(buffer.lookup_transform(source, target, when))
                 printed += 1
             except TransformException as exc:
-                sys.stderr.write(printable(f"Failure at {time.time():.6f}: {' '.join(str(exc).split())}") + "\n")
+                now_ns = clock.now_ns()  # tf2_echo prints its node's now(): /clock time under sim time
+                at = f"{now_ns / 1e9:.6f}" if now_ns is not None else "sim time 0 (no /clock yet)"
+                sys.stderr.write(printable(f"Failure at {at}: {' '.join(str(exc).split())}") + "\n")
                 sys.stderr.flush()
     finally:
+        if clock is not None:
+            clock.close()
         _close(node, listener)
 
 
@@ -237,68 +253,88 @@ def write_graph(dot_text: str, output: Optional[str], default_stem: str) -> tupl
     return dot_path, (None if problem else img_path), problem
 
 
-def _frame_stats(buffer: Any) -> list:
-    """view_frames' per-edge figures from the buffer (frame_info, else tf2's YAML report)."""
-    from .format import parse_frames_yaml, stats_from_frame_info
-
-    if hasattr(buffer, "frame_info"):
-        return stats_from_frame_info(buffer.frame_info())
-    return parse_frames_yaml(buffer.all_frames_as_yaml())
-
-
-@tf.command("frames", context_settings=CONTEXT_SETTINGS)
+@tf.command("frames", cls=TfToolCommand, context_settings=CONTEXT_SETTINGS)
 @click.option("--output", "-o", default=None, metavar="NAME",
               help="Write NAME.gv and NAME.pdf (a .svg/.png suffix picks that format). Default: frames_<date>.")
 @click.option("--wait", "-w", "--wait-time", type=finite_float(min=0.0), default=5.0, show_default=True,
               help="Seconds to listen before writing.")
 @click.option("--print", "-P", "print_tree", is_flag=True, help="Also print the frame tree as text.")
+@tf_topic_options
+@use_sim_time_option
 @with_options
-def frames(output: Optional[str], wait: float, print_tree: bool, *, opts: CliOptions) -> None:
+def frames(output: Optional[str], wait: float, print_tree: bool, use_sim_time: bool, *, tf_topics: TfTopics, opts: CliOptions) -> None:
     """Listen for a while, then write the frame tree as Graphviz DOT and an image, like view_frames.
 
     Every edge is labelled with its broadcaster, average rate, most recent and oldest transform
     and buffer length; disconnected trees are drawn as separate clusters.
     """
-    from .format import format_frame_tree, frames_dot
+    from .format import format_frame_tree, frames_dot, printable, stats_from_frame_info
 
-    node, buffer, listener = _listen(opts, "view_frames")
+    node, buffer, listener = _listen(opts, "view_frames", tf_topics)
+    clock = None
     try:
+        clock = ToolClock(node, use_sim_time)
         deadline = time.monotonic() + wait
         with status(f"Listening to tf for {wait:g} s") as st:
             while (left := deadline - time.monotonic()) > 0 and node.ok():
                 st.update(f"Listening to tf for {wait:g} s ({left:.1f} s left)")
                 time.sleep(min(0.1, left))
-        stats = _frame_stats(buffer)
-        recorded = _now_sec(node)
+        stats = stats_from_frame_info(buffer.frame_info())  # view_frames' per-edge figures
+        now_ns = clock.now_ns()  # the ages' "now": /clock time once a clock is published
+        recorded = None if now_ns is None else now_ns / 1e9
+        clock_label = clock.label()
         interrupted = not node.ok()
     finally:
+        if clock is not None:
+            clock.close()
         _close(node, listener)
     if not stats:
         if interrupted:
             raise CliError("stopped before any tf data was received", code=130)
-        raise CliError(f"no tf data received in {wait:g} s (is anything publishing on "
-                       f"{_tf_topics(opts)}?)")
+        raise CliError(f"no tf data received in {wait:g} s on {_tf_topics(opts, tf_topics)}{_other_tf_topics(opts)}")
     stem = time.strftime("frames_%Y-%m-%d_%H.%M.%S")
-    dot_path, img_path, problem = write_graph(frames_dot(stats, recorded), output, stem)
+    dot_path, img_path, problem = write_graph(frames_dot(stats, recorded, clock_label), output, stem)
     if print_tree:
         print(format_frame_tree(stats))
     print(f"Wrote {dot_path}" + (f" and {img_path}" if img_path else ""))
     if problem:
-        sys.stderr.write(f"zentf: warning: {problem}\n")
+        sys.stderr.write(f"zentf: warning: {printable(problem)}\n")
 
 
-def _now_sec(node: Any) -> float:
-    try:
-        return node.get_clock().now().nanoseconds / 1e9
-    except Exception:  # noqa: BLE001
-        return time.time()
-
-
-def _tf_topics(opts: CliOptions) -> str:
+def _tf_topics(opts: CliOptions, topics: Optional[TfTopics] = None) -> str:
     import os
 
     ns = (opts.namespace if opts.namespace is not None else os.environ.get("ZENTF_NAMESPACE", "")).strip("/")
-    return f"/{ns}/tf and /{ns}/tf_static" if ns else "/tf and /tf_static"
+    return (topics or TfTopics()).describe(ns)
+
+
+def _other_tf_topics(opts: CliOptions, shown: int = 6) -> str:
+    """Where tf is published instead (e.g. under robot namespaces), from the graph: the hint a user
+    needs when nothing is on the topics listened to."""
+    import os
+
+    from zentf.transport.names import normalize_namespace
+
+    from .format import printable
+    from .introspect import graph_snapshot
+
+    try:
+        _, topics = graph_snapshot(opts, 1.0, None)
+    except CliError:
+        return ""
+    ns = normalize_namespace(opts.namespace if opts.namespace is not None
+                             else os.environ.get("ZENTF_NAMESPACE", ""))
+    ns = "/" + ns if ns else ""
+    listened = {f"{ns}/tf", f"{ns}/tf_static"}
+    found = sorted((not name.startswith(ns + "/"), name) for name, info in topics.items()
+                   if name.rsplit("/", 1)[-1] in ("tf", "tf_static") and info.publishers and name not in listened)
+    if not found:
+        return " (nothing in the graph publishes tf)"
+    names = [name for _, name in found]
+    more = f" and {len(names) - shown} more" if len(names) > shown else ""
+    example = names[0].rsplit("/", 1)[0].strip("/")
+    return (f"; tf is published on {', '.join(printable(n) for n in names[:shown])}{more} "
+            f"(e.g. zentf -n {printable(example)} tf frames)")
 
 
 # --------------------------------------------------------------------------------------------
@@ -323,41 +359,53 @@ class _FrameFigures:
 class MonitorStats:
     """A BufferCore stand-in for wire.ingest_tf: records per-frame and per-node figures, then forwards.
 
-    Delay = receive wall time - header stamp (0 for tf_static, as in ROS 1 tf_monitor).
+    Delay = receive time - header stamp (0 for tf_static, as in ROS 1 tf_monitor), the receive time read
+    from ``clock`` (ns, or None while a sim clock has not ticked yet: no delay is recorded then).
     """
 
-    def __init__(self, forward: Any = None, window: float = 10.0) -> None:
+    def __init__(self, forward: Any = None, window: float = 10.0,
+                 clock: Callable[[], Optional[int]] = time.time_ns) -> None:
         import threading
 
         self.forward = forward
         self.window = window
+        self.clock = clock
         self.lock = threading.Lock()
         self.frames: dict[str, _FrameFigures] = {}
         self.nodes: dict[str, _FrameFigures] = {}
         self.messages = 0
 
-    def set_transforms_raw(self, samples: list, authority: str, is_static: bool) -> int:
-        now_ns = time.time_ns()
-        mono = time.monotonic()
+    def reset_delays(self) -> None:
+        """Forget the delays gathered so far (they were against another clock)."""
         with self.lock:
+            for figures in (*self.frames.values(), *self.nodes.values()):
+                figures.delays.clear()
+
+    def set_transforms_raw(self, samples: list, authority: str, is_static: bool) -> int:
+        mono = time.monotonic()
+        with self.lock:  # the clock read under the lock: a switch's reset_delays never misses a wall delay
+            now_ns = self.clock()
             self.messages += 1
             total = 0.0
+            timed = is_static or now_ns is not None
             for s in samples:
                 parent, child, stamp = s[0], s[1], s[2]
                 f = self.frames.get(child)
                 if f is None:
                     f = self.frames[child] = _FrameFigures()
                 f.parent, f.authority, f.static = parent, authority, is_static
-                delay = 0.0 if is_static else (now_ns - stamp) / 1e9
                 f.arrivals.append(mono)
-                f.delays.append(delay)
-                total += delay
+                if timed:
+                    delay = 0.0 if is_static else (now_ns - stamp) / 1e9
+                    f.delays.append(delay)
+                    total += delay
             n = self.nodes.get(authority)
             if n is None:
                 n = self.nodes[authority] = _FrameFigures()
             n.static = is_static
             n.arrivals.append(mono)
-            n.delays.append(total / max(1, len(samples)))
+            if timed:
+                n.delays.append(total / max(1, len(samples)))
         if self.forward is not None:
             return self.forward.set_transforms_raw(samples, authority, is_static)
         return len(samples)
@@ -400,11 +448,14 @@ def _fmt_rate(rate: Optional[float], static: bool) -> str:
 
 
 def format_monitor_text(stats: MonitorStats, title: str, chain: Optional[list[str]] = None,
-                        net: Optional[tuple[float, float]] = None) -> str:
-    """The plain-text tf2_monitor report (used when stdout is not a terminal)."""
+                        net: Optional[tuple[float, float]] = None, clock: str = "") -> str:
+    """The plain-text tf2_monitor report (used when stdout is not a terminal); ``clock`` says which
+    clock the delays are in."""
     from .format import printable
 
     lines = [f"RESULTS: {printable(title)}"]
+    if clock:
+        lines.append(f"Clock: {clock}")
     if chain is not None:
         lines.append("Chain is: " + " -> ".join(printable(f) for f in chain))
         if net is not None:
@@ -429,7 +480,7 @@ def format_monitor_text(stats: MonitorStats, title: str, chain: Optional[list[st
 
 
 def _monitor_table(stats: MonitorStats, title: str, chain: Optional[list[str]],
-                   net: Optional[tuple[float, float]]) -> Any:
+                   net: Optional[tuple[float, float]], clock: str = "") -> Any:
     """The live rich view: frames table (+ chain/net delay caption)."""
     from rich.markup import escape
     from rich.table import Table
@@ -442,7 +493,8 @@ def _monitor_table(stats: MonitorStats, title: str, chain: Optional[list[str]],
         caption = escape("Chain: " + " -> ".join(printable(f) for f in chain))
         caption += (f"   net delay avg {net[0] * 1e3:.3f} ms, max {net[1] * 1e3:.3f} ms" if net
                     else "   net delay n/a (static chain)")
-    table = Table(title=escape(f"zentf tf monitor: {printable(title)}"), caption=caption, expand=False)
+    heading = f"zentf tf monitor: {printable(title)}" + (f"\ndelays in {clock}" if clock else "")
+    table = Table(title=escape(heading), caption=caption, expand=False)
     for col, justify in (("Frame", "left"), ("Parent", "left"), ("Broadcaster", "left"), ("Rate (Hz)", "right"),
                          ("Avg delay (ms)", "right"), ("Max delay (ms)", "right")):
         table.add_column(col, justify=justify)  # type: ignore[arg-type]
@@ -452,21 +504,31 @@ def _monitor_table(stats: MonitorStats, title: str, chain: Optional[list[str]],
     return table
 
 
-def _subscribe_tf(node: Any, stats: MonitorStats) -> list:
+def _subscribe_tf(node: Any, stats: MonitorStats, topics: Optional[TfTopics] = None) -> list:
     """Subscribe tf (plain) and tf_static (latched history) and feed wire.ingest_tf into `stats`."""
     import zenoh.ext as zx
 
-    from zentf.core.messages import TFMessage
+    from zentf.transport.listener import wire_key
 
     profile = node.wire  # zentf's format or ROS 2's (--wire ros2)
+    topics = topics or TfTopics()
     subs = []
-    for topic, is_static in (("tf_static", True), ("tf", False)):
-        key = profile.data_key(node.resolve_topic_name(topic), TFMessage.TYPE_NAME)
+    authority = profile.authority
+    if profile.name == "ros2":  # name each publisher by its node: the GID in the attachment, through the tokens
+        import threading
+
+        from zentf.tools.doctor import GraphTap
+        from zentf.tools.doctor.evidence import GraphView
+
+        names = GraphTap(node.session, profile, GraphView(), threading.Lock())
+        subs.append(names)
+        authority = lambda att, key: names.publisher(att)  # noqa: E731
+    for topic, is_static in [*((t, True) for t in topics.static), *((t, False) for t in topics.dynamic)]:
+        key = wire_key(node, topic)
 
         def on_sample(sample: Any, is_static: bool = is_static, key: str = key) -> None:
             try:
-                profile.ingest_tf(sample.payload.to_bytes(), stats,
-                                  profile.authority(sample.attachment, key), is_static)
+                profile.ingest_tf(sample.payload.to_bytes(), stats, authority(sample.attachment, key), is_static)
             except Exception:  # noqa: BLE001 - bad payloads are the publisher's problem, never ours
                 pass
 
@@ -478,7 +540,7 @@ def _subscribe_tf(node: Any, stats: MonitorStats) -> list:
     return subs
 
 
-@tf.command("monitor", context_settings=CONTEXT_SETTINGS)
+@tf.command("monitor", cls=TfToolCommand, context_settings=CONTEXT_SETTINGS)
 @click.argument("frame_a", required=False)
 @click.argument("frame_b", required=False)
 @click.option("--duration", "-d", type=finite_float(min=0.0, min_open=True), default=None,
@@ -487,9 +549,11 @@ def _subscribe_tf(node: Any, stats: MonitorStats) -> list:
               help="Seconds between reports when stdout is not a terminal.")
 @click.option("--window", type=finite_float(min=0.5), default=10.0, show_default=True,
               help="Seconds of arrivals used for the rates.")
+@tf_topic_options
+@use_sim_time_option
 @with_options
 def monitor(frame_a: Optional[str], frame_b: Optional[str], duration: Optional[float], period: float,
-            window: float, *, opts: CliOptions) -> None:
+            window: float, use_sim_time: bool, *, tf_topics: TfTopics, opts: CliOptions) -> None:
     """Live table of every frame: parent, broadcaster, rate, average and max delay, like tf2_monitor.
 
     With FRAME_A FRAME_B it also shows the chain between them and its net delay (now - stamp of
@@ -502,6 +566,7 @@ def monitor(frame_a: Optional[str], frame_b: Optional[str], duration: Optional[f
     pair = (frame_a, frame_b) if frame_a and frame_b else None
     node = open_node(opts, "tf_monitor")
     subs: list = []
+    clock = None
     try:
         buffer = None
         if pair:
@@ -509,19 +574,26 @@ def monitor(frame_a: Optional[str], frame_b: Optional[str], duration: Optional[f
 
             buffer = Buffer()
         stats = MonitorStats(buffer, window)
-        subs = _subscribe_tf(node, stats)
-        _run_monitor(stats, buffer, pair, duration, period, node.ok)
+        clock = ToolClock(node, use_sim_time, on_switch=stats.reset_delays)
+        stats.clock = clock.now_ns
+        try:
+            subs = _subscribe_tf(node, stats, tf_topics)
+        except ValueError as exc:  # a bad topic pattern
+            raise CliError(str(exc), code=2) from exc
+        _run_monitor(stats, buffer, pair, duration, period, node.ok, clock)
     finally:
         for s in subs:
             try:
-                s.undeclare()
+                (s.close if hasattr(s, "publisher") else s.undeclare)()  # a GraphTap, or a subscriber
             except Exception:  # noqa: BLE001
                 pass
+        if clock is not None:
+            clock.close()
         _close(node)
 
 
 def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str]], duration: Optional[float],
-                 period: float, ok: Any = lambda: True) -> None:
+                 period: float, ok: Any = lambda: True, clock: Any = None) -> None:
     from collections import deque
 
     from rich.markup import escape
@@ -545,14 +617,20 @@ def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str
             ts = buffer.lookup_transform(pair[0], pair[1], 0)
             chain = buffer.chain_as_vector(pair[0], 0, pair[1], 0, pair[0])
             stamp = ts.header.stamp.nanoseconds
-            if stamp:
-                net.append((time.time_ns() - stamp) / 1e9)
+            now = stats.clock()
+            if stamp and now is not None:
+                net.append((now - stamp) / 1e9)
             reason = ""
         except TransformException as exc:
             reason = " ".join(str(exc).split())
 
     def net_figures() -> Optional[tuple[float, float]]:
         return (sum(net) / len(net), max(net)) if net else None
+
+    def report() -> str:
+        return format_monitor_text(stats, title, chain, net_figures(), clock.label() if clock is not None else "")
+
+    was_sim = clock is not None and clock.is_sim
 
     live_tty = sys.stdout.isatty()
     if live_tty:
@@ -562,6 +640,9 @@ def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str
         console = Console()
         with Live(console=console, refresh_per_second=4, transient=False) as live:
             while (end is None or time.monotonic() < end) and ok():
+                if clock is not None and clock.is_sim != was_sim:  # /clock appeared: the chain's delays too
+                    was_sim = True
+                    net.clear()
                 sample_chain()
                 if pair and chain is None:
                     live.update(escape(printable(f"Waiting for transform {pair[0]} -> {pair[1]}: "
@@ -569,12 +650,16 @@ def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str
                 elif not stats.frames:
                     live.update("Waiting for tf data...")
                 else:
-                    live.update(_monitor_table(stats, title, chain, net_figures()))
+                    live.update(_monitor_table(stats, title, chain, net_figures(),
+                                               clock.label() if clock is not None else ""))
                 time.sleep(0.1)
     else:
         next_report = started + period
         last_wait_msg = 0.0
         while (end is None or time.monotonic() < end) and ok():
+            if clock is not None and clock.is_sim != was_sim:  # /clock appeared: the chain's delays too
+                was_sim = True
+                net.clear()
             sample_chain()
             now = time.monotonic()
             if pair and chain is None and reason and now - last_wait_msg >= 1.0:
@@ -583,16 +668,26 @@ def _run_monitor(stats: MonitorStats, buffer: Any, pair: Optional[tuple[str, str
                 last_wait_msg = now
             if end is None and now >= next_report:
                 if stats.frames:
-                    print(format_monitor_text(stats, title, chain, net_figures()) + "\n", flush=True)
+                    print(report() + "\n", flush=True)
                 next_report += period
             time.sleep(0.05)
     if not ok():  # stopped by Ctrl-C / SIGTERM: a last report if there is anything to report
         if stats.frames and not live_tty:
-            print(format_monitor_text(stats, title, chain, net_figures()), flush=True)
+            print(report(), flush=True)
         return
     if not stats.frames:
         raise CliError(f"no tf data received in {duration:g} s" if duration else "no tf data received")
     if pair and chain is None:
         raise CliError(f"no transform {pair[0]} -> {pair[1]}: {reason or 'frames never connected'}")
     if not live_tty:
-        print(format_monitor_text(stats, title, chain, net_figures()), flush=True)
+        print(report(), flush=True)
+
+
+def _add_doctor() -> None:
+    from .tf_doctor import doctor, why
+
+    tf.add_command(doctor)
+    tf.add_command(why)
+
+
+_add_doctor()

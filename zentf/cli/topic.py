@@ -17,7 +17,7 @@ __all__ = ["topic", "resolve_type_name", "render_sample"]
 
 @click.group("topic", context_settings=CONTEXT_SETTINGS)
 def topic() -> None:
-    """Topics: list, info, echo, hz, pub."""
+    """Topics: list, info, type, find, echo, hz, pub."""
 
 
 def _resolve(opts: CliOptions, name: str) -> tuple[str, str]:
@@ -81,6 +81,39 @@ def topic_info(name: str, wait: float, *, opts: CliOptions) -> None:
         print(f"  {p(n)}")
 
 
+@topic.command("type", context_settings=CONTEXT_SETTINGS)
+@click.argument("name")
+@liveliness_wait_option
+@with_options
+def topic_type(name: str, wait: float, *, opts: CliOptions) -> None:
+    """The type of topic NAME, as its live publishers and subscribers declare it (ros2 topic type)."""
+    from .format import printable
+    from .introspect import graph_snapshot
+
+    fq, _ = _resolve(opts, name)
+    t = graph_snapshot(opts, wait, None)[1].get(fq)
+    if t is None:
+        raise CliError(f"unknown topic {fq}: no live node publishes or subscribes it")
+    for type_name in sorted(t.types) or ["?"]:
+        print(printable(type_name))
+
+
+@topic.command("find", context_settings=CONTEXT_SETTINGS)
+@click.argument("type_name", metavar="TYPE")
+@liveliness_wait_option
+@with_options
+def topic_find(type_name: str, wait: float, *, opts: CliOptions) -> None:
+    """The topics of type TYPE ('geometry_msgs/msg/Point' or 'geometry_msgs/Point'; ros2 topic find)."""
+    from .format import printable
+    from .introspect import graph_namespace, graph_snapshot
+
+    parts = type_name.strip().split("/")
+    want = {type_name.strip()} | ({f"{parts[0]}/msg/{parts[1]}"} if len(parts) == 2 else set())
+    for t in sorted(graph_snapshot(opts, wait, graph_namespace(opts))[1].values(), key=lambda t: t.name):
+        if want & set(t.types):
+            print(printable(t.name))
+
+
 def render_sample(payload: bytes, encoding: str, as_json: bool, key: str = "", profile: Any = None) -> str:
     """One received sample as YAML (ros2 topic echo style) or one JSON line; raw bytes if unknown.
     The wire ``profile`` (zentf's by default) decodes it: by the carried encoding, or (ros2) the key's type."""
@@ -92,15 +125,19 @@ def render_sample(payload: bytes, encoding: str, as_json: bool, key: str = "", p
         data = value.to_dict() if hasattr(value, "to_dict") else value
     except ValueError:
         known = False
+    from .format import printable
+
     if not known:
         if as_json:
             return json.dumps({"encoding": str(encoding), "size": len(payload), "raw_hex": payload.hex()})
-        return f"# raw payload: {len(payload)} bytes, encoding {encoding}\n{payload!r}\n---"
-    if as_json:
+        return f"# raw payload: {len(payload)} bytes, encoding {printable(encoding)}\n{payload!r}\n---"
+    if as_json:  # (json.dumps escapes every control and non-ASCII character)
         return json.dumps(data, default=_json_default, separators=(",", ":"))
     import yaml
 
-    return yaml.safe_dump(data, sort_keys=False, default_flow_style=False, allow_unicode=True).rstrip() + "\n---"
+    # YAML keeps NEL, bidi overrides and other format characters raw under allow_unicode: each line escaped
+    text = yaml.safe_dump(data, sort_keys=False, default_flow_style=False, allow_unicode=True).rstrip()
+    return "\n".join(printable(line) for line in text.split("\n")) + "\n---"
 
 
 def _json_default(obj: Any) -> Any:

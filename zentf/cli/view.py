@@ -17,12 +17,17 @@ import click
 
 from .bag import _stop_on_signals
 from .common import CONTEXT_SETTINGS, CliError, CliOptions, finite_float, node_options, with_options
+from .tf_topics import TfToolCommand, TfTopics, tf_topic_options
 
 __all__ = ["view"]
 
 
-@click.command("view", context_settings=CONTEXT_SETTINGS)
-@click.option("--fixed-frame", "-f", default="world", show_default=True, help="Frame the scene is drawn in.")
+@click.command("view", cls=TfToolCommand, context_settings=CONTEXT_SETTINGS)
+@click.option("--fixed-frame", "-f", default=None,
+              help="Frame the scene is drawn in, like RViz's Fixed Frame [default: world, map or odom if there, "
+                   "else the root of the largest tree].")
+@click.option("--labels/--no-labels", "labels", default=None,
+              help="Draw frame names [default: while at most 30 frames are shown].")
 @click.option("--web", is_flag=True, help="Serve the web viewer (open the printed URL in a browser).")
 @click.option("--web-port", type=click.IntRange(1, 65535), default=9090, show_default=True)
 @click.option("--grpc-port", type=click.IntRange(1, 65535), default=9876, show_default=True,
@@ -39,10 +44,11 @@ __all__ = ["view"]
 @click.option("--robot-description", default="robot_description", show_default=True, metavar="TOPIC",
               help="Draw the robot model (URDF text) latched on this topic; '' to draw none.")
 @click.option("--frame-prefix", default="", metavar="PREFIX", help="The robot's frames are PREFIX + link name.")
+@tf_topic_options
 @with_options
-def view(fixed_frame: str, web: bool, web_port: int, grpc_port: int, bind: str, save: Optional[str], rate: float,
+def view(fixed_frame: Optional[str], labels: Optional[bool], web: bool, web_port: int, grpc_port: int, bind: str, save: Optional[str], rate: float,
          axis_length: float, duration: Optional[float], use_sim_time: bool, robot_description: str,
-         frame_prefix: str, *, opts: CliOptions) -> None:
+         frame_prefix: str, *, tf_topics: TfTopics, opts: CliOptions) -> None:
     """Live 3D view of every tf frame (axes + names), marker arrays, points and the robot model, like RViz."""
     from zentf.tools.view import require_rerun
 
@@ -57,6 +63,7 @@ def view(fixed_frame: str, web: bool, web_port: int, grpc_port: int, bind: str, 
     from zentf.tools.view import Viewer
 
     nopts = node_options(opts, f"_zentf_view_{os.getpid()}")
+    nopts.params.update(tf_topics.params)
     if use_sim_time:
         nopts.params["use_sim_time"] = True
     try:
@@ -91,9 +98,15 @@ def view(fixed_frame: str, web: bool, web_port: int, grpc_port: int, bind: str, 
                   f"/?url={quote(grpc_url, safe='')}", flush=True)
         if save:
             print(f"saving to {save}", flush=True)
-        viewer = Viewer(node, rec, fixed_frame=fixed_frame, axis_length=axis_length,
-                        robot_description=robot_description or None, frame_prefix=frame_prefix)
-        print(f"viewing {node.get_namespace()} in fixed frame '{fixed_frame}' (Ctrl-C to stop)", flush=True)
+        viewer = Viewer(node, rec, fixed_frame=fixed_frame, axis_length=axis_length, label_frames=labels,
+                        robot_description=robot_description or None, frame_prefix=frame_prefix,
+                        tf_topics=[(d, s or d + "_static") if d else (None, s) for d, s in tf_topics.pairs()])
+        viewer.send_blueprint()  # one 3D view with a ground grid, before the first data
+        from .format import printable
+
+        where = (f"fixed frame '{printable(fixed_frame)}'" if fixed_frame
+                 else "fixed frame world, map or odom, else the root of the largest tree")
+        print(f"viewing {node.get_namespace()} in {where} (Ctrl-C to stop)", flush=True)
         with _stop_on_signals() as stop:
             if native is not None:  # closing the viewer window ends the view too
                 threading.Thread(target=lambda: (native.wait(), stop.set()), daemon=True).start()

@@ -1,5 +1,5 @@
 # Declarations of BufferCore (buffer_core.pyx) for compiled callers: the listener's decoder
-# (zentf/transport/ingest/tfwire.pyx) inserts decoded samples through ingest_*_c without building tuples.
+# (zentf/transport/ingest/handler.pyx) inserts decoded samples through ingest_*_c without building tuples.
 cimport cython
 from cpython.pythread cimport PyThread_type_lock
 from libc.stdint cimport int32_t, int64_t

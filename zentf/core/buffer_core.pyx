@@ -485,7 +485,7 @@ cdef class BufferCore:
         self._version += 1
         return 1
 
-    # decoded samples straight from a payload (zentf/transport/ingest/tfwire.pyx): set_transforms_raw without tuples
+    # decoded samples straight from a payload (zentf/transport/ingest/handler.pyx): set_transforms_raw without tuples
     cdef int ingest_begin_c(self) except -1:
         """Take the lock for a run of ingest_one_c calls."""
         self._lock.acquire_c()
@@ -1204,8 +1204,11 @@ cdef class BufferCore:
         now = _ns(current_time) if current_time is not None else 0
         with self._lock:
             infos = self._frame_info()
+            named = len(self._names) > 1
         if not infos:
-            return "{}"  # ROS 1 prints {} for an empty buffer (ROS 2 prints [])
+            # ROS 1 prints {} while no frame was ever named (ROS 2 prints []), and nothing once
+            # frames are known but none has data (every dynamic edge cleared)
+            return "" if named else "{}"
         out = []
         for i in infos:
             newest = i["most_recent_transform"].to_sec()

@@ -5,16 +5,24 @@ Here the first line of a key (reason and sender) prints at once, the next ones o
 ``period`` seconds are only counted, and the next line printed for the key says how many were
 suppressed. A global budget (``burst`` lines, refilled at ``rate`` lines a second) bounds floods of
 many keys (forged sender names), and the key table is bounded too. Checking costs a dict lookup and
-a clock read; nothing is formatted for a suppressed line. String arguments (frame ids, sender names)
-are printed escaped, so a name holding ESC, CR or LF cannot rewrite the terminal or forge log lines.
+a clock read; nothing is formatted for a suppressed line. Every argument but a number (frame ids,
+sender names, exceptions quoting a payload) is printed through ``zentf.core.text.printable``, so a
+name holding ESC, CR or LF cannot rewrite the terminal or forge log lines.
 """
 from __future__ import annotations
 
 import logging
+import numbers
 import time
 from typing import Any, Callable, Hashable
 
-__all__ = ["RateLimitedLogger", "escape"]
+from .text import printable
+
+__all__ = ["RateLimitedLogger"]
+
+#: Longest stretch of one argument in a log line: a megabyte frame id is still one short line.
+ARG_LIMIT = 256
+
 
 class RateLimitedLogger:
     """``log(level, key, fmt, *args)`` logs at most once per ``period`` s per key, with the suppressed count.
@@ -71,24 +79,14 @@ class RateLimitedLogger:
             self._suppressed.pop(k, None)
 
     def log(self, level: int, key: Hashable, msg: str, *args: Any) -> bool:
-        """Log ``msg % args`` unless suppressed, every str argument escaped; True if a line was written."""
+        """Log ``msg % args`` unless suppressed, every argument but numbers escaped (``printable``, cut at
+        ARG_LIMIT); True if a line was written."""
         n = self.allow(key)
         if n < 0:
             return False
-        args = tuple(escape(a) if type(a) is str else a for a in args)
+        args = tuple(a if isinstance(a, numbers.Number) else printable(a, ARG_LIMIT) for a in args)
         if n:
             msg += " (%d similar suppressed)"
             args = (*args, n)
         self.logger.log(level, msg, *args)
         return True
-
-
-def escape(text: Any, limit: int = 256) -> str:
-    """A name as it may appear in a log line: control characters escaped (repr-like), cut at ``limit``."""
-    if type(text) is not str:
-        text = str(text)
-    if len(text) > limit:
-        text = text[:limit] + f"...({len(text)} chars)"
-    if text.isprintable():
-        return text
-    return repr(text)[1:-1]

@@ -1,4 +1,4 @@
-# The stamp types as extension types: buffer_core and tfwire read and build them without attribute lookups.
+# The stamp types as extension types: buffer_core and the ingest path read and build them without attribute lookups.
 
 cdef class _Nanoseconds:
     cdef public object _ns

@@ -19,7 +19,7 @@ from ..transport.buffer import Buffer
 from ..core.exceptions import TransformException
 from ..transport.listener import TransformListener
 from ..core.messages import ColorRGBA, Header, Marker, MarkerArray, Point, Vector3
-from ..transport.node import RateLimitedLog
+from ..core.ratelimit import RateLimitedLogger
 from ..transport.options import NodeOptions
 from ..core.time import Time
 
@@ -50,7 +50,7 @@ def _run(opts: NodeOptions) -> None:
         pub = node.create_publisher(topic, MarkerArray)
         trails = {tid: collections.deque(maxlen=length) for tid, *_ in TRAILS}
         last_stamp: dict[int, int] = {}
-        complain = RateLimitedLog(log, 5.0)
+        complain = RateLimitedLogger(log, 5.0)
 
         def tick() -> None:
             markers = []
@@ -60,7 +60,7 @@ def _run(opts: NodeOptions) -> None:
                 try:
                     ts = buffer.lookup_transform(target, source, Time())
                 except TransformException as e:
-                    complain(f"{target}<-{source}", f"waiting for {source} in {target}: {e}", logging.INFO)
+                    complain.log(logging.INFO, (target, source), "waiting for %s in %s: %s", source, target, e)
                     continue
                 stamp = ts.header.stamp.nanoseconds
                 tr = ts.transform.translation

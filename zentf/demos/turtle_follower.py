@@ -20,7 +20,7 @@ from ..core.exceptions import TransformException
 from ..transport.listener import TransformListener
 from ..core.messages import TurtlePose, Twist, Vector3
 from ..core.services import Spawn
-from ..transport.node import RateLimitedLog
+from ..core.ratelimit import RateLimitedLogger
 from ..transport.options import NodeOptions
 from ..transport.service import ServiceException, ServiceTimeoutError, ServiceUnavailableError
 from ..core.time import Time
@@ -50,7 +50,7 @@ def _run(opts: NodeOptions) -> None:
                              theta=program.param_float(node, "spawn_theta", 0.0), name=me)
         buffer = Buffer()
         listener = TransformListener(buffer, node)  # noqa: F841  (kept alive by this frame)
-        complain = RateLimitedLog(log, 2.0)
+        complain = RateLimitedLogger(log, 2.0)
         cmd = node.create_publisher(f"{me}/cmd_vel", Twist)
         last_print = [-math.inf]
         alive = [False]
@@ -68,7 +68,7 @@ def _run(opts: NodeOptions) -> None:
             try:
                 ts = buffer.lookup_transform(me, target, Time())
             except TransformException as e:
-                complain("lookup", f"could not transform {target} to {me}: {e}", logging.INFO)
+                complain.log(logging.INFO, "lookup", "could not transform %s to %s: %s", target, me, e)
                 return
             x, y = ts.transform.translation.x, ts.transform.translation.y
             linear, angular = follow_command(x, y)

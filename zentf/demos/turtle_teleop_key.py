@@ -153,7 +153,8 @@ def _run(opts: NodeOptions) -> None:
 def _say_raw(fd: int, text: str, opened: bool) -> None:
     if opened:  # a launched node: its stdout is the launcher's pipe, the user looks at the terminal
         os.write(fd, (text.replace("\n", "\r\n") + "\r\n").encode())
-    program.say(text)
+    for line in text.split("\n"):
+        program.say(line)
 
 
 def _loop(node: object, fd: int, pub: object, linear: float, angular: float) -> None:

@@ -10,7 +10,10 @@ from typing import Any, Optional, Sequence
 
 import click
 
-from zentf.cli.common import CONTEXT_SETTINGS, CliError, CliOptions, NumberArgsCommand, clean_error, finite_float, node_options, with_options
+from zentf.cli.common import (CONTEXT_SETTINGS, CliError, CliOptions, NumberArgsCommand, clean_error, debug_requested,
+                              finite_float, node_options, with_options)
+
+from zentf.core.text import printable
 
 from .errors import LaunchError
 
@@ -20,8 +23,10 @@ log = logging.getLogger("zentf.launch")
 
 
 class _LaunchFormatter(logging.Formatter):
+    """``[launch] ...`` lines; names from the launch file or a child's exit escaped (``printable``)."""
+
     def format(self, record: logging.LogRecord) -> str:
-        text = record.getMessage()
+        text = printable(record.getMessage())
         if record.levelno >= logging.ERROR:
             return f"[launch] ERROR: {text}"
         if record.levelno >= logging.WARNING:
@@ -127,7 +132,7 @@ def launch(file: str, args: tuple[str, ...], print_only: bool, show_args: bool, 
     except LaunchError as exc:  # `FILE:LINE: what` alone on a line, whoever runs this command
         if opts.debug:
             raise
-        sys.stderr.write(f"{exc}\n" if exc.file else f"zentf launch: error: {exc}\n")
+        _say_error(str(exc) if exc.file else f"zentf launch: error: {exc}")
         raise click.exceptions.Exit(2) from None
     if code:
         raise click.exceptions.Exit(code)
@@ -217,6 +222,7 @@ def clock(command: str, factor: Optional[float], timeout: float, as_json: bool, 
         if factor is not None:
             raise click.UsageError(f"'{command}' takes no value")
         payload = command
+    _require_clock(opts)  # none in the graph: say so now, the timeout is for a clock that is there
     zopts = node_options(opts, "clock").zenoh
     try:  # a one-shot query, as the graph listings make (zentf.cli.common.open_graph_session)
         session, _ = zopts.open_query_session()
@@ -236,39 +242,64 @@ def clock(command: str, factor: Optional[float], timeout: float, as_json: bool, 
     return 0
 
 
+def _require_clock(opts: CliOptions) -> None:
+    """CliError at once when no launcher's sim clock is in the graph, naming who publishes /clock if anyone
+    (a bag player's clock takes no pause/resume/rate)."""
+    from zentf.cli.introspect import PRESENCE_WAIT, graph_snapshot, name_list
+
+    from .sim_clock import CLOCK_NODE_PREFIX
+
+    nodes, topics = graph_snapshot(opts, PRESENCE_WAIT, None)
+    if any(fq.rsplit("/", 1)[-1].startswith(CLOCK_NODE_PREFIX) for fq in nodes):
+        return
+    publishers = topics["/clock"].publishers if "/clock" in topics else []
+    who = (f"/clock is published by {name_list(publishers)}, which takes no pause/resume/rate" if publishers
+           else "nothing publishes /clock")
+    raise CliError(f"no sim clock to control: no `zentf launch` with a clock: section is running ({who})")
+
+
+def _say_error(line: str) -> None:
+    """One error line on stderr; what it quotes from a file or a child is escaped (``printable``)."""
+    sys.stderr.write(printable(line) + "\n")
+
+
 def _main(cmd: click.Command, argv: Optional[Sequence[str]], prog: str) -> int:
     """Run a command turning every failure into one line on stderr and an exit code."""
     args = list(sys.argv[1:] if argv is None else argv)
-    debug = "--debug" in args or os.environ.get("ZENTF_DEBUG", "") not in ("", "0")
+    try:
+        debug = debug_requested(args)
+    except CliError as exc:
+        _say_error(f"{prog}: error: {exc}")
+        return exc.code
     try:
         rv = cmd.main(args=args, prog_name=prog, standalone_mode=False)
         return rv if isinstance(rv, int) else 0
     except LaunchError as exc:
         if debug:
             raise
-        sys.stderr.write(f"{exc}\n" if exc.file else f"{prog}: error: {exc}\n")
+        _say_error(str(exc) if exc.file else f"{prog}: error: {exc}")
         return 2
     except click.exceptions.Exit as exc:
         return exc.exit_code
     except click.exceptions.Abort:
         return 130
     except click.exceptions.UsageError as exc:
-        sys.stderr.write(f"{prog}: error: {' '.join(exc.format_message().split())} (see '{prog} --help')\n")
+        _say_error(f"{prog}: error: {' '.join(exc.format_message().split())} (see '{prog} --help')")
         return exc.exit_code
     except click.exceptions.ClickException as exc:
-        sys.stderr.write(f"{prog}: error: {' '.join(exc.format_message().split())}\n")
+        _say_error(f"{prog}: error: {' '.join(exc.format_message().split())}")
         return exc.exit_code
     except CliError as exc:
         if debug:
             raise
-        sys.stderr.write(f"{prog}: error: {clean_error(exc)}\n")
+        _say_error(f"{prog}: error: {clean_error(exc)}")
         return exc.code
     except KeyboardInterrupt:
         return 130
     except Exception as exc:  # noqa: BLE001 - one line, never a traceback unless --debug
         if debug:
             raise
-        sys.stderr.write(f"{prog}: error: {clean_error(exc)} ({type(exc).__name__}; rerun with --debug)\n")
+        _say_error(f"{prog}: error: {clean_error(exc)} ({type(exc).__name__}; rerun with --debug)")
         return 1
 
 

@@ -15,6 +15,9 @@ from typing import Any, Mapping, Sequence
 
 import yaml
 
+from ..core.text import parse_bool
+from ..transport.names import fully_qualified_node_name
+from ..transport.options import ParamsFileError, load_params_file
 from ..tools.programs import PROGRAMS, module_of
 from .errors import LaunchError
 from .substitution import SubstitutionContext, SubstitutionError, has_substitution, substitute
@@ -35,8 +38,6 @@ ARG_KEYS = ("default", "description")
 _SEGMENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 _MODULE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*\Z")
 _ENV_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
-_TRUE = {"true", "yes", "on", "1"}
-_FALSE = {"false", "no", "off", "0", ""}
 
 
 @dataclass
@@ -518,14 +519,10 @@ class _Loader:
             raise y.error(str(e)) from None
 
     def _bool(self, y: Y, scope: _Scope, what: str) -> bool:
-        val = self._scalar(y, scope)
-        if isinstance(val, bool):
-            return val
-        if isinstance(val, str) and val.strip().lower() in _TRUE | _FALSE:
-            return val.strip().lower() in _TRUE
-        if isinstance(val, int) and val in (0, 1):
-            return bool(val)
-        raise y.error(f"{what}: expected true or false, got {val!r}")
+        try:
+            return parse_bool(self._scalar(y, scope), what)
+        except ValueError as e:
+            raise y.error(str(e)) from None
 
     def _number(self, y: Y, scope: _Scope, what: str, minimum: float, strict: bool = False) -> float:
         val = self._scalar(y, scope)
@@ -621,23 +618,14 @@ def _arg_text(v: Any) -> str:
 
 
 def _read_params_file(path: str, node: NodeSpec, where: Y) -> dict[str, Any]:
-    """A params file: a plain mapping, or ROS 2 style `{node_or_/**: {ros__parameters: {...}}}`."""
+    """The parameters a params file gives this node (``zentf.transport.options.load_params_file``'s rules,
+    ROS 2's); a problem inside the file is reported at its own line, a missing file at the node's key."""
     if not os.path.isfile(path):
         raise where.error(f"params file not found: {path}")
-    root = load_yaml_file(path)
-    if root is None:
-        return {}
-    if not root.is_map:
-        raise root.error("a params file must be a mapping of name -> value")
-    data = root.plain_value()
-    if any(isinstance(v, dict) and "ros__parameters" in v for v in data.values()):
-        merged: dict[str, Any] = {}
-        for key in ("/**", node.name, "/" + node.name, node.full_name, "/" + node.full_name):
-            section = data.get(key)
-            if isinstance(section, dict) and isinstance(section.get("ros__parameters"), dict):
-                merged.update(section["ros__parameters"])
-        return merged
-    return data
+    try:
+        return load_params_file(path, fully_qualified_node_name(node.namespace, node.name))
+    except ParamsFileError as e:
+        raise LaunchError(e.what, display_path(e.file), e.line) from None
 
 
 def declared_args(file: str) -> tuple[str, list[ArgSpec]]:

@@ -17,9 +17,11 @@ from typing import Any
 from ..core.time import ns_from_sec
 from .description import ClockSpec
 
-__all__ = ["SimTime", "SimClockPublisher", "CONTROL_KEY", "query_clock"]
+__all__ = ["SimTime", "SimClockPublisher", "CONTROL_KEY", "CLOCK_NODE_PREFIX", "query_clock"]
 
 CONTROL_KEY = "@zentf/clock/control"
+#: The clock's hidden node is named this + the launcher's pid: tools find a running clock in the graph by it.
+CLOCK_NODE_PREFIX = "_zentf_launch_clock_"
 log = logging.getLogger("zentf.launch")
 
 
@@ -81,7 +83,7 @@ class SimClockPublisher:
         self.sim = SimTime(start_ns, spec.rate, spec.paused)
         self.period = 1.0 / spec.frequency
         self._msg_type = ClockMsg
-        opts = NodeOptions(name=f"_zentf_launch_clock_{os.getpid()}", namespace="", zenoh=zenoh_options)
+        opts = NodeOptions(name=f"{CLOCK_NODE_PREFIX}{os.getpid()}", namespace="", zenoh=zenoh_options)
         self.node = Node(options=opts, check_unique=False)
         self._pub = self.node.create_publisher("/clock", ClockMsg)
         self._queryable = self.node.session.declare_queryable(CONTROL_KEY, self._on_query)

@@ -463,8 +463,9 @@ class Supervisor:
         if self._stopping:
             log.info("%s %s", spec.full_name, _describe_exit(rc))
             return
-        if spec.required:
-            log.error("%s %s; it is required, so stopping everything", spec.full_name, _describe_exit(rc))
+        if spec.required:  # a clean exit (teleop's 'q') is the user's way to end the launch, not an error
+            (log.error if rc != 0 else log.info)("%s %s; it is required, so stopping everything",
+                                                 spec.full_name, _describe_exit(rc))
             self._begin_stop(exit_code_of(rc))
             return
         if spec.respawn:

@@ -16,13 +16,13 @@ from .errors import CdrError, DefinitionError, RosFormatError, UnknownTypeError
 from .msgdef import Field, MsgDef, parse_msg, parse_schema
 from .tf import encode_tf, tf_samples
 from .typehash import type_description
-from .types import (dds_type_name, definition, known_types, register_definition, register_service_definition,
-                    ros_type_name, schema_text, service_types, type_hash)
+from .types import (dds_type_name, definition, definition_text, known_types, message_types, register_definition,
+                    register_service_definition, ros_type_name, schema_text, service_types, type_hash)
 
 __all__ = [
     "ENCAPSULATION_LE", "deserialize", "serialize", "decode", "decode_plain", "encode", "is_known",
     "CdrError", "DefinitionError", "RosFormatError", "UnknownTypeError", "Field", "MsgDef", "parse_msg",
     "parse_schema", "encode_tf", "tf_samples", "type_description", "dds_type_name", "definition",
     "known_types", "register_definition", "register_service_definition", "ros_type_name", "schema_text",
-    "service_types", "type_hash",
+    "service_types", "type_hash", "definition_text", "message_types",
 ]

@@ -17,7 +17,8 @@ from .msgdef import MsgDef, parse_msg
 from .typehash import type_hash as _type_hash
 
 __all__ = ["definition", "known_types", "dds_type_name", "ros_type_name", "type_hash", "register_definition",
-           "register_service_definition", "split_srv", "service_types", "schema_text"]
+           "register_service_definition", "split_srv", "service_types", "schema_text", "definition_text",
+           "message_types"]
 
 _DEFS: dict[str, MsgDef] = {}
 _TEXTS: dict[str, str] = dict(DEFINITIONS)
@@ -129,3 +130,18 @@ def schema_text(type_name: str) -> str:
     for ref in seen:
         parts.append("=" * 80 + f"\nMSG: {ref}\n" + _TEXTS[ref].strip("\n"))
     return "\n".join(parts) + "\n"
+
+
+def definition_text(type_name: str) -> str:
+    """The .msg (or, for 'pkg/srv/Name', the .srv: request, ``---``, response) text of a known type."""
+    if type_name in _SERVICES:
+        return _TEXTS[f"{type_name}_Request"].rstrip("\n") + "\n---\n" + _TEXTS[f"{type_name}_Response"].lstrip("\n")
+    try:
+        return _TEXTS[type_name]
+    except KeyError:
+        raise UnknownTypeError(f"unknown ROS type {type_name!r}") from None
+
+
+def message_types() -> list[str]:
+    """The message types with a definition ('pkg/msg/Name'; a service's parts are not listed)."""
+    return sorted(n for n in _DEFS if n.split("/")[1:2] == ["msg"])

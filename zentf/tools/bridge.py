@@ -7,6 +7,11 @@ cannot form: a sample the bridge itself published is recognised on arrival (zent
 node name in the attachment; ROS 2 side: one of the bridge's publisher GIDs) and dropped. Statics stay
 latched on both sides: each side's tf_static is accumulated per child frame and republished, whole, by a
 StaticTransformBroadcaster on the other side (late joiners there get it from the cache).
+
+Whatever a peer sends, the bridge's memory stays bounded: a TFMessage is read by the TF decoders (compiled,
+malformed elements named and skipped, nothing kept but frame names), the latched statics keep at most a
+buffer's frame cap of child frames, payloads beyond the decoders' cap are refused, and the memory a burst
+of big messages used is given back (zentf.transport.heap.BurstRelease).
 """
 from __future__ import annotations
 
@@ -15,9 +20,13 @@ import threading
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..transport.broadcaster import StaticTransformBroadcaster
+from ..core.constants import DEFAULT_MAX_FRAME_ID_LENGTH, DEFAULT_MAX_FRAMES
 from ..core.messages import TFMessage, message_type
-from ..transport.node import Node, RateLimitedLog
+from ..core.ratelimit import RateLimitedLogger
+from ..ros.tf import MAX_PAYLOAD
+from ..transport.broadcaster import StaticTransformBroadcaster
+from ..transport.heap import BurstRelease
+from ..transport.node import Node
 from ..transport.wire.profiles import parse_ros2_attachment
 from ..transport.entities import undeclare_all
 
@@ -40,7 +49,8 @@ class BridgeStats:
 
 
 class _Side:
-    """One side's node plus the publishers the bridge made there (created on the first message of a type)."""
+    """One side's node plus the publishers the bridge made there (created on the first message of a type),
+    and how to tell the bridge's own samples when they come back (echoes)."""
 
     def __init__(self, node: Node) -> None:
         self.node = node
@@ -48,13 +58,15 @@ class _Side:
         self.statics: dict[str, StaticTransformBroadcaster] = {}
         self.gids: set[bytes] = set()
         self.lock = threading.Lock()
+        self._self_name = node.get_fully_qualified_name().encode()
 
-    def publisher(self, topic: str, type_name: str) -> Any:
+    def publisher(self, topic: str, type_name: str, *, latched: bool = False) -> Any:
         with self.lock:
             pub = self.pubs.get((topic, type_name))
             if pub is None:
                 pub = self.node.create_publisher(topic, message_type(type_name),
-                                                 100 if type_name == TFMessage.TYPE_NAME else 10)
+                                                 1 if latched else 100 if type_name == TFMessage.TYPE_NAME else 10,
+                                                 latched=latched)
                 self._remember(pub)
                 self.pubs[(topic, type_name)] = pub
             return pub
@@ -72,6 +84,20 @@ class _Side:
         if gid is not None:
             self.gids.add(gid)
 
+    def is_own(self, sample: Any) -> bool:
+        """Whether a sample is one this side's node published (its name on zentf's wire, one of its
+        publisher GIDs on ROS 2's)."""
+        att = sample.attachment
+        if att is None:
+            return False
+        raw = att.to_bytes()
+        if self.node.wire.name == "zentf":
+            return raw == self._self_name
+        try:
+            return parse_ros2_attachment(raw)[2] in self.gids
+        except ValueError:
+            return False
+
 
 class Ros2Bridge:
     """Relays ``topics`` (tf, tf_static and /clock by default, plus ``extra_topics``) between a zentf node
@@ -86,8 +112,8 @@ class Ros2Bridge:
         self.stats = BridgeStats()
         self._z = _Side(zentf_node)
         self._r = _Side(ros2_node)
-        self._self_name = zentf_node.get_fully_qualified_name()
-        self._complain = RateLimitedLog(log)
+        self._complain = RateLimitedLogger(log)
+        self._release = BurstRelease()
         self._subs: list[Any] = []
         self._tokens: list[Any] = []
         topics = [t for t in DEFAULT_TOPICS if (tf or not t[0].startswith("tf")) and (clock or t[0] != "/clock")]
@@ -111,18 +137,6 @@ class Ros2Bridge:
                                                              latched=latched))
 
     # ---- relaying
-    def _is_echo(self, src: _Side, sample: Any) -> bool:
-        att = sample.attachment
-        if att is None:
-            return False
-        raw = att.to_bytes()
-        if src is self._z:
-            return raw == self._self_name.encode()
-        try:
-            return parse_ros2_attachment(raw)[2] in src.gids
-        except ValueError:
-            return False
-
     def _relay_factory(self, src: _Side, dst: _Side, topic: str, fq: str, latched: bool) -> Any:
         counts = self.stats.to_ros2 if dst is self._r else self.stats.to_zentf
         counts.setdefault(fq, 0)
@@ -131,26 +145,91 @@ class Ros2Bridge:
 
         def relay(sample: Any) -> None:  # Zenoh thread: decode, re-encode, publish; never raises
             try:
-                if self._is_echo(src, sample):
+                if src.is_own(sample):
                     self.stats.echoes += 1
                     return
                 key = str(sample.key_expr)
+                size = len(sample.payload)
+                self._release.note(size)
+                if size > MAX_PAYLOAD:
+                    raise ValueError(f"payload of {size} bytes exceeds the {MAX_PAYLOAD} byte limit")
                 payload = sample.payload.to_bytes()
-                type_name, msg, known = profile.decode_any(payload, str(sample.encoding), key)
-                if not known or type_name is None or isinstance(msg, (bytes, dict)):
-                    raise ValueError(f"cannot convert a message of type {type_name or 'unknown'}")
-                if latched and type_name == TFMessage.TYPE_NAME:
-                    dst.static(topic).send_transform(list(msg.transforms))
+                if topic.startswith("tf") and profile.topic_of_key(key)[1] in (None, TFMessage.TYPE_NAME):
+                    if not self._relay_tf(src, dst, topic, fq, latched, payload):
+                        self.stats.dropped += 1
+                        return
                 else:
+                    type_name, msg, known = profile.decode_any(payload, str(sample.encoding), key)
+                    if not known or type_name is None or isinstance(msg, (bytes, dict)):
+                        raise ValueError(f"cannot convert a message of type {type_name or 'unknown'}")
                     dst.publisher(topic, type_name).publish(msg)
                 counts[fq] = counts.get(fq, 0) + 1
             except Exception as e:  # noqa: BLE001 - one bad message must not stop the bridge
                 self.stats.dropped += 1
-                self._complain(f"{fq}:{type(e).__name__}", f"not relayed from {profile.name} '{fq}': {e}")
+                self._complain.log(logging.WARNING, (fq, type(e).__name__), "not relayed from %s '%s': %s",
+                                   profile.name, fq, e)
 
         return relay
 
+    def _relay_tf(self, src: _Side, dst: _Side, topic: str, fq: str, latched: bool, payload: bytes) -> bool:
+        """A TFMessage, through the TF decoders of the source's wire into the destination's encoder (no
+        message objects); malformed elements are skipped with one line, statics kept within the frame
+        cap. False if nothing was relayed."""
+        profile = src.node.wire
+        collect = _Samples()
+        _, _, malformed, problem = profile.ingest_tf(payload, collect, "", latched)
+        if malformed:
+            self._complain.log(logging.WARNING, (fq, "malformed"), "skipped %d malformed transform(s) from %s '%s': %s",
+                               malformed, profile.name, fq, problem or "")
+        items = [_plain(s) for s in collect.samples if len(s[0].encode()) <= DEFAULT_MAX_FRAME_ID_LENGTH
+                 and len(s[1].encode()) <= DEFAULT_MAX_FRAME_ID_LENGTH]
+        if not items:
+            if not latched and not collect.samples and not malformed:  # an empty TFMessage, relayed as one
+                dst.publisher(topic, TFMessage.TYPE_NAME).publish_bytes(dst.node.wire.encode_tf([]))
+                return True
+            return False
+        if latched:
+            static = dst.static(topic)
+            known = static._by_child
+            fresh = [t for t in items if t["child_frame_id"] not in known]
+            room = DEFAULT_MAX_FRAMES - len(known)
+            if len(fresh) > room:
+                self._complain.log(logging.WARNING, (fq, "frames"),
+                                   "%s '%s': more than %d static child frames; %d not relayed",
+                                   profile.name, fq, DEFAULT_MAX_FRAMES, len(fresh) - max(0, room))
+                drop = {id(t) for t in fresh[max(0, room):]}
+                items = [t for t in items if id(t) not in drop]
+            if not items:
+                return False
+            static.send_transform(items)
+        else:
+            dst.publisher(topic, TFMessage.TYPE_NAME).publish_bytes(dst.node.wire.encode_tf(items))
+        return True
+
     def close(self) -> None:
+        self._release.close()
         undeclare_all([*self._subs, *self._tokens])
         self._subs.clear()
         self._tokens.clear()
+
+
+class _Samples:
+    """What a wire's ingest_tf inserts into, for the bridge: the decoded samples, kept for re-encoding."""
+
+    def __init__(self) -> None:
+        self.samples: list[tuple] = []
+
+    def set_transforms_raw(self, samples: list, authority: str, is_static: bool) -> int:
+        self.samples.extend(samples)
+        return len(samples)
+
+
+_NS = 1_000_000_000
+
+
+def _plain(s: tuple) -> dict:
+    """A decoded sample as the plain TransformStamped dict both wires' encoders take."""
+    return {"header": {"stamp": {"sec": s[2] // _NS, "nanosec": s[2] % _NS}, "frame_id": s[0]},
+            "child_frame_id": s[1],
+            "transform": {"translation": {"x": s[3], "y": s[4], "z": s[5]},
+                          "rotation": {"x": s[6], "y": s[7], "z": s[8], "w": s[9]}}}

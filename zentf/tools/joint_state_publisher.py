@@ -204,7 +204,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 0
         initial = check(p)
     except START_ERRORS as e:
-        print(f"{PROG}: error: {e}", file=sys.stderr, flush=True)
+        program.error_line(PROG, str(e))
         return 2
     return run(p, initial)
 

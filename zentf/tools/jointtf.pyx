@@ -1,12 +1,11 @@
 # cython: language_level=3, boundscheck=False, wraparound=False, cdivision=True
 """robot_state_publisher's hot path compiled: one JointState's positions -> its TFMessage bytes in one call.
 
-Why: at 100 Hz the publisher wakes every 10 ms with cold caches, and then each of the ~15 numpy calls
-of the pure-Python path (``_Plan.payload``, ``JointTransforms.Subset.compute``, the finite check and
-the throttle) costs 5-15 us instead of 1: ~230 us per message on a 100-joint chain (bench/urdf.py),
-against ~10 us here. Same maths as ``JointTransforms.Subset.compute`` (zentf/urdf/kinematics.py) and
-the same bytes as ``_Plan.payload``'s numpy path (zentf/tools/robot_state_publisher.py), which stays
-the reference and the fallback without build_ext; tests/test_urdf_publishers.py compares the two.
+Why: at 100 Hz the publisher wakes every 10 ms with cold caches, where each numpy call costs several
+times its warm price; the fifteen or so a message would need (selection, kinematics, the finite check,
+the throttle, the bytes) would cost far more than this one call (docs/performance.md). Same maths as
+``JointTransforms.Subset.compute`` (zentf/urdf/kinematics.py); tests/test_urdf_publishers.py compares
+the published transforms with the model's forward kinematics.
 """
 from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes_GET_SIZE
 from libc.math cimport cos, isfinite, sin

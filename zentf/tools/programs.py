@@ -16,6 +16,7 @@ PROGRAMS: dict[str, tuple[str, str]] = {
     "joint_state_publisher": ("zentf.tools.joint_state_publisher",
                               "joint_states for a URDF's movable joints: values, --sweep, --gui sliders"),
     "buffer_server": ("zentf.tools.buffer_server", "tf2_ros's buffer server: answers BufferClients' lookups"),
+    "dds_bridge": ("zentf.tools.dds.program", "relay tf and more between a DDS ROS 2 domain and this graph"),
     "turtlesim": ("zentf.demos.turtlesim", "headless turtlesim: turtles, their poses and ROS's services"),
     "turtle_tf_broadcaster": ("zentf.demos.turtle_tf_broadcaster", "world -> <turtlename> from a turtle's pose"),
     "turtle_follower": ("zentf.demos.turtle_follower", "spawn turtle2 and steer it toward turtle1 through tf"),

@@ -6,6 +6,7 @@ import os
 from typing import Sequence
 
 from ..transport import program
+from ..transport.options import node_options_help
 from ..urdf import Robot, URDFError, XacroBudget, load_urdf, parse_urdf, parse_xacro_budget
 
 __all__ = ["own_arguments", "ArgError", "parse_own", "xacro_mappings", "load_model", "Prepared", "prepare",
@@ -14,9 +15,7 @@ __all__ = ["own_arguments", "ArgError", "parse_own", "xacro_mappings", "load_mod
 
 def own_arguments(parser: argparse.ArgumentParser) -> None:
     """The URDF argument and options shared by robot_state_publisher and joint_state_publisher."""
-    parser.epilog = ("node options (shared by every zentf program): --name NAME, --namespace NS, -p name:=value, "
-                     "-r from:=to, --params-file FILE, --zenoh-config FILE, --connect EP, --listen EP, "
-                     "--mode peer|client|router, --no-multicast, --debug")
+    parser.epilog = node_options_help()
     parser.add_argument("urdf", nargs="?", metavar="URDF", help="a .urdf or .xacro file")
     parser.add_argument("--package-path", action="append", default=[], metavar="DIR",
                         help="where package:// meshes are looked up (repeat; also $ZENTF_PACKAGE_PATH)")

@@ -8,8 +8,8 @@ Mimic joints follow their master. ``frame_prefix`` is prepended to every frame i
 ROS 1 used tf_prefix with a '/'). The URDF text is published latched on ``robot_description``
 (std_msgs/String). Joint states are decoded and turned into one TFMessage in Zenoh's callback
 thread (no executor hop): throttle, finite check, kinematics and the message bytes in one compiled
-call (zentf/tools/jointtf.pyx: at 100 Hz the process wakes with cold caches, where each numpy call
-costs 5-15 us), or vectorized with numpy when the extension is not built. A JointState whose name list
+call (zentf/tools/jointtf.pyx: at 100 Hz the process wakes with cold caches, where numpy's per-call
+cost would dominate). A JointState whose name list
 is byte for byte the one last seen (publishers resend the same list) is read in C without decoding a
 name (``JointTfFiller.read``); anything else, or anything odd, takes the general decoder, which names
 what is wrong.
@@ -39,10 +39,10 @@ from ..transport.wire import codec as wire
 from ..transport.broadcaster import StaticTransformBroadcaster
 from ..core.messages import (Header, JointState, Quaternion, String, TFMessage, Transform, TransformStamped,
                              Vector3)
-from ..core.ratelimit import escape
+from ..core.ratelimit import RateLimitedLogger
 from ..core.time import Time
 from ..transport.names import topic_to_key
-from ..transport.node import Node, RateLimitedLog
+from ..transport.node import Node
 from ..urdf import Kinematics, Robot
 from ..urdf.kinematics import JointTransforms
 from ..transport.entities import undeclare_all
@@ -53,10 +53,7 @@ from .robot_model import START_ERRORS, Prepared, own_arguments, prepare
 from ..urdf import Robot
 from ..transport import program
 
-try:  # the compiled hot path (zentf/tools/jointtf.pyx); without build_ext, the numpy path below
-    from .jointtf import JointTfFiller
-except ImportError:  # pragma: no cover - a source checkout without build_ext
-    JointTfFiller = None
+from .jointtf import JointTfFiller
 
 __all__ = ["RobotStatePublisher"]
 
@@ -66,11 +63,8 @@ _MAX_SEC = 2**32
 
 
 def _joint_state_decoder() -> Any:
-    """msgspec decoder of a JointState's plain-dict wire form (strict types; None without msgspec)."""
-    try:
-        import msgspec
-    except ImportError:  # pragma: no cover - msgspec is a dependency
-        return None
+    """msgspec decoder of a JointState's plain-dict wire form (strict types)."""
+    import msgspec
 
     def struct_(name: str, fields: list) -> Any:
         return msgspec.defstruct(name, fields, gc=False)
@@ -85,10 +79,10 @@ def _joint_state_decoder() -> Any:
 class _Plan:
     """What one joint-name list means, worked out once per distinct list (publishers resend the same):
     the joints it sets, where their values are in the message, its mimic joints, its unknown names,
-    the joints' constants, and the TFMessage bytes with holes where stamps and values go."""
+    the joints' constants (for the rare message a joint of which is not finite, computed apart), and
+    the compiled filler of the TFMessage bytes (None when the list names no movable joint)."""
 
     _ITEM_VALUES = struct.Struct(">d3sd3sd13sd3sd3sd3sd")
-    _VALUE_OFFSETS = (0, 11, 22, 43, 54, 65, 76)  # of the 7 doubles inside _ITEM_VALUES
 
     def __init__(self, rsp: "RobotStatePublisher", names: list[str]) -> None:
         index = rsp._index
@@ -111,56 +105,35 @@ class _Plan:
         self.mimic_mult = np.asarray([m[2] for m in self.mimics], dtype=float)
         self.mimic_off = np.asarray([m[3] for m in self.mimics], dtype=float)
         self.joints = rsp._movable.subset(self.idx)
+        self.filler: Any = None
+        k = len(idx)
+        if not k:
+            return
         # the payload template: TFMessage{transforms: [TransformStamped x k]} with zeroed stamps/values
         p = msgpack.packb
         head = b"\x83" + p("header") + b"\x82" + p("stamp") + b"\x82" + p("sec") + b"\xce"
         nsec_key = b"\xa7nanosec\xce"
-        k = len(idx)
         out = bytearray(b"\x81\xaatransforms" + (bytes((0x90 | k,)) if k < 16 else b"\xdc" + k.to_bytes(2, "big")
                                                  if k < 0x10000 else b"\xdd" + k.to_bytes(4, "big")))
-        sec_pos, nsec_pos, val_pos = [], [], []
+        sec_pos, nsec_pos, val_pos = [], [], []  # where each item's sec, nanosec and first double go
         zero = self._ITEM_VALUES.pack(0.0, b"\xa1y\xcb", 0.0, b"\xa1z\xcb", 0.0, b"\xa8rotation\x84\xa1x\xcb", 0.0,
                                       b"\xa1y\xcb", 0.0, b"\xa1z\xcb", 0.0, b"\xa1w\xcb", 0.0)
-        for j in idx:
+        for i in idx:
             out += head
-            sec_pos.append(range(len(out), len(out) + 4))
+            sec_pos.append(len(out))
             out += b"\0\0\0\0" + nsec_key
-            nsec_pos.append(range(len(out), len(out) + 4))
-            out += b"\0\0\0\0" + rsp._frames[j]
-            base = len(out)
-            val_pos.append([range(base + o, base + o + 8) for o in self._VALUE_OFFSETS])
+            nsec_pos.append(len(out))
+            out += b"\0\0\0\0" + rsp._frames[i]
+            val_pos.append(len(out))
             out += zero
-        self.template = np.frombuffer(bytes(out), dtype=np.uint8)
-        # per item, the 64 bytes to fill: sec (4), nanosec (4), then the 7 doubles (8 each)
-        self.holes = np.concatenate((np.asarray(sec_pos, dtype=np.intp).reshape(k, 4),
-                                     np.asarray(nsec_pos, dtype=np.intp).reshape(k, 4),
-                                     np.asarray(val_pos, dtype=np.intp).reshape(k, 56)), axis=1)
-        self._fill = np.empty((k, 64), dtype=np.uint8)
-        self._vals = np.empty((k, 7), dtype=">f8")
-        #: the same template filled in one compiled call (None: the numpy path)
-        self.filler = None
-        if JointTfFiller is not None and k:
-            j = self.joints
-            ip = np.intp
-            self.filler = JointTfFiller(
-                bytes(out), np.asarray(self.sel, dtype=ip), np.asarray(self.mimic_src, dtype=ip),
-                np.ascontiguousarray(self.mimic_mult), np.ascontiguousarray(self.mimic_off),
-                np.asarray(self.known, dtype=ip), rsp._last_publish,
-                *(np.ascontiguousarray(a, dtype=float) for a in (j.t0, j.q0, j.q0a, j.half, j.slide)),
-                np.asarray([r.start for r in sec_pos], dtype=ip), np.asarray([r.start for r in nsec_pos], dtype=ip),
-                np.asarray([v[0].start for v in val_pos], dtype=ip))
-
-    def payload(self, sec: int, nsec: int, t: np.ndarray, q: np.ndarray) -> bytes:
-        """The TFMessage bytes: the template with this message's stamp and values written in."""
-        fill = self._fill
-        fill[:, :8] = np.frombuffer(sec.to_bytes(4, "big") + nsec.to_bytes(4, "big"), dtype=np.uint8)
-        vals = self._vals
-        vals[:, :3] = t
-        vals[:, 3:] = q
-        fill[:, 8:] = vals.view(np.uint8)
-        buf = self.template.copy()
-        buf[self.holes] = fill
-        return buf.tobytes()
+        j = self.joints
+        ip = np.intp
+        self.filler = JointTfFiller(
+            bytes(out), np.asarray(self.sel, dtype=ip), np.asarray(self.mimic_src, dtype=ip),
+            np.ascontiguousarray(self.mimic_mult), np.ascontiguousarray(self.mimic_off),
+            np.asarray(self.known, dtype=ip), rsp._last_publish,
+            *(np.ascontiguousarray(a, dtype=float) for a in (j.t0, j.q0, j.q0a, j.half, j.slide)),
+            np.asarray(sec_pos, dtype=ip), np.asarray(nsec_pos, dtype=ip), np.asarray(val_pos, dtype=ip))
 
 
 class RobotStatePublisher:
@@ -176,7 +149,7 @@ class RobotStatePublisher:
         self.publish_interval_ns = int(round(1e9 / publish_frequency))
         self.ignore_timestamp = ignore_timestamp
         self.kin = Kinematics(robot)
-        self._log = RateLimitedLog(log)
+        self._log = RateLimitedLogger(log)
         self._lock = threading.Lock()
         self.received = 0     # joint state messages
         self.published = 0    # TFMessages sent on tf
@@ -241,7 +214,7 @@ class RobotStatePublisher:
             with self._lock:
                 self.ignored += 1
             sender = wire.authority_of(getattr(sample, "attachment", None), "unknown sender")
-            self._log("bad", f"ignored a bad JointState from {sender}: {e}")
+            self._log.log(logging.WARNING, ("bad", sender), "ignored a bad JointState from %s: %s", sender, e)
 
     def on_payload(self, payload: bytes) -> None:
         """One JointState as received (its msgpack bytes): publish its transforms; raises on a bad one."""
@@ -252,12 +225,10 @@ class RobotStatePublisher:
             if stamp is not None:
                 self._publish_read(plan, stamp[0], stamp[1])
                 return
-        msg = None
-        if self._decoder is not None:
-            try:
-                msg = self._decoder.decode(payload)
-            except Exception:
-                msg = None
+        try:
+            msg = self._decoder.decode(payload)
+        except Exception:
+            msg = None
         if msg is None:  # the generic path names what is wrong
             js = wire.decode(payload, JointState)
             names, position, stamp = js.name, js.position, (js.header.stamp.sec, js.header.stamp.nanosec)
@@ -274,44 +245,31 @@ class RobotStatePublisher:
             self.received += 1
             if len(names) != len(position):
                 self.ignored += 1
-                self._log("size", f"Robot state publisher ignored an invalid JointState message: {len(names)} "
-                          f"names but {len(position)} positions")
+                self._log.log(logging.WARNING, "size", "Robot state publisher ignored an invalid JointState "
+                              "message: %d names but %d positions", len(names), len(position))
                 return False
             if not (0 <= sec < _MAX_SEC and 0 <= nsec < _NS):
                 self.ignored += 1
-                self._log("stamp", f"ignored a JointState with an out-of-range stamp ({sec}, {nsec})")
+                self._log.log(logging.WARNING, "stamp", "ignored a JointState with an out-of-range stamp (%s, %s)",
+                              sec, nsec)
                 return False
             stamp = sec * _NS + nsec
             plan = self._plan(names)
             self._arrived(plan)
             filler = plan.filler
-            if filler is not None:  # compiled: throttle, finite check, kinematics and bytes, no numpy call
-                if not self.ignore_timestamp and not filler.fresh(stamp, self.publish_interval_ns):
-                    self.ignored += 1
+            if filler is None:  # no movable joint named: nothing to publish
+                return False
+            # throttle, finite check, kinematics and bytes in one compiled call
+            if not self.ignore_timestamp and not filler.fresh(stamp, self.publish_interval_ns):
+                self.ignored += 1
+                return False
+            payload = filler.payload(position, sec, nsec)
+            if payload is None:  # a value or a translation is not finite: those joints are left out
+                payload = self._finite_part(plan, position, sec, nsec, stamp)
+                if payload is None:
                     return False
-                payload = filler.payload(position, sec, nsec)
-                if payload is None:  # a value or a translation is not finite: those joints are left out
-                    payload = self._finite_part(plan, position, sec, nsec, stamp)
-                    if payload is None:
-                        return False
-                else:
-                    filler.mark(stamp)
-            else:  # the same in numpy (no build_ext)
-                last = self._last_publish
-                if not self.ignore_timestamp and len(plan.known):
-                    if stamp < int(last[plan.known].min()) + self.publish_interval_ns:
-                        self.ignored += 1
-                        return False
-                if not len(plan.idx):
-                    return False
-                values, t, q = self._compute(plan, position)
-                if not (np.isfinite(values).all() and np.isfinite(t).all()):
-                    payload = self._finite_part(plan, position, sec, nsec, stamp)
-                    if payload is None:
-                        return False
-                else:
-                    last[plan.known] = stamp
-                    payload = plan.payload(sec, nsec, t, q)
+            else:
+                filler.mark(stamp)
             self.published += 1
         self._tf.publish_bytes(payload)
         return True
@@ -337,8 +295,8 @@ class RobotStatePublisher:
         """A valid JointState of this plan came (the caller holds the lock): its unknown names logged, the
         clock noted (gone back: every joint is published again)."""
         if plan.unknown:
-            self._log(f"unknown:{plan.unknown[0]}", f"joint state names unknown joint '{plan.unknown[0]}' (not a "
-                      f"movable joint of robot '{self.robot.name}'); ignored")
+            self._log.log(logging.WARNING, ("unknown", plan.unknown[0]), "joint state names unknown joint '%s' "
+                          "(not a movable joint of robot '%s'); ignored", plan.unknown[0], self.robot.name)
         now = self._clock.now_ns()
         if now < self._last_callback:  # e.g. a bag played in a loop with --clock (ROS 2 does the same)
             log.warning("Moved backwards in time, re-publishing joint transforms!")
@@ -347,7 +305,8 @@ class RobotStatePublisher:
 
     @staticmethod
     def _compute(plan: _Plan, position: list[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(values, translations, quaternions) of a plan's joints, mimics included (numpy; overflow quiet)."""
+        """(values, translations, quaternions) of a plan's joints, mimics included (numpy; overflow quiet): what
+        the compiled filler computes, apart, for a message some joint of which is not finite."""
         given = np.asarray(position, dtype=float)
         values = given if plan.all_known else given[plan.sel_arr]
         with np.errstate(all="ignore"):
@@ -373,7 +332,8 @@ class RobotStatePublisher:
                 _i, src, mult, off = plan.mimics[k - n_sel]
                 why = (f"as a mimic ({mult:g} * {position[src]!r} + {off:g}) its position is not finite"
                        if not np.isfinite(values[k]) else f"its transform at {values[k]!r} is not finite")
-            self._log(f"dropped:{name}", f"left joint '{escape(name)}' out of a JointState's transforms: {why}")
+            self._log.log(logging.WARNING, ("dropped", name), "left joint '%s' out of a JointState's transforms: %s",
+                          name, why)
         self.ignored += 1
         if not ok.any():
             return None

@@ -25,7 +25,7 @@ from ..transport import program
 from ..transport.broadcaster import StaticTransformBroadcaster
 from ..core.math3d import quaternion_from_rpy
 from ..core.messages import Header, Quaternion, Transform, TransformStamped, Vector3
-from ..transport.options import NodeOptions
+from ..transport.options import NodeOptions, node_options_help
 
 log = logging.getLogger("static_transform_publisher")
 
@@ -54,10 +54,7 @@ USAGE = (
     "  --qw QW               w component of quaternion rotation\n"
     "  --roll ROLL           roll component Euler rotation\n"
     "  --pitch PITCH         pitch component Euler rotation\n"
-    "  --yaw YAW             yaw component Euler rotation\n\n"
-    "node options (shared by every zentf program):\n"
-    "  --name NAME, --namespace NS, -p name:=value, -r from:=to, --zenoh-config FILE,\n"
-    "  --connect EP, --listen EP, --mode peer|client|router, --no-multicast"
+    "  --yaw YAW             yaw component Euler rotation"
 )
 
 
@@ -207,14 +204,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         opts, debug, rest = program.split_node_options(PROG, argv)
         parsed = parse_args(rest)
     except (UsageError, program.OptionsError) as e:
-        print(f"{PROG}: error parsing command line arguments: {e}", file=sys.stderr, flush=True)
+        program.error_line(PROG, str(e), "error parsing command line arguments: ")
         return 2  # a usage error, like every zentf command (docs/cli.md)
     if parsed is None:
-        print(USAGE, flush=True)
+        print(f"{USAGE}\n\n{node_options_help()}", flush=True)
         return 0
     if parsed.frame_id == parsed.child_frame_id:
-        print(f"{PROG}: cannot publish static transform from '{parsed.frame_id}' to "
-              f"'{parsed.child_frame_id}', exiting", file=sys.stderr, flush=True)
+        program.error_line(PROG, f"from '{parsed.frame_id}' to '{parsed.child_frame_id}', exiting",
+                           "cannot publish static transform ")
         return 2
     return program.run(lambda: _publish(opts, parsed), PROG, debug)
 

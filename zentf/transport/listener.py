@@ -15,10 +15,9 @@ from ..core.ratelimit import RateLimitedLogger
 from ..core.time import Duration
 from .entities import undeclare_all
 from .heap import release_free_memory
+from .ingest.handler import IngestEvents, Senders, TfHandler, TfIngest  # compiled: decode + future check + insert
+from .ingest.thread import ServeLimits, serve  # compiled: the tf thread
 from .node import Node
-from .wire.codec import _insert
-
-from .ingest.tfwire import TfHandler, TfIngest, serve  # compiled: decode + future check + insert; the tf thread
 
 __all__ = ["TransformListener", "StaticTransformListener", "DEFAULT_FUTURE_TOLERANCE"]
 
@@ -33,22 +32,25 @@ DEFAULT_FUTURE_TOLERANCE = 5.0
 RING_CAPACITY = 16384
 #: Samples moved from the ring to the per-sender queues between two rounds (one message per sender).
 DRAIN_BATCH = 256
-#: Messages waiting in the per-sender queues in all; beyond it the biggest backlog loses its oldest.
+#: Messages, and payload bytes, waiting in the per-sender queues in all; beyond either the biggest
+#: backlog loses its oldest (a flood of big forged messages must not grow the listener's memory).
 MAX_PENDING = 100_000
+MAX_PENDING_BYTES = 32 * 1024 * 1024
 #: A sender none of whose last SUSPECT_AFTER messages put anything into the buffer (NaN, forged frames
 #: past the cap, garbage...) keeps only its newest SUSPECT_QUEUE waiting (ROS 2's tf queue depth).
 SUSPECT_AFTER = 8
 SUSPECT_QUEUE = 100
 #: Senders with a queue of their own; messages of further senders share one.
 MAX_SENDERS = 64
-_OTHERS = b"\x00others"
 #: Sender keys (attachment bytes) are cut to this length: a forged huge attachment must not be kept
 #: as a dictionary key (a node name is at most 256 characters, a ROS 2 GID 16 bytes).
 MAX_SENDER_KEY = 1024
-#: When the ring runs empty after at least this many ``tf`` messages (a burst is over), the memory the
-#: process freed meanwhile goes back to the OS (zentf.transport.heap; measured: 197 releases, 97 ms in all, in
-#: bench/abuse.py's two 1M-sample floods, ~1% of the listener thread's time).
+#: When the ring runs empty after at least this many ``tf`` messages, or this many payload bytes (a burst
+#: is over), the memory the process freed meanwhile goes back to the OS (zentf.transport.heap): often
+#: enough to bound a flood's memory, rarely enough to cost about 1% of the listener thread's time
+#: (docs/performance.md).
 RELEASE_AFTER = 256
+RELEASE_BYTES = 8 * 1024 * 1024
 #: The tail of a flood: when the ring runs empty within TAIL_WINDOW s of such a release, with fewer
 #: messages since, the memory goes back once the ring has stayed quiet for TAIL_DELAY s (a timer: the
 #: thread waits in the ring), so the last < RELEASE_AFTER messages of a flood are given back too.
@@ -125,6 +127,41 @@ class _FutureGuard:
         return self.core.set_transform_raw(*args)
 
 
+class _Events(IngestEvents):
+    """What the compiled ingest path tells a listener: counted here, logged rate-limited (names escaped)."""
+
+    def __init__(self, limiter: RateLimitedLogger, release_later: Callable[[], None]) -> None:
+        self.limiter = limiter
+        self.release_later = release_later
+        self.bad_messages = 0      # payloads that were not a TFMessage at all
+        self.dropped_messages = 0  # tf messages dropped unread: a sender's backlog grew too big
+
+    def bad_message(self, key: str, sender: str, error: Exception) -> None:
+        self.bad_messages += 1
+        self.limiter.log(logging.WARNING, ("bad", key, sender), "dropped bad message on '%s' from %s: %s",
+                         key, sender, str(error))
+
+    def malformed(self, key: str, authority: str, count: int, problem: str | None) -> None:
+        self.limiter.log(logging.WARNING, ("malformed", key, authority),
+                         "skipped %d malformed transform(s) on '%s' from %s: %s",
+                         count, key, authority, problem or "")
+
+    def dropped(self, counts: dict[bytes, int], waiting: dict[bytes, int]) -> None:
+        for key, n in counts.items():
+            self.dropped_messages += n
+            sender = key.decode("utf-8", "replace") if key else "unknown sender"
+            self.limiter.log(logging.WARNING, ("overload", key),
+                             "tf listener overloaded: dropped %d message(s) from %s unread (%d waiting from it)",
+                             n, sender, waiting.get(key, 0))
+
+    def burst_over(self) -> None:
+        release_free_memory()
+        log.debug("a burst of tf messages is over: freed memory released")
+
+    def burst_tail(self) -> None:
+        self.release_later()
+
+
 class TransformListener:
     """TransformListener(buffer, node=None, *, static_only=False, future_tolerance=5.0): subscribes and
     inserts; never raises.
@@ -161,14 +198,14 @@ class TransformListener:
             buffer.node = self.node
         self._limiter = RateLimitedLogger(log)
         self._lock = threading.Lock()
-        # counters: messages, transforms, rejected and malformed are kept by the topics' handlers (below)
+        # counters: messages, transforms, rejected and malformed are kept by the topics' handlers (below),
+        # bad and dropped messages by the events object they report to
         self._handlers: list[TfHandler] = []
         self._ingests: list[TfIngest] = []  # compiled ingests: told when the clock jumps back
-        self.bad_messages = 0      # payloads that were not a TFMessage at all
+        self._events = _Events(self._limiter, self._release_later)
         self._tail_timer: threading.Timer | None = None  # zentf.transport.heap release after a flood's tail
         self._tail_messages = 0
         self._tail_asked = False
-        self.dropped = 0           # tf messages dropped unread: a sender's backlog grew too big
         for name, value in (("max_frames", max_frames), ("max_frame_id_length", max_frame_id_length)):
             if value is self._UNSET:
                 value = self.node.get_parameter_value(f"tf_{name}", self._UNSET)
@@ -185,16 +222,16 @@ class TransformListener:
         self._tf_encoding = profile.encoding(TFMessage.TYPE_NAME)
         #: ROS 2 carries the type in the key (the check is a no-op): the encoding is then not even read
         self._check_encoding = None if profile.name == "ros2" else profile.check_tf_encoding
-        self._authority = profile.authority
         self._ingest = profile.ingest_tf
         #: ROS 2 carries no sender name: tf2_ros records one fixed authority for every transform
-        self._fixed_authority = profile.authority(None, "") if profile.name == "ros2" else None
-        self._authorities: dict[bytes, str] = {}
+        self._senders = Senders(profile.authority, profile.authority(None, "") if profile.name == "ros2" else None,
+                                profile.sender_of, MAX_SENDER_KEY)
+        self._authorities = self._senders.cache  # attachment bytes -> authority, shared by both topics
         self._thread: threading.Thread | None = None
         session = self.node.session
         static_key = wire_key(self.node, tf_static_topic)
         self._subs.append(zx.declare_advanced_subscriber(
-            session, static_key, self._handler(True),
+            session, static_key, self._handler(True, static_key),
             history=zx.HistoryConfig(detect_late_publishers=True)))
         self._declare_token(static_key, is_static=True)
         if not static_only:
@@ -206,9 +243,8 @@ class TransformListener:
             self._declare_token(key)
             # the thread reads the ring through its handler object: undeclaring the subscriber while
             # the thread waits in sub.recv() fails ("Already borrowed") and leaves it blocked
-            handler = self._handler(False)
-            handler.topic = key  # the lines of a message kept as bytes name the subscription's key
-            self._thread = threading.Thread(target=self._serve, args=(sub.handler, handler), daemon=True,
+            handler = self._handler(False, key)
+            self._thread = threading.Thread(target=serve, args=(sub.handler, handler, _limits()), daemon=True,
                                             name=f"zentf-listener-{key}")
             self._thread.start()
             _LIVE.add(self)
@@ -221,13 +257,6 @@ class TransformListener:
             self._tokens.append(self.node._declare_entity("sub", TFMessage.TYPE_NAME, key, depth=100,
                                                           latched=is_static,
                                                           topic=self.node.wire.topic_of_key(key)[0]))
-
-    def _serve(self, ring: Any, handle: TfHandler) -> None:
-        """Listener thread: drain the ring into per-sender FIFOs, then handle one message per sender
-        (compiled: zentf/transport/ingest/tfwire.pyx ``serve``, with this module's bounds)."""
-        serve(self, ring, handle, self.node.wire.sender_of, DRAIN_BATCH, MAX_PENDING,
-              SUSPECT_AFTER, SUSPECT_QUEUE, MAX_SENDERS, _OTHERS, MAX_SENDER_KEY, RELEASE_AFTER,
-              release_free_memory, log, TAIL_WINDOW, self._release_later)
 
     def _release_later(self) -> None:
         """The ring ran empty in a flood's tail: release once no message came for TAIL_DELAY s."""
@@ -257,38 +286,15 @@ class TransformListener:
         release_free_memory()
         log.debug("the tail of a burst of tf messages is over: freed memory released")
 
-    def _shed(self, queues: dict[bytes, Any], q: Any, key: bytes) -> bytes:
-        """Too much waiting in all: the biggest backlog (usually the sender just heard) loses its oldest.
-        (``queues``: serve's per-sender FIFOs, tfwire._Fifo: ``len()`` and ``popleft()``.)"""
-        if len(q) * len(queues) < MAX_PENDING:
-            key, q = max(queues.items(), key=lambda kv: len(kv[1]))
-        q.popleft()
-        return key
-
-    def _log_shed(self, shed: dict[bytes, int], queues: dict[bytes, Any]) -> None:
-        for key, n in shed.items():
-            self.dropped += n
-            sender = key.decode("utf-8", "replace") if key else "unknown sender"
-            q = queues.get(key)
-            self._limiter.log(logging.WARNING, ("overload", key),
-                              "tf listener overloaded: dropped %d message(s) from %s unread (%d waiting from it)",
-                              n, sender, len(q) if q is not None else 0)
-
-    def _handler(self, is_static: bool) -> TfHandler:
-        """The object that decodes and inserts one message of a topic (compiled: zentf/transport/ingest/tfwire.pyx
-        ``TfHandler``): ``handle(sample)``, True if something got into the buffer; never raises. It keeps
-        this topic's counters (``messages``, ``transforms``, ``rejected``, ``malformed``)."""
+    def _handler(self, is_static: bool, key: str) -> TfHandler:
+        """The object that decodes and inserts one message of a topic (compiled:
+        zentf/transport/ingest/handler.pyx): ``handle(sample)``, True if something got into the buffer;
+        never raises. It keeps this topic's counters (``messages``, ``transforms``, ``rejected``, ``malformed``)."""
         target = self.buffer if is_static else self._tf_target
-        handler = TfHandler(self, self._ingest_of(target, is_static), self._tf_encoding, self._check_encoding,
-                            self._fixed_authority, self._authority, self._authorities, MAX_SENDER_KEY)
+        handler = TfHandler(self._ingest_of(target, is_static), self._senders, self._events, key,
+                            self._check_encoding, self._tf_encoding)
         self._handlers.append(handler)
         return handler
-
-    def _log_malformed(self, key: str, authority: str, malformed: int, problem: str | None) -> None:
-        """Malformed transform elements in a message: one rate-limited line naming the key and sender."""
-        self._limiter.log(logging.WARNING, ("malformed", key, authority),
-                          "skipped %d malformed transform(s) on '%s' from %s: %s",
-                          malformed, key, authority, problem or "")
 
     @property
     def messages(self) -> int:
@@ -311,13 +317,13 @@ class TransformListener:
         return sum(h.malformed for h in self._handlers)
 
     def _ingest_of(self, target: Any, is_static: bool) -> Callable[[bytes, str], tuple]:
-        """``ingest(payload, authority)`` of a topic: compiled (zentf/transport/ingest/tfwire.pyx) for the two wires,
-        with the future guard's check folded in; else the profile's ``ingest_tf`` into ``target``."""
+        """``ingest(payload, authority)`` of a topic: compiled (zentf/transport/ingest/handler.pyx) for the
+        two wires, with the future guard's check folded in; else the profile's ``ingest_tf`` into ``target``."""
         slow = self._ingest
         wire_name = self.node.wire.name
         if wire_name in ("zentf", "ros2"):
             guard = None if is_static else self._guard
-            compiled = TfIngest(wire_name == "ros2", slow, _insert, target, self.buffer,
+            compiled = TfIngest(wire_name == "ros2", slow, target, self.buffer,
                                 guard.now_ns if guard is not None else None,
                                 guard.tolerance_ns if guard is not None else 0, is_static)
             self._ingests.append(compiled)
@@ -328,21 +334,15 @@ class TransformListener:
 
         return ingest
 
-    def _bad_message(self, sample: Any, e: Exception) -> None:
-        """A payload that is not a TFMessage at all: counted and logged (rate-limited), naming the sender."""
-        try:
-            key = str(sample.key_expr)
-            sender = self._authority(sample.attachment, "unknown sender")
-        except Exception:
-            key, sender = "?", "unknown sender"
-        self._bad_payload(key, sender, e)
+    @property
+    def bad_messages(self) -> int:
+        """Payloads that were not a TFMessage at all."""
+        return self._events.bad_messages
 
-    def _bad_payload(self, key: str, sender: str | None, e: Exception) -> None:
-        """_bad_message for a message the tf thread kept as its payload's bytes (the sample is gone)."""
-        self.bad_messages += 1
-        sender = sender or "unknown sender"
-        self._limiter.log(logging.WARNING, ("bad", key, sender), "dropped bad message on '%s' from %s: %s",
-                          key, sender, str(e))
+    @property
+    def dropped(self) -> int:
+        """tf messages dropped unread: a sender's backlog grew too big."""
+        return self._events.dropped_messages
 
     def _on_jump(self, old: Any, new: Any) -> None:
         log.warning("Detected jump back in time of %.6fs. Clearing TF buffer.", (old - new).to_sec())
@@ -403,6 +403,12 @@ def wire_key(node: Node, topic: str) -> str:
     key = node.wire.data_key(node.resolve_topic_name("/".join(marks.get(p, p) for p in parts)), _TF.TYPE_NAME)
     return "/".join({v: k for k, v in marks.items()}.get(c, c) for c in key.split("/"))
 
+
+def _limits() -> ServeLimits:
+    """The tf thread's bounds: this module's constants (read when a listener starts)."""
+    return ServeLimits(drain_batch=DRAIN_BATCH, max_pending=MAX_PENDING, max_pending_bytes=MAX_PENDING_BYTES,
+                       suspect_after=SUSPECT_AFTER, suspect_queue=SUSPECT_QUEUE, max_senders=MAX_SENDERS,
+                       release_after=RELEASE_AFTER, release_bytes=RELEASE_BYTES, tail_window=TAIL_WINDOW)
 
 #: Listeners whose thread still runs. At exit they are stopped before the interpreter finalizes: a
 #: daemon thread woken inside Zenoh during finalization would be unwound through Rust frames and

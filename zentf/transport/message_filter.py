@@ -10,6 +10,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from .node import Node, Subscription
+from ..core.text import printable
 from ..core.time import Time, to_duration
 
 __all__ = ["MessageFilter", "FilterFailureReason"]
@@ -214,7 +215,7 @@ class MessageFilter:
         self.dropped[reason] += 1
         secs = stamp.to_sec() if hasattr(stamp, "to_sec") else stamp
         log.info("Message Filter dropping message: frame '%s' at time %.3f for reason '%s'",
-                 frame, secs, reason.name)
+                 printable(frame), secs, reason.name)
         for cb in list(self._failure_callbacks):
             self._dispatch(lambda cb=cb: cb(msg, reason))
 

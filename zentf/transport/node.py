@@ -25,11 +25,13 @@ from .names import (fully_qualified_node_name, key_to_topic, normalize_namespace
                     validate_node_name)
 from .options import NodeOptions
 from .wire.profiles import make_profile, zentf_entity_token, zentf_node_token
+from ..core.ratelimit import RateLimitedLogger
+from ..core.text import parse_bool, stderr_log_handler
 from ..core.time import Duration, to_duration
 from .entities import undeclare_all
 
 __all__ = ["Node", "Publisher", "Subscription", "Timer", "Parameter", "NodeNameError",
-           "ParameterNotDeclaredException", "RateLimitedLog", "spin", "init_logging",
+           "ParameterNotDeclaredException", "spin", "init_logging",
            "node_token_key", "entity_token_key", "LIVELINESS_PREFIX"]
 
 LIVELINESS_PREFIX = "@zentf"
@@ -54,35 +56,14 @@ def entity_token_key(kind: str, namespace: str, name: str, type_name: str, key: 
     return zentf_entity_token(kind, namespace, name, type_name, key)
 
 
+#: ROS-like log lines: ``[WARNING] [zentf.transport.listener]: ...``
+LOG_FORMAT = "[%(levelname)s] [%(name)s]: %(message)s"
+
+
 def init_logging(level: int = logging.INFO) -> None:
-    """ROS-like one-line log records on stderr, unless the program configured logging already."""
-    root = logging.getLogger()
-    if not root.handlers:
-        logging.basicConfig(level=level, format="[%(levelname)s] [%(name)s]: %(message)s")
-
-
-class RateLimitedLog:
-    """Log a recurring problem once per ``period`` seconds per key, with the count of the others."""
-
-    def __init__(self, logger: logging.Logger, period: float = 5.0) -> None:
-        self._logger = logger
-        self._period = period
-        self._last: dict[str, float] = {}
-        self._suppressed: dict[str, int] = {}
-        self._lock = threading.Lock()
-
-    def __call__(self, key: str, msg: str, level: int = logging.WARNING) -> None:
-        now = _time.monotonic()
-        with self._lock:
-            last = self._last.get(key)
-            if last is not None and now - last < self._period:
-                self._suppressed[key] = self._suppressed.get(key, 0) + 1
-                return
-            self._last[key] = now
-            n = self._suppressed.pop(key, 0)
-            if len(self._last) > 4096:  # keys include sender names; bound the memory
-                self._last.clear()
-        self._logger.log(level, msg + (f" ({n} similar suppressed)" if n else ""))
+    """ROS-like one-line log records on stderr, names from outside escaped, unless the program configured
+    logging already."""
+    logging.basicConfig(level=level, handlers=[stderr_log_handler(LOG_FORMAT)])
 
 
 @dataclass
@@ -223,7 +204,8 @@ class Subscription:
             except ValueError as e:
                 self.errors += 1
                 sender = self.node.wire.authority(att, "unknown sender")
-                self.node._bad_input(key, f"dropped bad message on '{key}' from {sender}: {e}")
+                self.node._bad_input.log(logging.WARNING, ("bad", key, sender),
+                                         "dropped bad message on '%s' from %s: %s", key, sender, e)
                 continue
             self.callback(msg)
 
@@ -346,12 +328,13 @@ class Node:
         self._fq_name = fully_qualified_node_name(self._namespace, self._name)
         self._remappings = dict(opts.remappings)
         self._overrides: dict[str, Any] = dict(params or {})
-        self._overrides.update(opts.resolved_params(self._name))
+        self._overrides.update(opts.resolved_params(self._name, self._namespace))
         self._params: dict[str, Parameter] = {}
         self._param_types: dict[str, int] = {}  # rcl_interfaces ParameterType, fixed at declaration
         self._param_callbacks: list[Callable[[list[Parameter]], Any]] = []
         self._logger = logging.getLogger(f"zentf.transport.node.{self._fq_name.strip('/').replace('/', '.')}")
-        self._bad_input = RateLimitedLog(self._logger)
+        #: one line per (problem, key, sender) and period for bad input from the network, names escaped
+        self._bad_input = RateLimitedLogger(self._logger)
         self._publishers: set[Publisher] = set()
         self._subscriptions: set[Subscription] = set()
         self._timers: set[Timer] = set()
@@ -373,10 +356,7 @@ class Node:
             # in the graph stops it cleanly instead of interrupting the rest of this constructor
             _register_node(self)
             self._tokens.append(self.session.liveliness().declare_token(self.wire.node_token(self)))
-            use_sim = self.declare_parameter("use_sim_time", False).value
-            if isinstance(use_sim, str):
-                use_sim = use_sim.strip().lower() in ("1", "true", "yes", "on")
-            use_sim = bool(use_sim)
+            use_sim = parse_bool(self.declare_parameter("use_sim_time", False).value, "parameter use_sim_time")
             self._params["use_sim_time"].value = use_sim
             self._clock = Clock(ClockType.ROS_TIME if use_sim else ClockType.SYSTEM_TIME, sim=use_sim)
             self._clock_sub = None
@@ -532,8 +512,9 @@ class Node:
                 if type(sec) is not int or type(nsec) is not int or sec < 0 or not 0 <= nsec < 1_000_000_000:
                     raise ValueError(f"bad clock value {st!r}"[:100])
             except Exception as e:
-                self._bad_input(str(sample.key_expr), f"dropped bad /clock message on '{sample.key_expr}' "
-                                f"from {profile.authority(sample.attachment, 'unknown sender')}: {e}")
+                sender = profile.authority(sample.attachment, "unknown sender")
+                self._bad_input.log(logging.WARNING, ("bad", str(sample.key_expr), sender),
+                                    "dropped bad /clock message on '%s' from %s: %s", sample.key_expr, sender, e)
                 return
             clock.set_sim_time(sec * 1_000_000_000 + nsec)
             self._post(None)

@@ -1,7 +1,9 @@
 """The one place where node identity and Zenoh options come from: flags > ZENTF_* env vars > defaults.
 
+The options themselves are declared once, in ``SHARED_OPTIONS``.
 Node programs: ``add_node_arguments(parser)`` then ``NodeOptions.from_args(parser.parse_args())``.
-CLI (typer) commands: ``ZenohOptions.from_values(...)`` then ``.config()`` / ``.open_session()``.
+CLI (click) commands: ``zentf.cli.common.with_options`` builds the same options, then
+``ZenohOptions.from_values(...)`` and ``.config()`` / ``.open_session()``.
 Launcher: ``NodeOptions(...).to_env()`` gives the env vars that pass identity to a child.
 """
 from __future__ import annotations
@@ -17,19 +19,20 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from .names import normalize_namespace, validate_node_name
+from ..core.text import parse_bool
+from .names import fully_qualified_node_name, normalize_namespace, validate_node_name
+from .shared_options import MODES, SHARED_OPTIONS, WIRES, SharedOption
 
 __all__ = [
-    "OptionsError", "ZenohOptions", "NodeOptions", "add_zenoh_arguments", "add_node_arguments",
-    "parse_param_assignment", "parse_remap", "load_params_file", "ENV_VARS", "LOCAL_PORT", "exposure",
+    "OptionsError", "ZenohOptions", "NodeOptions", "SharedOption", "SHARED_OPTIONS", "add_zenoh_arguments",
+    "add_node_arguments", "node_options_help",
+    "parse_param_assignment", "parse_remap", "load_params_file", "params_for_node", "ParamsFileError",
+    "ROS_PARAMETERS", "ENV_VARS", "LOCAL_PORT", "exposure",
 ]
 
 ENV_VARS = ("ZENTF_NODE_NAME", "ZENTF_NAMESPACE", "ZENTF_PARAMS", "ZENTF_PARAMS_FILE", "ZENTF_REMAP",
             "ZENTF_ZENOH_CONFIG", "ZENTF_CONNECT", "ZENTF_LISTEN", "ZENTF_MODE", "ZENTF_NO_MULTICAST",
             "ZENTF_LAN", "ZENTF_LOCAL_PORT", "ZENTF_WIRE", "ROS_DOMAIN_ID")
-#: Wire profiles (zentf.transport.wire.profiles): zentf's own format, or rmw_zenoh's to talk to ROS 2 (docs/ros2.md).
-WIRES = ("zentf", "ros2")
-MODES = ("peer", "client", "router")
 _ENDPOINT = re.compile(r"[a-z0-9]+/\S+\Z")
 #: Loopback port of the local profile's rendezvous: the first zentf process of this machine listens
 #: there, every later one connects to it and gossip links them all (zentf's rmw_zenohd, in-process).
@@ -40,8 +43,8 @@ _RETRY = "{period_init_ms: 250, period_max_ms: 1000, period_increase_factor: 2}"
 # Zenoh reads each link into a pool of rx_buffer_size / batch size buffers, one by default; a buffer
 # comes back to the pool only once every sample cut from it is dropped, so while a subscriber's
 # RingChannel still holds the previous batch's samples, every read callocs a fresh 64 kB buffer and
-# zeroes it (callgrind, a 1-transform tf flood: 2.7k of the rx thread's 6.3k instructions a message).
-# Four batches (at most 256 kB a link) let the reads recycle (docs/protocol.md, "Sessions").
+# zeroes it, which under a flood of small messages is most of the receiving thread's work. Four
+# batches (at most 256 kB a link) let the reads recycle (docs/protocol.md, "Sessions").
 _RX_BUFFER = 4 * 65535
 log = logging.getLogger("zentf.network")
 _warned_exposed = False
@@ -70,8 +73,12 @@ def _check_endpoints(eps: Sequence[str], what: str) -> list[str]:
     return out
 
 
-def _truthy(value: str | None) -> bool:
-    return (value or "").strip().lower() in ("1", "true", "yes", "on")
+def env_flag(env: Mapping[str, str], var: str) -> bool:
+    """A yes/no environment variable (unset or empty: no); a word parse_bool does not know is an error."""
+    try:
+        return parse_bool(env.get(var, ""), var)
+    except ValueError as e:
+        raise OptionsError(str(e)) from None
 
 
 def _port(value: str | None, what: str) -> int:
@@ -122,8 +129,8 @@ class ZenohOptions:
                    connect=_check_endpoints(_split_list(env.get("ZENTF_CONNECT")), "ZENTF_CONNECT"),
                    listen=_check_endpoints(_split_list(env.get("ZENTF_LISTEN")), "ZENTF_LISTEN"),
                    mode=(env.get("ZENTF_MODE") or None),
-                   no_multicast=_truthy(env.get("ZENTF_NO_MULTICAST")),
-                   lan=_truthy(env.get("ZENTF_LAN")),
+                   no_multicast=env_flag(env, "ZENTF_NO_MULTICAST"),
+                   lan=env_flag(env, "ZENTF_LAN"),
                    local_port=_port(env.get("ZENTF_LOCAL_PORT"), "ZENTF_LOCAL_PORT"))
         opts._check()
         return opts
@@ -183,8 +190,8 @@ class ZenohOptions:
             if self.profile != "file":
                 # Zenoh's default puts every message of 3 kB or more into a 16 MiB shared-memory pool and
                 # has each receiver on the machine map the sender's pool: a listener flooded with big
-                # messages counted ~35 MB of such mappings in its RSS, kept after the flood (bench/abuse.py).
-                # Off, as in rmw_zenoh's default session; a config file may turn it back on.
+                # messages keeps those mappings in its RSS after the flood. Off, as in rmw_zenoh's
+                # default session; a config file may turn it back on.
                 cfg.insert_json5("transport/shared_memory/enabled", "false")
                 cfg.insert_json5("transport/link/rx/buffer_size", str(_RX_BUFFER))
             if self.mode:
@@ -353,7 +360,8 @@ def exposure(cfg: Any) -> list[str]:
 
 
 def _warn_if_exposed(cfg: Any) -> None:
-    """One line per process when a session reaches beyond loopback unauthenticated (issue: silent LAN)."""
+    """One line per process when a session reaches beyond loopback unauthenticated: an exposure nobody
+    asked for must not be silent."""
     global _warned_exposed
     if _warned_exposed:
         return
@@ -416,35 +424,118 @@ def parse_remap(text: str) -> tuple[str, str]:
     return src.strip(), dst.strip()
 
 
-def load_params_file(path: str, node_name: str | None = None) -> dict[str, Any]:
-    """A YAML params file: flat ``{name: value}`` or ROS 2 style ``{node|/**: {ros__parameters: {...}}}``."""
+class ParamsFileError(OptionsError):
+    """A params file zentf cannot use: one line naming the file, the line when known, and what is wrong."""
+
+    def __init__(self, file: str, what: str, line: int | None = None) -> None:
+        self.file, self.what, self.line = file, what, line
+        super().__init__(f"params file {file}{f':{line}' if line else ''}: {what}")
+
+
+#: The key that opens a node's parameters in a ROS 2 params file.
+ROS_PARAMETERS = "ros__parameters"
+_NODE_KEY_PART = re.compile(r"\*\*?\Z|[A-Za-z_][A-Za-z0-9_]*\Z")
+
+
+def load_params_file(path: str, node_fqn: str) -> dict[str, Any]:
+    """The parameters a params file gives the node ``node_fqn`` ('/ns/name'), read as ROS 2 reads it.
+
+    A file whose sections hold ``ros__parameters`` is a ROS 2 file: each section's key (nested keys
+    joined with '/') names nodes, a key without a leading '/' gets one (``talker`` is the root namespace's
+    talker only), ``*`` stands for one name and ``**`` for any number of them (``/**`` is every node,
+    ``/**/talker`` every talker), and every section whose key matches the whole ``node_fqn`` applies, in
+    file order (a later one wins), as rclcpp's parameter_map_from does. Any other mapping is a flat
+    ``{name: value}`` file for every node. A nested mapping of values is a parameter namespace
+    (``gains: {p: 1}`` is ``gains.p``, as in ROS 2). YAML aliases are refused (they expand without bound).
+    """
     import yaml
 
     try:
         with open(path, encoding="utf-8") as f:
-            data = yaml.safe_load(f)
+            text = f.read()
+    except FileNotFoundError:
+        raise ParamsFileError(path, "not found") from None
     except OSError as e:
-        raise OptionsError(f"cannot read params file {path}: {e.strerror}") from None
+        raise ParamsFileError(path, f"cannot read: {e.strerror}") from None
+    except UnicodeDecodeError:
+        raise ParamsFileError(path, "not UTF-8 text") from None
+    loader_class = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+    try:
+        loader = loader_class(text)
+        try:
+            while loader.check_event():
+                event = loader.get_event()
+                if isinstance(event, yaml.AliasEvent):
+                    raise ParamsFileError(path, f"YAML alias *{event.anchor} is not allowed (aliases can expand "
+                                                "without bound; write the value out)", event.start_mark.line + 1)
+        finally:
+            loader.dispose()
+        data = yaml.load(text, Loader=loader_class)  # noqa: S506 - a safe loader
+    except yaml.MarkedYAMLError as e:
+        mark = e.problem_mark or e.context_mark
+        what = " ".join(p for p in (e.context, e.problem) if p) or "invalid YAML"
+        raise ParamsFileError(path, f"bad YAML: {what}", mark.line + 1 if mark else None) from None
     except yaml.YAMLError as e:
-        raise OptionsError(f"bad YAML in params file {path}: {str(e).splitlines()[0]}") from None
+        raise ParamsFileError(path, f"bad YAML: {str(e).strip().splitlines()[0]}") from None
+    return params_for_node(data, node_fqn, path)
+
+
+def params_for_node(data: Any, node_fqn: str, path: str = "params file") -> dict[str, Any]:
+    """``load_params_file``'s rules applied to a parsed params file (``data``); ``path`` names it in errors."""
     if data is None:
         return {}
     if not isinstance(data, dict):
-        raise OptionsError(f"params file {path}: expected a mapping at top level")
-    ros_style = any(isinstance(v, dict) and "ros__parameters" in v for v in data.values())
-    if not ros_style:
-        return dict(data)
+        raise ParamsFileError(path, "expected a mapping at top level")
+    if not _holds_ros_parameters(data):
+        return _flatten(data, "", path)
     out: dict[str, Any] = {}
-    for key, v in data.items():
-        if not isinstance(v, dict) or "ros__parameters" not in v:
-            continue
-        k = str(key).strip("/")
-        if k in ("**", "*") or node_name is None or k == node_name or k.split("/")[-1] == node_name:
-            params = v["ros__parameters"] or {}
-            if not isinstance(params, dict):
-                raise OptionsError(f"params file {path}: ros__parameters of {key!r} must be a mapping")
+    for key, params in _sections(data, "", path):
+        if _node_key_pattern(key, path).fullmatch(node_fqn):
             out.update(params)
     return out
+
+
+def _holds_ros_parameters(data: dict) -> bool:
+    return any(k == ROS_PARAMETERS or (isinstance(v, dict) and _holds_ros_parameters(v)) for k, v in data.items())
+
+
+def _sections(data: dict, prefix: str, path: str) -> list[tuple[str, dict[str, Any]]]:
+    """(node key, its flattened parameters) of each ``ros__parameters`` section, in file order."""
+    out: list[tuple[str, dict[str, Any]]] = []
+    for key, value in data.items():
+        if key == ROS_PARAMETERS:
+            if not prefix:
+                raise ParamsFileError(path, f"{ROS_PARAMETERS} must be under a node name")
+            if value is not None and not isinstance(value, dict):
+                raise ParamsFileError(path, f"{ROS_PARAMETERS} of '{prefix}' must be a mapping")
+            out.append((prefix, _flatten(value or {}, "", path)))
+        elif isinstance(value, dict):
+            out.extend(_sections(value, f"{prefix}/{key}" if prefix else str(key), path))
+        else:
+            where = f"{prefix}/{key}" if prefix else str(key)
+            raise ParamsFileError(path, f"'{where}' is outside any {ROS_PARAMETERS} section")
+    return out
+
+
+def _flatten(params: dict, prefix: str, path: str) -> dict[str, Any]:
+    """A nested mapping of parameters as ROS 2 names them: ``{gains: {p: 1}}`` -> ``{"gains.p": 1}``."""
+    out: dict[str, Any] = {}
+    for key, value in params.items():
+        name = f"{prefix}.{key}" if prefix else str(key)
+        if isinstance(value, dict):
+            out.update(_flatten(value, name, path))
+        else:
+            out[name] = value
+    return out
+
+
+def _node_key_pattern(key: str, path: str) -> re.Pattern[str]:
+    """A params file's node key as a pattern over fully qualified node names (rclcpp's reading)."""
+    parts = key.strip().strip("/").split("/")
+    if not all(_NODE_KEY_PART.match(p) for p in parts):
+        raise ParamsFileError(path, f"bad node name '{key}' (names, * and ** between slashes)")
+    rx = "".join("(?:/[A-Za-z0-9_]+)*" if p == "**" else "/[A-Za-z0-9_]+" if p == "*" else "/" + p for p in parts)
+    return re.compile(rx)
 
 
 def _json_object(env: Mapping[str, str], var: str) -> dict[str, Any]:
@@ -537,11 +628,13 @@ class NodeOptions:
         if self.wire not in WIRES:
             raise OptionsError(f"bad wire profile {self.wire!r} (choose zentf or ros2) [ZENTF_WIRE]")
 
-    def resolved_params(self, node_name: str | None = None) -> dict[str, Any]:
-        """Params file values overridden by explicit params."""
+    def resolved_params(self, node_name: str | None = None, namespace: str | None = None) -> dict[str, Any]:
+        """Params file values (the sections that match this node: ``load_params_file``) overridden by
+        explicit params; the node is ``node_name``/``namespace``, by default the options' own."""
         out: dict[str, Any] = {}
         if self.params_file:
-            out.update(load_params_file(self.params_file, node_name or self.name))
+            ns = normalize_namespace(namespace if namespace is not None else self.namespace)
+            out.update(load_params_file(self.params_file, fully_qualified_node_name(ns, node_name or self.name or "")))
         out.update(self.params)
         return out
 
@@ -580,32 +673,42 @@ def _domain_id(text: str | None) -> int:
     return value
 
 
-def add_zenoh_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
-    g = parser.add_argument_group("zenoh")
-    g.add_argument("--zenoh-config", metavar="FILE", help="Zenoh JSON5 config file [ZENTF_ZENOH_CONFIG]")
-    g.add_argument("--connect", metavar="EP", action="append",
-                   help="endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeat) [ZENTF_CONNECT]")
-    g.add_argument("--listen", metavar="EP", action="append", help="endpoint to listen on (repeat) [ZENTF_LISTEN]")
-    g.add_argument("--mode", choices=MODES, help="Zenoh mode [ZENTF_MODE]")
-    g.add_argument("--no-multicast", action="store_true", default=None,
-                   help="turn multicast scouting off [ZENTF_NO_MULTICAST=1]")
-    g.add_argument("--lan", action="store_true", default=None,
-                   help="reach other machines: every interface + multicast scouting, unauthenticated "
-                        "(default: this machine only) [ZENTF_LAN=1]")
+_GROUP_TITLES = {"node": "node options", "zenoh": "Zenoh options"}
+
+
+def _add_arguments(parser: argparse.ArgumentParser, groups: Sequence[str]) -> argparse.ArgumentParser:
+    have = {o for a in parser._actions for o in a.option_strings}  # e.g. a program's own --debug
+    for group in groups:
+        g = parser.add_argument_group(_GROUP_TITLES[group])
+        for opt in SHARED_OPTIONS:
+            if opt.group != group or have.intersection(opt.flags):
+                continue
+            kw: dict[str, Any] = {"dest": opt.dest, "help": opt.help_text, "default": None}
+            if opt.kind == "flag":
+                kw["action"] = "store_true"
+            else:
+                kw["metavar"] = opt.metavar
+                if opt.kind == "repeat":
+                    kw["action"] = "append"
+                if opt.choices:
+                    kw["choices"] = opt.choices
+            g.add_argument(*opt.flags, **kw)
     return parser
+
+
+def add_zenoh_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """The Zenoh options of SHARED_OPTIONS (--zenoh-config, --connect, --listen, --mode, ...) on ``parser``."""
+    return _add_arguments(parser, ("zenoh",))
+
+
+def node_options_help() -> str:
+    """The shared options' sections of a program's --help, for programs that print a usage text of their
+    own (static_transform_publisher's is tf2_ros's) or parse them apart (robot_state_publisher)."""
+    parser = argparse.ArgumentParser(add_help=False, usage=argparse.SUPPRESS)
+    return add_node_arguments(parser).format_help().strip()
 
 
 def add_node_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
-    """Add --name/--namespace/-p/--params-file/-r plus the Zenoh flags to a node program's parser."""
-    g = parser.add_argument_group("node")
-    g.add_argument("--name", dest="node_name", metavar="NAME", help="node name [ZENTF_NODE_NAME]")
-    g.add_argument("--namespace", "-n", dest="namespace", metavar="NS", help="namespace [ZENTF_NAMESPACE]")
-    g.add_argument("-p", "--param", dest="params", metavar="NAME:=VALUE", action="append",
-                   help="parameter (repeat) [ZENTF_PARAMS as JSON]")
-    g.add_argument("--params-file", metavar="FILE", help="YAML parameters file [ZENTF_PARAMS_FILE]")
-    g.add_argument("-r", "--remap", dest="remap", metavar="FROM:=TO", action="append",
-                   help="topic remapping (repeat) [ZENTF_REMAP as JSON]")
-    g.add_argument("--wire", choices=WIRES, default=None,
-                   help="wire format: zentf (default) or ros2 (rmw_zenoh, ROS_DOMAIN_ID) [ZENTF_WIRE]")
-    add_zenoh_arguments(parser)
-    return parser
+    """Every option of SHARED_OPTIONS (identity, parameters, remappings, wire, --debug, Zenoh) on a node
+    program's parser."""
+    return _add_arguments(parser, ("node", "zenoh"))

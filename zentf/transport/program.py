@@ -9,9 +9,10 @@ import signal
 import sys
 from typing import Any, Callable, NoReturn, Sequence
 
-from .options import NodeOptions, OptionsError, add_node_arguments
+from ..core.text import parse_bool, printable
+from .options import NodeOptions, OptionsError, add_node_arguments, env_flag
 
-__all__ = ["OptionsError", "main", "run", "split_node_options", "make_node", "say", "param",
+__all__ = ["OptionsError", "main", "run", "split_node_options", "make_node", "say", "error_line", "param",
            "param_float", "param_positive", "param_bool"]
 
 log = logging.getLogger("zentf.program")
@@ -21,12 +22,13 @@ _node: Any = None  # the program's node, stopped when stdout's reader goes away
 
 
 def say(line: str) -> None:
-    """One human-facing result line on stdout, flushed at once (tests and pipes read it live)."""
+    """One human-facing result line on stdout, flushed at once (tests and pipes read it live). Names in it
+    may come from the network or a file: the line is escaped (``printable``), so it stays one line."""
     global _stdout_gone
     if _stdout_gone:
         return
     try:
-        print(line, flush=True)
+        print(printable(line), flush=True)
     except (BrokenPipeError, ValueError):  # the reader went away (| head): stop quietly, like SIGPIPE
         _stdout_gone = True
         try:
@@ -47,15 +49,19 @@ class _Parser(argparse.ArgumentParser):
 def _parser(prog: str, description: str | None, *, add_help: bool = True) -> argparse.ArgumentParser:
     parser = _Parser(prog=prog, description=description, allow_abbrev=False, add_help=add_help,
                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--debug", action="store_true", help="debug logging and full tracebacks")
     add_node_arguments(parser)
     return parser
+
+
+def _debug(args: argparse.Namespace) -> bool:
+    """--debug, or ZENTF_DEBUG a yes word (the CLI passes its --debug on so)."""
+    return bool(args.debug) or env_flag(os.environ, "ZENTF_DEBUG")
 
 
 def split_node_options(prog: str, argv: Sequence[str]) -> tuple[NodeOptions, bool, list[str]]:
     """Shared node/Zenoh options out of argv: (options, --debug given, the program's own arguments)."""
     args, rest = _parser(prog, None, add_help=False).parse_known_args(list(argv))
-    return NodeOptions.from_args(args), bool(args.debug), rest
+    return NodeOptions.from_args(args), _debug(args), rest
 
 
 def main(prog: str, argv: Sequence[str] | None, body: Callable[[NodeOptions], None],
@@ -65,15 +71,22 @@ def main(prog: str, argv: Sequence[str] | None, body: Callable[[NodeOptions], No
     try:
         args = _parser(prog, description).parse_args(argv)
         opts = NodeOptions.from_args(args)
+        debug = _debug(args)
     except OptionsError as e:
-        print(f"{prog}: error: {e}", file=sys.stderr, flush=True)
+        error_line(prog, str(e))
         return 2
-    return run(lambda: body(opts), prog, bool(args.debug))
+    return run(lambda: body(opts), prog, debug)
+
+
+def error_line(prog: str, text: str, kind: str = "error: ") -> None:
+    """``PROG: error: TEXT`` on stderr, the text escaped: it may quote a file or a peer."""
+    print(f"{prog}: {kind}{printable(text)}", file=sys.stderr, flush=True)
 
 
 def _setup_logging(debug: bool) -> None:
-    logging.basicConfig(level=logging.DEBUG if debug else logging.INFO, stream=sys.stderr,
-                        format="[%(levelname)s] [%(name)s]: %(message)s")
+    from .node import init_logging
+
+    init_logging(logging.DEBUG if debug else logging.INFO)
 
 
 def run(body: Callable[[], None], prog: str, debug: bool = False) -> int:
@@ -96,14 +109,13 @@ def run(body: Callable[[], None], prog: str, debug: bool = False) -> int:
     except (OptionsError, ValueError) as e:  # bad options/parameters, duplicate node name, ...
         if debug:
             raise
-        text = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-        print(f"{prog}: error: {text}", file=sys.stderr, flush=True)
+        error_line(prog, str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__)
         return 1
     except Exception as e:  # a user sees one line, a developer asks for --debug
         if debug:
             raise
         text = str(e).strip().splitlines()[0] if str(e).strip() else ""
-        print(f"{prog}: {type(e).__name__}: {text}", file=sys.stderr, flush=True)
+        error_line(prog, text, f"{type(e).__name__}: ")
         return 1
     finally:
         if _started:  # from here on a late signal would only kill the interpreter's own teardown
@@ -167,9 +179,8 @@ def param_positive(node: Any, name: str, default: float) -> float:
 
 
 def param_bool(node: Any, name: str, default: bool) -> bool:
-    value = param(node, name, default)
-    if isinstance(value, str) and value.strip().lower() in ("true", "false", "1", "0", "yes", "no"):
-        return value.strip().lower() in ("true", "1", "yes")
-    if not isinstance(value, bool):
-        raise OptionsError(f"parameter {name} must be true or false, got {value!r}")
-    return value
+    """A yes/no parameter (``parse_bool``'s words, e.g. from a launch substitution); OptionsError otherwise."""
+    try:
+        return parse_bool(param(node, name, default), f"parameter {name}")
+    except ValueError as e:
+        raise OptionsError(str(e)) from None

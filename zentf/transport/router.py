@@ -9,6 +9,7 @@ import threading
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
+from ..core.text import printable
 from .options import OptionsError, ZenohOptions, add_zenoh_arguments
 
 __all__ = ["open_router", "main", "DEFAULT_ENDPOINT"]
@@ -51,12 +52,12 @@ def main(argv: Sequence[str] | None = None, prog: str = "python -m zentf.transpo
         cfg = opts.config()
         endpoints = opts.listen or _listen_endpoints(cfg) or [DEFAULT_ENDPOINT]
     except OptionsError as e:  # a bad flag or config file: a usage error
-        print(f"{_who(prog)}: error: {e}", file=sys.stderr)
+        print(f"{_who(prog)}: error: {printable(str(e))}", file=sys.stderr)  # it may quote the config file
         return 2
     try:
         session = opts.open_session()
     except OptionsError as e:  # e.g. the port is taken
-        print(f"{_who(prog)}: error: {e}", file=sys.stderr)
+        print(f"{_who(prog)}: error: {printable(str(e))}", file=sys.stderr)
         return 1
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -84,5 +85,7 @@ def _listen_endpoints(cfg: Any) -> list[str]:
 
 
 if __name__ == "__main__":
-    logging.basicConfig(level=logging.WARNING)
+    from ..core.text import stderr_log_handler
+
+    logging.basicConfig(level=logging.WARNING, handlers=[stderr_log_handler(logging.BASIC_FORMAT)])
     sys.exit(main())

@@ -53,9 +53,9 @@ def _service_key(node: Any, name: str, srv_type: type[ServiceType], role: str) -
     try:
         return node.wire.service_key(name, srv_type.TYPE_NAME)
     except UnknownTypeError:
-        node._bad_input(f"ros2-no-srv:{srv_type.TYPE_NAME}",
-                        f"{role} {name} skipped: no ROS 2 definition for {srv_type.TYPE_NAME}, "
-                        "it cannot travel with --wire ros2")
+        node._bad_input.log(logging.WARNING, ("ros2-no-srv", srv_type.TYPE_NAME),
+                            "%s %s skipped: no ROS 2 definition for %s, it cannot travel with --wire ros2",
+                            role, name, srv_type.TYPE_NAME)
         return None
 
 
@@ -138,8 +138,8 @@ class Service:
             raw = query.attachment.to_bytes() if query.attachment is not None else b""
             seq, _, gid = parse_ros2_attachment(raw)
         except ValueError as e:
-            self.node._bad_input(f"srv:{self.key}", f"refused request on service {name}: "
-                                 f"no rmw_zenoh attachment ({e})")
+            self.node._bad_input.log(logging.WARNING, ("srv", self.key),
+                                     "refused request on service %s: no rmw_zenoh attachment (%s)", name, e)
             self._reply_err(query, f"service {name}: request without rmw_zenoh attachment")
             return
         self.node._post(lambda: self._serve(query, payload, "", f"client {gid.hex()}", (seq, gid)))
@@ -158,7 +158,8 @@ class Service:
             else:
                 request = wire.decode(payload, self.srv_type.Request) if payload else self.srv_type.Request()
         except ValueError as e:
-            self.node._bad_input(f"srv:{self.key}", f"refused bad request on service {name} from {caller}: {e}")
+            self.node._bad_input.log(logging.WARNING, ("srv", self.key),
+                                     "refused bad request on service %s from %s: %s", name, caller, e)
             self._reply_err(query, f"bad request for {self.srv_type.TYPE_NAME}: {e}")
             return
         try:
@@ -172,8 +173,8 @@ class Service:
             out = cdr_codec.encode(response) if ros2_id is not None else wire.encode(response)
         except Exception as e:
             reason = f"{type(e).__name__}: {e}" if str(e) else type(e).__name__
-            self.node._bad_input(f"srv-handler:{self.key}",  # rate-limited: a flood of failing calls
-                                 f"service {name}: handler failed for {caller}: {reason}")
+            self.node._bad_input.log(logging.WARNING, ("srv-handler", self.key),  # a flood of failing calls
+                                     "service %s: handler failed for %s: %s", name, caller, reason)
             self._reply_err(query, f"service {name} failed: {reason}")
             return
         try:

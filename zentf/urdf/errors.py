@@ -1,7 +1,7 @@
 """The URDF package's one error class: what was wrong, in which element, at which file:line."""
 from __future__ import annotations
 
-from ..core.ratelimit import escape
+from ..core.text import printable
 
 __all__ = ["URDFError"]
 
@@ -23,4 +23,4 @@ class URDFError(ValueError):
         if self.line is not None:
             where += f":{self.line}"
         what = f"{self.element}: " if self.element else ""
-        return escape(f"{where}: {what}{self.message}", 4000)
+        return printable(f"{where}: {what}{self.message}", 4000)

@@ -13,7 +13,7 @@ from typing import Union
 
 import numpy as np
 
-from ..core.ratelimit import escape
+from ..core.text import printable
 
 __all__ = ["Pose", "Color", "Material", "Box", "Cylinder", "Sphere", "Mesh", "Geometry", "Visual",
            "Link", "JointLimit", "JointMimic", "Joint", "Robot", "URDF", "JOINT_TYPES", "MOVABLE_TYPES"]
@@ -245,7 +245,7 @@ class Robot:
         an explicit stack: a chain of any length works; the indent stops growing at ``max_indent`` levels
         and the line then says the depth). Names are escaped: they come from the file."""
         def name(s: str) -> str:
-            return escape(s, 1024)
+            return printable(s, 1024)
 
         lines = [f"root Link: {name(self.root)} has {len(self.child_joints.get(self.root, []))} child(ren)"]
         todo: list[tuple[str, int, int]] = []  # (joint, child number, depth), popped in document order

@@ -15,7 +15,7 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 
-from ..core.ratelimit import escape
+from ..core.text import printable
 from .errors import URDFError
 from .model import (JOINT_TYPES, Box, Cylinder, Joint, JointLimit, JointMimic, Link, Material, Mesh,
                     Pose, Robot, Sphere, Visual)
@@ -315,7 +315,7 @@ def read_urdf_text(path: str, xacro_args: dict[str, str] | None = None, *, packa
             msg = e.message if e.message.startswith("xacro") else f"xacro: {e.message}"
             raise URDFError(msg, file=e.file or path, line=e.line) from None
         for w in result.warnings[:20]:
-            log.warning("%s: xacro: %s", escape(path), escape(w, 400))
+            log.warning("%s: xacro: %s", printable(path), printable(w, 400))
         if not result.confined.get("landlock"):
             log.debug("%s: expanded without Landlock (kernel without it): rlimits and zentf's evaluator only", path)
         return result.urdf

@@ -82,8 +82,11 @@ def _mcap_kind(path: Path) -> BagFormat:
 
 
 def detect_format(path: str | os.PathLike) -> tuple[BagFormat, Path]:
-    """(format, path to open): a rosbag2 folder without metadata.yaml resolves to its one storage file."""
+    """(format, path to open): a rosbag2 folder without metadata.yaml resolves to its one storage file, a
+    rosbag2 ``metadata.yaml`` to its folder."""
     p = Path(path)
+    if p.name == "metadata.yaml" and p.is_file():  # ros2 bag tools take a bag's metadata for its folder
+        p = p.parent
     if p.is_dir():
         if (p / "metadata.yaml").is_file():
             import yaml

@@ -6,6 +6,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from zentf.transport.names import key_to_topic
+
 from .source import TF_TOPICS, open_bag
 
 __all__ = ["bag_info"]
@@ -89,7 +91,7 @@ def bag_info(path: str | os.PathLike) -> dict[str, Any]:
         "start": first / 1e9 if first is not None else None, "end": last / 1e9 if last is not None else None,
         "duration": duration, "complete": bag.problem is None, "problem": bag.problem,
         "skipped_chunks": bag.skipped_chunks,
-        "topics": [{"key": t.key, "type": t.type_name, "count": t.count, "latched": t.latched,
+        "topics": [{"key": t.key, "topic": t.key if bag.format.is_ros else key_to_topic(t.key), "type": t.type_name, "count": t.count, "latched": t.latched,
                     "frequency": ((t.count - 1) * 1e9 / (t.last - t.first)
                                   if t.last > t.first and not t.latched else None),
                     "senders": sorted(t.senders)}

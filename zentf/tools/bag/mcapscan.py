@@ -1,8 +1,8 @@
 """A fast, damage-tolerant, bounded MCAP record scanner shared by zentf's and ROS 2's MCAP files.
 
 Reads the file front to back in records (never the whole file at once), parses chunk contents
-with ``struct`` (the mcap package's StreamReader builds an object per record, ~5x slower), and
-yields (channel, log_time, payload) in file order. Channels and schemas are taken from the
+with ``struct`` (the mcap package's StreamReader builds an object per record, which would dominate
+a load), and yields (channel, log_time, payload) in file order. Channels and schemas are taken from the
 summary too, so messages of a chunk whose channel record was lost are still attributed.
 
 Bounded: a chunk declaring more than ``MAX_CHUNK`` bytes uncompressed is refused before anything is

@@ -4,7 +4,9 @@
 (``/odom`` -> ``odom``), ROS payloads are re-encoded to zentf's msgpack wire form, latched
 topics (``/tf_static``, transient-local QoS, ROS 1 latching) go out through a cached advanced
 publisher. With ``clock_hz > 0`` it publishes ``/clock`` = the recorded (log) time, as
-``ros2 bag play --clock`` does.
+``ros2 bag play --clock`` does, in the time base of the recording's tf stamps: a sim-time graph recorded
+by a wall-clock recorder (nav2 in Gazebo: stamps ~900 s, log times ~1.7e9 s) gets /clock in sim time,
+so nodes and tools on that clock see the data's time and delays are delays.
 """
 from __future__ import annotations
 
@@ -25,6 +27,11 @@ __all__ = ["Recorder", "Player", "PlayStats"]
 log = logging.getLogger("zentf.tools.bag")
 
 _NS = 1_000_000_000
+#: tf stamps this far from their log times are in another time base (sim time recorded with a wall
+#: clock), not late: network and recorder delays are milliseconds, clock skew seconds.
+CLOCK_BASE_GAP = 60 * _NS
+#: How many messages from the start are searched for a tf message to compare stamps with log times.
+_CLOCK_BASE_SCAN = 5000
 
 
 class Recorder:
@@ -107,6 +114,26 @@ class Player:
         self.topics = topics
         self._on_skip = on_skip
         self.bag = open_bag(self.path)  # fails early on a missing file or an unknown format
+        #: ns added to log times for /clock (0, or the distance to the tf stamps' time base)
+        self.clock_offset = self._stamp_base_offset() if self.clock_hz > 0 else 0
+
+    def _stamp_base_offset(self) -> int:
+        """0, or (tf header stamp - log time) of the first tf message when that is more than CLOCK_BASE_GAP."""
+        from zentf.transport.wire.codec import unpack
+
+        for i, m in enumerate(self.bag.zentf(None, None)):
+            if i >= _CLOCK_BASE_SCAN:
+                break
+            if m.latched or m.type_name != "tf2_msgs/msg/TFMessage" or m.key.rsplit("/", 1)[-1] != "tf":
+                continue
+            try:
+                stamps = [t["header"]["stamp"] for t in unpack(m.payload)["transforms"]]
+                stamp = max(st["sec"] * _NS + st["nanosec"] for st in stamps)
+            except (ValueError, KeyError, TypeError):
+                continue
+            gap = stamp - m.log_time
+            return gap if abs(gap) > CLOCK_BASE_GAP else 0
+        return 0
 
     def _publisher(self, key: str, enc: str, type_name: str, latched: bool) -> Any:
         pk = (key, enc)
@@ -139,7 +166,7 @@ class Player:
                 "clock", encoding=wire.encoding_for(Clock.TYPE_NAME), congestion_control=zenoh.CongestionControl.BLOCK)
             if self._declare_token is not None:
                 self._tokens.append(self._declare_token(Clock.TYPE_NAME, "clock"))
-        sec, nsec = divmod(max(0, t_ns), _NS)
+        sec, nsec = divmod(max(0, t_ns + self.clock_offset), _NS)
         self._clock_pub.put(wire.pack({"clock": {"sec": sec, "nanosec": nsec}}))
         self.stats.bag_time = t_ns
 

@@ -32,13 +32,13 @@ def rows_of(msg: Any) -> list[Row]:
 
 
 def _zentf_codec() -> Callable[[bytes], list[Row]] | None:
-    """zentf's TFMessage decoder: compiled (zentf/transport/ingest/tfwire.pyx) for a well-formed payload, else zentf.ros'
+    """zentf's TFMessage decoder: compiled (zentf/transport/ingest/decoders.pyx) for a well-formed payload, else zentf.ros'
     hand-laid one (elements it refuses are dropped, as the buffer would)."""
     try:
         from zentf.ros.tf import tf_samples
     except ImportError:  # pragma: no cover - zentf.ros ships with zentf; kept so this stays one switch
         return None
-    from zentf.transport.ingest.tfwire import cdr_tf
+    from zentf.transport.ingest.decoders import cdr_tf
 
     def decode(raw: bytes) -> list[Row]:
         rows = cdr_tf(raw)  # None: anything doubtful, read again below

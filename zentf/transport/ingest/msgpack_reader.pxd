@@ -1,6 +1,7 @@
 # cython: language_level=3
 """A msgpack reader over a byte range, in C: the pieces both compiled decoders use (the listener's
-TFMessage decoder, zentf/transport/ingest/tfwire.pyx, and robot_state_publisher's JointState reader, zentf/tools/jointtf.pyx).
+TFMessage decoder, zentf/transport/ingest/decoders.pyx, and robot_state_publisher's JointState reader,
+zentf/tools/jointtf.pyx).
 Each returns False, without a Python exception, for anything unlike what it reads (or cut short)."""
 from libc.stdint cimport int64_t, uint8_t, uint32_t, uint64_t
 from libc.string cimport memcmp, memcpy
@@ -131,7 +132,7 @@ cdef inline bint _int(Cur* c, int64_t* v) noexcept nogil:
 
 
 cdef inline bint _float(Cur* c, double* v) noexcept nogil:
-    """A msgpack float64/float32, or an integer as a float (as msgspec and ``+ 0.0`` take it)."""
+    """A msgpack float64/float32, or an integer as a float (as the Python path takes it)."""
     if c.p >= c.end:
         return False
     cdef uint8_t t = c.p[0]

@@ -1,9 +1,10 @@
 """Wire format: msgpack of a message's plain dict, Zenoh encoding ``application/msgpack;<type name>``.
 
 The sending node's fully qualified name travels as the sample attachment (UTF-8), so receivers
-know the authority of every transform. ``ingest_tf`` is the listener's fast path: msgpack straight
-into ``BufferCore.set_transforms_raw`` (one lock per message) with no dataclasses, each bad element
-skipped on its own; ``encode_tf`` is the broadcasters' (TransformStamped written from a byte template).
+know the authority of every transform. ``ingest_tf`` puts a TFMessage payload into a buffer: the
+compiled decoder (zentf/transport/ingest/decoders.pyx) reads a well-formed one, ``tf_samples`` reads any
+other and names what is wrong, each bad element skipped on its own; ``encode_tf`` is the broadcasters'
+(TransformStamped written from a byte template, zentf/transport/ingest/tf_encoder.pyx).
 """
 from __future__ import annotations
 
@@ -17,10 +18,13 @@ import msgpack
 from ...core.messages import JointState, Message, TransformStamped, message_type
 from ...ros.tf import FRAME_CACHE_SIZE, frame_name  # the one bounded cache of frame names
 from ...ros.tf import _FRAMES as _FRAME_CACHE
+from ..ingest.decoders import msgpack_tf
+from ..ingest.joint_state_encoder import js_payload as _js_payload
+from ..ingest.tf_encoder import ts_item as _ts_item, ts_payload as _ts_payload
 
 __all__ = [
     "ENCODING", "MAX_PAYLOAD", "encoding_for", "type_name_from_encoding", "pack", "unpack", "encode",
-    "decode", "decode_any", "tf_to_plain", "encode_tf", "ingest_tf", "authority_of",
+    "decode", "decode_any", "tf_to_plain", "encode_tf", "ingest_tf", "tf_samples", "insert_samples", "authority_of",
 ]
 
 ENCODING = "application/msgpack"
@@ -73,7 +77,7 @@ def unpack(payload: bytes | bytearray | memoryview) -> Any:
 
 
 def encode(msg: Message | dict) -> bytes:
-    if type(msg) is JointState:  # joint_states at hundreds of hertz: written in C (zentf/transport/ingest/tfwire.pyx)
+    if type(msg) is JointState:  # joint_states at hundreds of hertz: written in C (joint_state_encoder.pyx)
         payload = _js_payload(msg)
         if payload is not None:
             return payload
@@ -117,9 +121,9 @@ def tf_to_plain(ts: TransformStamped | dict) -> dict:
 
 
 # Broadcaster fast path: a TransformStamped with a Time stamp is written straight as msgpack bytes by
-# zentf/transport/ingest/tfwire.pyx (``ts_item``, ``ts_payload``): the same map (field names and order) that
-# pack(tf_to_plain(ts)) writes, with sec/nanosec as uint32 and every number as float64 (valid msgpack
-# that any decoder reads back to the same dict, ints as floats); anything unusual takes the dict path.
+# zentf/transport/ingest/tf_encoder.pyx (``ts_item``, ``ts_payload``): the same map (field names and
+# order) that pack(tf_to_plain(ts)) writes, with sec/nanosec as uint32 and every number as float64 (valid
+# msgpack that any decoder reads back to the same dict, ints as floats); anything unusual takes the dict path.
 
 
 def _tf_item(t: TransformStamped | dict) -> bytes:
@@ -156,14 +160,12 @@ def authority_of(attachment: Any, fallback: str) -> str:
     return text if 0 < len(text) <= 256 and text.isprintable() else fallback
 
 
-_NUM = (float, int)
-
-
 def _num(v: Any) -> float:
+    """A transform value: a float as it is, an int as a float (OverflowError beyond a double)."""
     if type(v) is float:
         return v
     if type(v) is int:
-        return float(v)  # OverflowError for absurd integers, caught by the caller
+        return float(v)
     raise TypeError(f"expected a number, got {type(v).__name__}")
 
 
@@ -177,88 +179,31 @@ def _frame(b: Any) -> str:
     return name
 
 
-def _tf_decoder() -> Any:
-    """msgspec decoder of a TFMessage into slotted structs (None without msgspec: generic path only).
-
-    Types are strict (int stamps, str frame ids, numbers for floats), unknown fields are ignored,
-    as in the per-element path; anything it refuses is re-read by that path.
-    """
-    try:
-        import msgspec
-    except ImportError:  # pragma: no cover - msgspec is a dependency; stay correct without it
-        return None
-
-    def struct(name: str, fields: list) -> Any:
-        return msgspec.defstruct(name, fields, gc=False)  # real types: this module's annotations are strings
-
-    stamp = struct("Time", [("sec", int), ("nanosec", int)])
-    header = struct("Header", [("stamp", stamp), ("frame_id", str)])
-    vector = struct("Vector3", [("x", float), ("y", float), ("z", float)])
-    quaternion = struct("Quaternion", [("x", float), ("y", float), ("z", float), ("w", float)])
-    transform = struct("Transform", [("translation", vector), ("rotation", quaternion)])
-    stamped = struct("TransformStamped", [("header", header), ("child_frame_id", str), ("transform", transform)])
-    return msgspec.msgpack.Decoder(struct("TFMessage", [("transforms", tuple[stamped, ...])]))
-
-
-_TF_DECODER = _tf_decoder()
-
-from ..ingest.tfwire import msgpack_tf as _compiled_tf  # noqa: E402  (compiled decoder; None: Python only, for tests)
-from ..ingest.tfwire import js_payload as _js_payload, ts_item as _ts_item, ts_payload as _ts_payload  # noqa: E402
-
-
 def ingest_tf(payload: bytes, core: Any, authority: str, is_static: bool) -> tuple[int, int, int, str | None]:
     """Insert every transform of a TFMessage payload into ``core`` (a BufferCore).
 
     Returns (accepted, rejected_by_buffer, malformed, first_problem). Raises ValueError only if the
-    whole payload is unusable (not msgpack, not a TFMessage). A well-formed message is decoded by
-    the compiled decoder (zentf/transport/ingest/tfwire.pyx) or, without it, by msgspec (fast paths); otherwise msgpack unpacks with raw=True and each element is validated on
-    its own (``+ 0.0`` is the number check), so one bad element costs only itself. Either way
+    whole payload is unusable (not msgpack, not a TFMessage). A well-formed message is decoded by the
+    compiled decoder; any other by ``tf_samples``, which names the first problem. Either way
     ``set_transforms_raw`` inserts the message under one lock and wakes waiters once.
     """
-    if _compiled_tf is not None:
-        # fastest path: compiled, bytes straight to sample tuples; None on any doubt (then the paths
-        # below read the message again and name what was wrong)
-        samples = _compiled_tf(payload)
-        if samples is not None:
-            if not samples:
-                return 0, 0, 0, None
-            try:
-                accepted = core.set_transforms_raw(samples, authority, is_static)
-            except Exception:  # the buffer failed: _insert retries one by one
-                return _insert(samples, core, authority, is_static, 0, None)
-            return accepted, len(samples) - accepted, 0, None
+    samples = msgpack_tf(payload)
+    if samples is None:
+        samples, malformed, problem = tf_samples(payload)
+        return insert_samples(samples, core, authority, is_static, malformed, problem)
+    return insert_samples(samples, core, authority, is_static)
+
+
+def tf_samples(payload: bytes) -> tuple[list[tuple], int, str | None]:
+    """(samples, malformed, first problem) of a msgpack TFMessage: the path that reads any payload and
+    names what is wrong, for the payloads the compiled decoder doubts.
+
+    msgpack unpacks with raw=True and each element is validated on its own, so one bad element costs
+    only itself; a number is a float or an int (not a bool), as for the compiled decoder. ValueError if the
+    payload is not a TFMessage at all.
+    """
     if len(payload) > MAX_PAYLOAD:
         raise ValueError(f"payload of {len(payload)} bytes exceeds the {MAX_PAYLOAD} byte limit")
-    if _TF_DECODER is not None:
-        # fast path: msgspec decodes and type-checks the whole message in C, straight into structs;
-        # any doubt (bad shape anywhere, stamp out of range) sends the message down the per-element
-        # path below, which finds, counts and names each bad element
-        try:
-            msg = _TF_DECODER.decode(payload)
-        except Exception:
-            msg = None
-        if msg is not None:
-            samples = []
-            append = samples.append
-            for t in msg.transforms:
-                h = t.header
-                st = h.stamp
-                sec = st.sec
-                nsec = st.nanosec
-                if not (0 <= sec < _MAX_SEC and 0 <= nsec < _NS):
-                    break
-                tr = t.transform
-                p = tr.translation
-                q = tr.rotation
-                append((h.frame_id, t.child_frame_id, sec * _NS + nsec, p.x, p.y, p.z, q.x, q.y, q.z, q.w))
-            else:
-                if not samples:
-                    return 0, 0, 0, None
-                try:
-                    accepted = core.set_transforms_raw(samples, authority, is_static)
-                except Exception:  # the buffer failed: _insert retries one by one
-                    return _insert(samples, core, authority, is_static, 0, None)
-                return accepted, len(samples) - accepted, 0, None
     try:
         data = msgpack.unpackb(payload, raw=True, use_list=False, strict_map_key=False)
     except Exception as e:
@@ -270,10 +215,11 @@ def ingest_tf(payload: bytes, core: Any, authority: str, is_static: bool) -> tup
         raise ValueError("TFMessage.transforms missing or not a list")
     malformed = 0
     problem: str | None = None
-    samples = []
+    samples: list[tuple] = []
     append = samples.append
     frame = _frame
     names = _FRAME_CACHE.get
+    num = _num
     for t in transforms:
         try:
             h = t[b"header"]
@@ -288,8 +234,7 @@ def ingest_tf(payload: bytes, core: Any, authority: str, is_static: bool) -> tup
             pb = h[b"frame_id"]
             cb = t[b"child_frame_id"]
             append((names(pb) or frame(pb), names(cb) or frame(cb), sec * _NS + nsec,
-                    p[b"x"] + 0.0, p[b"y"] + 0.0, p[b"z"] + 0.0,
-                    q[b"x"] + 0.0, q[b"y"] + 0.0, q[b"z"] + 0.0, q[b"w"] + 0.0))
+                    num(p[b"x"]), num(p[b"y"]), num(p[b"z"]), num(q[b"x"]), num(q[b"y"]), num(q[b"z"]), num(q[b"w"])))
         except (KeyError, TypeError, ValueError, IndexError, OverflowError) as e:
             malformed += 1
             if problem is None:
@@ -299,11 +244,13 @@ def ingest_tf(payload: bytes, core: Any, authority: str, is_static: bool) -> tup
                     problem = f"transforms[{i}]: missing field {k.decode('utf-8', 'replace') if isinstance(k, bytes) else k!r}"
                 else:
                     problem = f"transforms[{i}]: {type(e).__name__}: {e}"[:160]
-    return _insert(samples, core, authority, is_static, malformed, problem)
+    return samples, malformed, problem
 
 
-def _insert(samples: list, core: Any, authority: str, is_static: bool, malformed: int,
-            problem: str | None) -> tuple[int, int, int, str | None]:
+def insert_samples(samples: list, core: Any, authority: str, is_static: bool, malformed: int = 0,
+                   problem: str | None = None) -> tuple[int, int, int, str | None]:
+    """``core.set_transforms_raw(samples)``, and one by one if the buffer raised (it must never take a
+    listener down): (accepted, rejected, malformed, first problem)."""
     if not samples:
         return 0, 0, malformed, problem
     try:

@@ -32,7 +32,8 @@ from ...ros import CdrError, UnknownTypeError, dds_type_name, ros_type_name, tf_
 from ...ros import codec as cdr_codec
 from ...ros.tf import encode_tf as cdr_encode_tf
 
-from ..ingest.tfwire import cdr_tf as _compiled_cdr_tf  # the compiled decoder (zentf/transport/ingest/tfwire.pyx); None: Python only (tests)
+from ..ingest.decoders import cdr_tf  # the compiled decoder (zentf/transport/ingest/decoders.pyx)
+from ..ingest.handler import SenderTail
 
 __all__ = ["WireProfile", "ZentfProfile", "Ros2Profile", "make_profile", "PROFILES", "qos_string",
            "parse_ros2_token", "ros2_attachment", "parse_ros2_attachment", "ROS2_DEFAULT_DEPTH",
@@ -336,12 +337,12 @@ class Ros2Profile(WireProfile):
         return type_name, cdr_codec.decode(payload, type_name), True
 
     def ingest_tf(self, payload: bytes, core: Any, authority: str, is_static: bool) -> tuple[int, int, int, str | None]:
-        # compiled first; None (anything doubtful) sends the payload to tf_samples, which names the problem
-        samples = _compiled_cdr_tf(payload) if _compiled_cdr_tf is not None else None
-        if samples is not None:
-            return wire._insert(samples, core, authority, is_static, 0, None)
-        samples, malformed, problem = tf_samples(payload)
-        return wire._insert(samples, core, authority, is_static, malformed, problem)
+        # compiled; None (anything doubtful) sends the payload to tf_samples, which names the problem
+        samples = cdr_tf(payload)
+        if samples is None:
+            samples, malformed, problem = tf_samples(payload)
+            return wire.insert_samples(samples, core, authority, is_static, malformed, problem)
+        return wire.insert_samples(samples, core, authority, is_static)
 
     def check_tf_encoding(self, encoding: Any) -> None:
         return None  # the type is in the key: a subscriber only ever gets TFMessages
@@ -352,10 +353,9 @@ class Ros2Profile(WireProfile):
     def authority(self, attachment: Any, fallback: str) -> str:
         return ROS2_AUTHORITY  # as tf2_ros in ROS 2 (ROS 1 used the sender's node name)
 
-    @staticmethod
-    def sender_of(raw: bytes) -> bytes:
-        """The publisher GID of an attachment: its sequence number and time change with every sample."""
-        return raw[17:] if len(raw) == 33 and raw[16] == 16 else raw
+    #: The publisher GID of an attachment (after its sequence number, time and the GID's length 16, which
+    #: change with every sample or say nothing); read in C by the listener's thread.
+    sender_of = SenderTail(33, 16, 16)
 
     def _node_part(self, node: Any, entity_id: int) -> str:
         return f"{_ADMIN}/{self.domain_id}/{node.session.info.zid()}/{node._ros2_id}/{entity_id}"

@@ -1,0 +1,194 @@
+"""Where a listener's per-message time goes: the tf thread against the raw ring loop it is built on, in one
+process, without the network (local puts fill a ring first, then one thread drains it).
+
+    python bench/ingest_profile.py [--n 20000] [--runs 5] [--wire zentf|ros2|both]
+    python bench/ingest_profile.py --callgrind [--n 20000] [--wire ...]   (needs valgrind)
+
+Times: the draining thread's CPU per message (its own clock, so the load of a shared machine moves it
+less than wall time), best and median of --runs, for the raw ring loop (try_recv, payload and attachment
+to bytes, nothing else: bench/e2e.py's floor) and for zentf's tf thread (zentf.transport.ingest.thread.serve
+into a Buffer, 1 transform a message, one sender, as bench/e2e.py floods it). ``--callgrind`` counts the
+instructions of zentf's thread instead (callgrind, collecting inside ``serve`` only) and splits them into
+zenoh-python's own per-message work (the ring, the sample's payload and attachment, the sample's
+deallocation: what the raw ring loop does too) and zentf's (decode, insert, queues, the rest).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+NS = 1_000_000_000
+
+
+def tf_dict(child: str, stamp: int) -> dict:
+    return {"header": {"stamp": {"sec": stamp // NS, "nanosec": stamp % NS}, "frame_id": "world"},
+            "child_frame_id": child, "transform": {"translation": {"x": 1.0, "y": 2.0, "z": 3.0},
+                                                   "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}
+
+
+class Rig:
+    """A Zenoh session whose local puts fill a ring of ``n`` samples (the payloads of bench/e2e.py's flood)."""
+
+    def __init__(self, wire: str, n: int) -> None:
+        import zenoh
+
+        from zentf.transport.options import ZenohOptions
+        from zentf.transport.wire.profiles import make_profile, ros2_attachment
+
+        self.zenoh = zenoh
+        self.wire, self.n = wire, n
+        self.profile = make_profile(wire)
+        base = time.time_ns()
+        self.payloads = [self.profile.encode_tf([tf_dict(f"f{i % 100}", base + i * 1000)]) for i in range(n)]
+        self.attachments = ([zenoh.ZBytes(b"/bench/bench_sender")] if wire == "zentf" else
+                            [zenoh.ZBytes(ros2_attachment(i + 1, base + i, b"G" * 16)) for i in range(n)])
+        self.session = ZenohOptions(mode="peer", no_multicast=True).open_session()
+
+    def ring(self, key: str):
+        sub = self.session.declare_subscriber(key, self.zenoh.handlers.RingChannel(self.n + 16))
+        pub = self.session.declare_publisher(key)
+        for i, p in enumerate(self.payloads):
+            pub.put(p, attachment=self.attachments[i % len(self.attachments)])
+        pub.undeclare()
+        return sub
+
+    def floor(self) -> float:
+        """CPU µs per message of the raw ring loop."""
+        sub = self.ring("bench/floor")
+        out: dict = {}
+
+        def loop() -> None:
+            recv, try_recv = sub.handler.recv, sub.handler.try_recv
+            c0 = time.thread_time()
+            n = 0
+            sample = try_recv()
+            while n < self.n:
+                if sample is None:
+                    sample = recv()
+                sample.payload.to_bytes()
+                sample.attachment.to_bytes()
+                n += 1
+                sample = try_recv()
+            out["cpu"] = time.thread_time() - c0
+
+        t = threading.Thread(target=loop)
+        t.start()
+        t.join()
+        sub.undeclare()
+        return out["cpu"] / self.n * 1e6
+
+    def zentf(self) -> float:
+        """CPU µs per message of zentf's tf thread (serve) into a Buffer."""
+        from zentf.core.messages import TFMessage
+        from zentf.transport.buffer import Buffer
+        from zentf.transport.ingest.handler import IngestEvents, Senders, TfHandler, TfIngest
+        from zentf.transport.ingest.thread import serve
+        from zentf.transport.listener import _limits
+
+        prof = self.profile
+        buf = Buffer()
+        sub = self.ring("bench/zentf")
+        ingest = TfIngest(self.wire == "ros2", prof.ingest_tf, buf, buf, time.time_ns, 5 * NS, False)
+        senders = Senders(prof.authority, prof.authority(None, "") if self.wire == "ros2" else None,
+                          prof.sender_of, 1024)
+        handler = TfHandler(ingest, senders, IngestEvents(), "bench/zentf",
+                            None if self.wire == "ros2" else prof.check_tf_encoding, prof.encoding(TFMessage.TYPE_NAME))
+        t = threading.Thread(target=serve, args=(sub.handler, handler, _limits()), daemon=True)
+        t.start()
+        while handler.messages < self.n:
+            time.sleep(0.005)
+        cpu = time.clock_gettime(time.pthread_getcpuclockid(t.ident))
+        sub.undeclare()
+        t.join(5)
+        return cpu / self.n * 1e6
+
+
+#: (row, substrings of callgrind functions whose inclusive counts make it), zenoh-python's rows first
+CATEGORIES = [
+    ("zenoh-python: the ring (try_recv, recv)", ["Handler>::__pymethod_try_recv__", "Handler>::__pymethod_recv__"]),
+    ("zenoh-python: payload to bytes", ["handler_payload_of "]),
+    ("zenoh-python: attachment to bytes", ["handler_attachment_of "]),
+    ("zenoh-python: the sample's deallocation", ["tp_dealloc::<zenoh::sample::Sample>"]),
+    ("zentf: decode", ["decoders_decode_msgpack ", "decoders_decode_cdr "]),
+    ("zentf: insert (BufferCore)", ["BufferCore_ingest_one_c ", "BufferCore_ingest_begin_c ", "BufferCore_ingest_end_c "]),
+]
+
+
+def callgrind(wire: str, n: int) -> None:
+    if shutil.which("valgrind") is None:
+        sys.exit("--callgrind needs valgrind")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "cg.out")
+        subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}",
+                        "--toggle-collect=__pyx_pf_5zentf_9transport_6ingest_6thread_*serve*",
+                        sys.executable, __file__, "--role", "drain", "--wire", wire, "--n", str(n)],
+                       check=True, capture_output=True)
+        text = subprocess.run(["callgrind_annotate", "--inclusive=yes", "--threshold=100", out],
+                              check=True, capture_output=True, text=True).stdout
+    rows = []
+    for line in text.splitlines():
+        m = re.match(r"\s*([\d,]+) \(\s*[\d.]+%\)\s+(.*)", line)
+        if m:
+            rows.append((int(m.group(1).replace(",", "")), m.group(2) + " "))
+    total = next(c for c, name in rows if "PROGRAM TOTALS" in name)
+    print(f"| {wire} wire: instructions per message in zentf's tf thread | Ir | share |")
+    print("|---|---|---|")
+    counted = zenoh = 0
+    for label, keys in CATEGORIES:
+        ir = 0
+        for key in keys:  # a function's inclusive count once (its recursive entries carry a ')
+            ir += max((c for c, name in rows if key in name and "'" not in name.split(" [")[0]), default=0)
+        counted += ir
+        zenoh += ir if label.startswith("zenoh") else 0
+        print(f"| {label} | {ir / n:,.0f} | {ir / total:.0%} |")
+    print(f"| zentf: the rest (queues, authority, counters, thread loop) | {(total - counted) / n:,.0f} | "
+          f"{(total - counted) / total:.0%} |")
+    print(f"| all | {total / n:,.0f} | 100% |")
+    print(f"\nzenoh-python's part, which the raw ring loop does too: {zenoh / n:,.0f} Ir a message; a tf thread at "
+          f"0.9x the loop's rate would have {zenoh / n / 9:,.0f} Ir a message for everything zentf does.\n")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--role", default="main", choices=["main", "drain"])
+    ap.add_argument("--wire", default="both", choices=["zentf", "ros2", "both"])
+    ap.add_argument("--n", type=int, default=20000, help="messages in the ring")
+    ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--callgrind", action="store_true", help="count instructions instead (valgrind)")
+    args = ap.parse_args()
+    wires = ["zentf", "ros2"] if args.wire == "both" else [args.wire]
+    if args.role == "drain":  # (under callgrind: zentf's thread only)
+        Rig(wires[0], args.n).zentf()
+        return
+    print(f"# zentf ingest profile  (python {sys.version.split()[0]}, {os.cpu_count()} cpus, "
+          f"load {os.getloadavg()[0]:.1f}; {args.n} messages of 1 transform, in-process)\n")
+    if args.callgrind:
+        for wire in wires:
+            callgrind(wire, args.n)
+        return
+    print("| wire | raw ring loop, CPU µs/message best [median] | zentf's tf thread | loop / zentf (rate ratio) |")
+    print("|---|---|---|---|")
+    for wire in wires:
+        rig = Rig(wire, args.n)
+        floor, zt = [], []
+        for _ in range(args.runs):  # alternated
+            floor.append(rig.floor())
+            zt.append(rig.zentf())
+        print(f"| {wire} | {min(floor):.2f} [{statistics.median(floor):.2f}] | {min(zt):.2f} "
+              f"[{statistics.median(zt):.2f}] | {statistics.median(floor) / statistics.median(zt):.2f} |")
+        rig.session.close()
+
+
+if __name__ == "__main__":
+    main()

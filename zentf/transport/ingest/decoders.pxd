@@ -1,0 +1,32 @@
+# cython: language_level=3
+"""The compiled TFMessage decoders (decoders.pyx), for the listener's ingest (handler.pyx)."""
+from libc.stdint cimport int64_t, uint8_t
+
+
+cdef struct Sample:
+    int64_t sec
+    int64_t nsec
+    const uint8_t* parent
+    Py_ssize_t parent_len
+    const uint8_t* child
+    Py_ssize_t child_len
+    double v[7]
+
+
+cdef class Batch:
+    """Decoded samples kept in C (stamps, values) with their frame names."""
+    cdef list names             # parent, child per sample
+    cdef int64_t* stamps
+    cdef double* v              # 7 per sample
+    cdef Py_ssize_t n, cap
+    cdef int reset(self) except -1
+    cdef int push(self, Sample* s) except -1
+
+
+cdef inline bint cdr_le(const uint8_t* p, Py_ssize_t n) noexcept nogil:
+    """A little-endian XCDR1 encapsulation header (what ROS 2 sends) at the start of n bytes."""
+    return n >= 8 and p[0] == 0 and p[1] == 1
+
+
+cdef object decode_msgpack(object payload, int64_t* newest, Batch batch, bint canonical=*)
+cdef object decode_cdr(object payload, int64_t* newest, Batch batch)

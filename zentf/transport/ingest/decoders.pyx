@@ -1,0 +1,479 @@
+# cython: language_level=3, boundscheck=False, wraparound=False, cdivision=True
+"""The compiled TFMessage decoders, one per wire: payload bytes straight to samples.
+
+``msgpack_tf`` (zentf wire) and ``cdr_tf`` (ROS 2 wire) turn a well-formed TFMessage payload into the
+list of ``(parent, child, stamp_ns, tx, ty, tz, qx, qy, qz, qw)`` tuples ``BufferCore.set_transforms_raw``
+takes (or, for the listener, into a ``Batch`` it inserts from C), without building any intermediate
+object. They are strict on purpose: anything doubtful (a bad shape, a duplicate or missing field, a stamp
+out of range, a name that is not UTF-8 or without its NUL, a truncated payload) returns None, and the
+caller reads the payload with the one Python path of its wire, which names each problem
+(zentf.transport.wire.codec ``tf_samples``, zentf.ros.tf ``tf_samples``). So a payload either decodes here
+to the samples the Python path would give, or is malformed; nothing is learnt or kept from a payload but
+frame names (a bounded cache).
+"""
+cimport cython
+from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes_GET_SIZE
+from cpython.unicode cimport PyUnicode_DecodeUTF8
+from libc.stdint cimport int32_t, int64_t, uint8_t, uint32_t, uint64_t
+from libc.stdlib cimport free, realloc
+from libc.string cimport memcmp, memcpy
+
+from .msgpack_reader cimport Cur, _be64, _container, _float, _int, _is, _skip, _str
+
+__all__ = ["msgpack_tf", "cdr_tf", "canonical_hits", "MAX_PAYLOAD", "FRAME_CACHE_SIZE"]
+
+from ...ros.tf import MAX_PAYLOAD  # larger payloads are not decoded here (the Python paths refuse them)
+cdef Py_ssize_t _MAX_PAYLOAD = MAX_PAYLOAD
+cdef int64_t _NS = 1000000000
+cdef int64_t _MAX_SEC = 9223372036  # (2**63 - 1) // 1e9: stamps are int64 nanoseconds
+
+cdef extern from "Python.h":
+    void PyObject_GC_UnTrack(object)
+
+# ---------------------------------------------------------------- frame names
+
+#: Interned frame names, raw UTF-8 bytes -> str: zentf.ros.tf's cache, shared by every TFMessage decoder
+#: (bounded at FRAME_CACHE_SIZE, started over when full, names longer than the buffer takes not kept).
+from ...core.constants import DEFAULT_MAX_FRAME_ID_LENGTH
+from ...ros.tf import FRAME_CACHE_SIZE
+from ...ros.tf import _FRAMES as _NAMES
+cdef dict _names = _NAMES
+cdef Py_ssize_t _NAMES_MAX = FRAME_CACHE_SIZE
+cdef Py_ssize_t _NAME_MAX_LEN = DEFAULT_MAX_FRAME_ID_LENGTH
+# a direct-mapped memo in front of it, so a hit costs a hash and a memcmp (no bytes object)
+cdef enum:
+    SLOTS = 1024
+cdef list _slot_raw = [None] * SLOTS
+cdef list _slot_name = [None] * SLOTS
+
+
+cdef object _name(const uint8_t* p, Py_ssize_t n):
+    """UTF-8 bytes -> interned str; None if not valid UTF-8 (the Python path names that)."""
+    cdef uint32_t h = 2166136261u
+    cdef Py_ssize_t i
+    cdef object raw
+    for i in range(n):
+        h = (h ^ p[i]) * 16777619u
+    cdef Py_ssize_t slot = h & (SLOTS - 1)
+    raw = _slot_raw[slot]
+    if raw is not None and PyBytes_GET_SIZE(raw) == n and memcmp(PyBytes_AS_STRING(raw), p, n) == 0:
+        return _slot_name[slot]
+    raw = PyBytes_FromStringAndSize(<const char*>p, n)
+    name = _names.get(raw)
+    if name is None:
+        try:
+            name = PyUnicode_DecodeUTF8(<const char*>p, n, "strict")
+        except UnicodeDecodeError:
+            return None
+        if n > _NAME_MAX_LEN:  # a forged huge name is not kept (the buffer refuses it anyway)
+            return name
+        if len(_names) >= _NAMES_MAX:
+            _names.clear()
+        _names[raw] = name
+    _slot_raw[slot] = raw
+    _slot_name[slot] = name
+    return name
+
+
+cdef inline double _f64le(const uint8_t* p) noexcept nogil:
+    cdef uint64_t u = 0
+    cdef int i
+    for i in range(8):
+        u |= (<uint64_t>p[i]) << (8 * i)
+    cdef double d
+    memcpy(&d, &u, 8)
+    return d
+
+
+cdef inline uint32_t _u32le(const uint8_t* p) noexcept nogil:
+    return p[0] | (<uint32_t>p[1] << 8) | (<uint32_t>p[2] << 16) | (<uint32_t>p[3] << 24)
+
+
+cdef Py_ssize_t _KEEP_NAMES = 512  # names a batch keeps between messages (256 samples' worth)
+
+cdef class Batch:
+    """Decoded samples kept in C (stamps, values) with their frame names, for BufferCore.ingest_one_c:
+    no tuple and no float object per transform."""
+
+    def __cinit__(self):
+        self.names = []
+        self.stamps = NULL
+        self.v = NULL
+        self.n = 0
+        self.cap = 0
+
+    def __dealloc__(self):
+        free(self.stamps)
+        free(self.v)
+
+    cdef int reset(self) except -1:
+        """Empty; the names of a small batch stay until overwritten (no list resize per message)."""
+        self.n = 0
+        if len(self.names) > _KEEP_NAMES:
+            del self.names[:]
+        return 0
+
+    cdef int push(self, Sample* s) except -1:
+        """Add a decoded sample; 0 if a frame name is not UTF-8 (the payload is then doubtful)."""
+        cdef void* p
+        parent = _name(s.parent, s.parent_len)
+        child = _name(s.child, s.child_len)
+        if parent is None or child is None:
+            return 0
+        if self.n == self.cap:
+            p = realloc(self.stamps, (self.cap * 2 + 16) * sizeof(int64_t))
+            if p == NULL:
+                raise MemoryError()
+            self.stamps = <int64_t*>p
+            p = realloc(self.v, (self.cap * 2 + 16) * 7 * sizeof(double))
+            if p == NULL:
+                raise MemoryError()
+            self.v = <double*>p
+            self.cap = self.cap * 2 + 16
+        if 2 * self.n < len(self.names):  # (always an even length: names go in pairs)
+            self.names[2 * self.n] = parent
+            self.names[2 * self.n + 1] = child
+        else:
+            self.names.append(parent)
+            self.names.append(child)
+        self.stamps[self.n] = s.sec * _NS + s.nsec
+        memcpy(&self.v[7 * self.n], s.v, 7 * sizeof(double))
+        self.n += 1
+        return 1
+
+
+cdef bint _key(Cur* c, const uint8_t** k, Py_ssize_t* n) noexcept nogil:
+    """A field name: str keys only (a bin key is malformed here; the Python path reads it)."""
+    return _str(c, k, n)
+
+
+cdef bint _vec(Cur* c, double* v, int count) noexcept nogil:
+    """Map {x, y, z[, w]} of numbers into v[0..count-1], each once, unknown fields skipped."""
+    cdef Py_ssize_t n, i, kn
+    cdef const uint8_t* k
+    cdef int seen = 0, bit
+    if not _container(c, 0x80, 0xde, &n):
+        return False
+    for i in range(n):
+        if not _key(c, &k, &kn):
+            return False
+        bit = -1
+        if kn == 1:
+            if k[0] == b'x':
+                bit = 0
+            elif k[0] == b'y':
+                bit = 1
+            elif k[0] == b'z':
+                bit = 2
+            elif k[0] == b'w' and count == 4:
+                bit = 3
+        if bit < 0:
+            if not _skip(c, 0):
+                return False
+            continue
+        if seen & (1 << bit) or not _float(c, &v[bit]):
+            return False
+        seen |= 1 << bit
+    return seen == (1 << count) - 1
+
+
+cdef bint _stamp(Cur* c, Sample* s) noexcept nogil:
+    cdef Py_ssize_t n, i, kn
+    cdef const uint8_t* k
+    cdef int seen = 0
+    if not _container(c, 0x80, 0xde, &n):
+        return False
+    for i in range(n):
+        if not _key(c, &k, &kn):
+            return False
+        if _is(k, kn, b"sec", 3):
+            if seen & 1 or not _int(c, &s.sec):
+                return False
+            seen |= 1
+        elif _is(k, kn, b"nanosec", 7):
+            if seen & 2 or not _int(c, &s.nsec):
+                return False
+            seen |= 2
+        elif not _skip(c, 0):
+            return False
+    return seen == 3 and 0 <= s.sec < _MAX_SEC and 0 <= s.nsec < _NS
+
+
+cdef bint _header(Cur* c, Sample* s) noexcept nogil:
+    cdef Py_ssize_t n, i, kn
+    cdef const uint8_t* k
+    cdef int seen = 0
+    if not _container(c, 0x80, 0xde, &n):
+        return False
+    for i in range(n):
+        if not _key(c, &k, &kn):
+            return False
+        if _is(k, kn, b"stamp", 5):
+            if seen & 1 or not _stamp(c, s):
+                return False
+            seen |= 1
+        elif _is(k, kn, b"frame_id", 8):
+            if seen & 2 or not _str(c, &s.parent, &s.parent_len):
+                return False
+            seen |= 2
+        elif not _skip(c, 0):
+            return False
+    return seen == 3
+
+
+cdef bint _transform(Cur* c, Sample* s) noexcept nogil:
+    cdef Py_ssize_t n, i, kn
+    cdef const uint8_t* k
+    cdef int seen = 0
+    if not _container(c, 0x80, 0xde, &n):
+        return False
+    for i in range(n):
+        if not _key(c, &k, &kn):
+            return False
+        if _is(k, kn, b"translation", 11):
+            if seen & 1 or not _vec(c, &s.v[0], 3):
+                return False
+            seen |= 1
+        elif _is(k, kn, b"rotation", 8):
+            if seen & 2 or not _vec(c, &s.v[3], 4):
+                return False
+            seen |= 2
+        elif not _skip(c, 0):
+            return False
+    return seen == 3
+
+
+cdef bint _stamped(Cur* c, Sample* s) noexcept nogil:
+    """One TransformStamped map into s; False on any doubt."""
+    cdef Py_ssize_t n, i, kn
+    cdef const uint8_t* k
+    cdef int seen = 0
+    if not _container(c, 0x80, 0xde, &n):
+        return False
+    for i in range(n):
+        if not _key(c, &k, &kn):
+            return False
+        if _is(k, kn, b"header", 6):
+            if seen & 1 or not _header(c, s):
+                return False
+            seen |= 1
+        elif _is(k, kn, b"child_frame_id", 14):
+            if seen & 2 or not _str(c, &s.child, &s.child_len):
+                return False
+            seen |= 2
+        elif _is(k, kn, b"transform", 9):
+            if seen & 4 or not _transform(c, s):
+                return False
+            seen |= 4
+        elif not _skip(c, 0):
+            return False
+    return seen == 7
+
+
+# The layout zentf writes (wire.encode_tf's template, robot_state_publisher's, msgpack.packb of
+# wire.tf_to_plain's dict): every key once, in this order, fixstr-encoded. An element in it is read by
+# comparing the key runs as a whole (~5x fewer instructions than key by key); on any difference the
+# element is read again by the general path above, so the samples are the same either way.
+cdef const char* _K_HEAD = b"\x83\xa6header\x82\xa5stamp\x82\xa3sec"
+cdef const char* _K_NSEC = b"\xa7nanosec"
+cdef const char* _K_FRAME = b"\xa8frame_id"
+cdef const char* _K_CHILD = b"\xaechild_frame_id"
+cdef const char* _K_TRANS = b"\xa9transform\x82\xabtranslation\x83\xa1x"
+cdef const char* _K_ROT = b"\xa8rotation\x84\xa1x"
+cdef int64_t _canonical_hits = 0    # elements read by _stamped_canonical (tests prove the path is taken)
+
+
+cdef inline bint _lit(Cur* c, const char* lit, Py_ssize_t n) noexcept nogil:
+    """The next n bytes are lit: step over them."""
+    if c.end - c.p < n or memcmp(c.p, lit, n) != 0:
+        return False
+    c.p += n
+    return True
+
+
+cdef inline bint _f(Cur* c, double* v) noexcept nogil:
+    """A float64 (what zentf writes) inline; any other number through _float."""
+    cdef uint64_t u
+    if c.end - c.p >= 9 and c.p[0] == 0xcb:
+        u = _be64(c.p + 1)
+        memcpy(v, &u, 8)
+        c.p += 9
+        return True
+    return _float(c, v)
+
+
+cdef inline bint _key1(Cur* c, uint8_t name) noexcept nogil:
+    """The fixstr key of one letter name (x, y, z, w)."""
+    if c.end - c.p < 2 or c.p[0] != 0xa1 or c.p[1] != name:
+        return False
+    c.p += 2
+    return True
+
+
+cdef bint _stamped_canonical(Cur* c, Sample* s) noexcept nogil:
+    """One TransformStamped in zentf's own layout into s; False (c.p anywhere) if it is laid out otherwise."""
+    global _canonical_hits
+    if not (_lit(c, _K_HEAD, 20) and _int(c, &s.sec) and _lit(c, _K_NSEC, 8) and _int(c, &s.nsec)
+            and _lit(c, _K_FRAME, 9) and _str(c, &s.parent, &s.parent_len)
+            and _lit(c, _K_CHILD, 15) and _str(c, &s.child, &s.child_len)
+            and _lit(c, _K_TRANS, 26) and _f(c, &s.v[0]) and _key1(c, b'y') and _f(c, &s.v[1])
+            and _key1(c, b'z') and _f(c, &s.v[2]) and _lit(c, _K_ROT, 12) and _f(c, &s.v[3])
+            and _key1(c, b'y') and _f(c, &s.v[4]) and _key1(c, b'z') and _f(c, &s.v[5])
+            and _key1(c, b'w') and _f(c, &s.v[6])):
+        return False
+    if not (0 <= s.sec < _MAX_SEC and 0 <= s.nsec < _NS):
+        return False
+    _canonical_hits += 1
+    return True
+
+
+cdef inline bint _element(Cur* c, Sample* s, bint canonical) noexcept nogil:
+    """One TransformStamped: zentf's own layout first, else (or if it is not) the general path."""
+    cdef const uint8_t* start = c.p
+    if canonical and _stamped_canonical(c, s):
+        return True
+    c.p = start
+    return _stamped(c, s)
+
+
+def canonical_hits():
+    """How many elements the canonical-layout path has read (tests)."""
+    return _canonical_hits
+
+
+cdef inline object _tuple(Sample* s):
+    """The sample tuple; None if a frame name is not UTF-8."""
+    parent = _name(s.parent, s.parent_len)
+    child = _name(s.child, s.child_len)
+    if parent is None or child is None:
+        return None
+    t = (parent, child, s.sec * _NS + s.nsec, s.v[0], s.v[1], s.v[2], s.v[3], s.v[4], s.v[5], s.v[6])
+    PyObject_GC_UnTrack(t)  # str, int and floats only: it can hold no cycle (CPython's gc would untrack it too)
+    return t
+
+
+cdef int _emit(Sample* s, list out, Batch batch, int64_t* newest) except -1:
+    """A decoded sample into the batch, or as a tuple into out; 0 if a frame name is not UTF-8."""
+    if batch is not None:
+        if not batch.push(s):
+            return 0
+    else:
+        t = _tuple(s)
+        if t is None:
+            return 0
+        out.append(t)
+    if s.sec * _NS + s.nsec > newest[0]:
+        newest[0] = s.sec * _NS + s.nsec
+    return 1
+
+
+def msgpack_tf(payload, bint canonical=True):
+    """Samples of a well-formed zentf (msgpack) TFMessage payload; None if anything is doubtful.
+    ``canonical=False`` reads every element key by key (tests compare the two paths)."""
+    cdef int64_t newest
+    return decode_msgpack(payload, &newest, None, canonical)
+
+
+cdef object decode_msgpack(object payload, int64_t* newest, Batch batch, bint canonical=True):
+    """msgpack_tf, also giving the newest stamp (-1 if none); with a batch, the samples go into it
+    (True returned) instead of a list of tuples."""
+    newest[0] = -1
+    if type(payload) is not bytes:
+        return None
+    cdef Py_ssize_t size = PyBytes_GET_SIZE(payload)
+    if size > _MAX_PAYLOAD:
+        return None
+    cdef Cur c
+    c.p = <const uint8_t*>PyBytes_AS_STRING(payload)
+    c.end = c.p + size
+    cdef Py_ssize_t n, i, j, kn, count = -1
+    cdef const uint8_t* k
+    cdef Sample s
+    out = [] if batch is None else None
+    if not _container(&c, 0x80, 0xde, &n):
+        return None
+    for i in range(n):  # top level: "transforms" once, other fields skipped
+        if not _key(&c, &k, &kn):
+            return None
+        if _is(k, kn, b"transforms", 10):
+            if count >= 0 or not _container(&c, 0x90, 0xdc, &count):
+                return None
+            for j in range(count):
+                if not _element(&c, &s, canonical):
+                    return None
+                if not _emit(&s, out, batch, newest):
+                    return None
+        elif not _skip(&c, 0):
+            return None
+    if count < 0 or c.p != c.end:
+        return None
+    return True if batch is not None else out
+
+
+# ---------------------------------------------------------------- CDR (XCDR1 little-endian)
+
+def cdr_tf(payload):
+    """Samples of a well-formed ROS 2 CDR TFMessage payload; None if anything is doubtful.
+
+    Layout per element: int32 sec, uint32 nanosec, frame_id and child_frame_id (uint32 length with the
+    NUL, bytes, NUL; padding to 4 after frame_id), padding to 8 (counted after the 4-byte encapsulation
+    header), 7 float64. Strings must end in their NUL here; bytes after the last element are ignored,
+    as zentf.ros.tf.tf_samples ignores them.
+    """
+    cdef int64_t newest
+    return decode_cdr(payload, &newest, None)
+
+
+cdef object decode_cdr(object payload, int64_t* newest, Batch batch):
+    """cdr_tf, also giving the newest stamp (-1 if none); with a batch, as decode_msgpack."""
+    newest[0] = -1
+    if type(payload) is not bytes:
+        return None
+    cdef Py_ssize_t end = PyBytes_GET_SIZE(payload)
+    if end > _MAX_PAYLOAD or end < 8:
+        return None
+    cdef const uint8_t* p = <const uint8_t*>PyBytes_AS_STRING(payload)
+    if not cdr_le(p, end):
+        return None
+    cdef uint32_t n = _u32le(p + 4)
+    if <uint64_t>n * 72 > <uint64_t>(end - 8):
+        return None
+    cdef Py_ssize_t off = 8, ln, i, j
+    cdef int32_t sec
+    cdef uint32_t nsec, u32
+    cdef Sample s
+    out = [] if batch is None else None
+    for i in range(n):
+        if end - off < 12:
+            return None
+        u32 = _u32le(p + off)
+        memcpy(&sec, &u32, 4)
+        nsec = _u32le(p + off + 4)
+        ln = _u32le(p + off + 8)
+        off += 12
+        if sec < 0 or nsec >= _NS or ln < 1 or end - off < ln or p[off + ln - 1] != 0:
+            return None
+        s.parent = p + off
+        s.parent_len = ln - 1
+        off = (off + ln + 3) & ~(<Py_ssize_t>3)
+        if end - off < 4:
+            return None
+        ln = _u32le(p + off)
+        off += 4
+        if ln < 1 or end - off < ln or p[off + ln - 1] != 0:
+            return None
+        s.child = p + off
+        s.child_len = ln - 1
+        off += ln
+        off += (4 - off) & 7
+        if end - off < 56:
+            return None
+        for j in range(7):
+            s.v[j] = _f64le(p + off + 8 * j)
+        off += 56
+        s.sec = sec
+        s.nsec = nsec
+        if not _emit(&s, out, batch, newest):
+            return None
+    return True if batch is not None else out
+
