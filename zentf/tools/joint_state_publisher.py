@@ -27,7 +27,7 @@ import time
 from collections.abc import Mapping
 
 from ..core.messages import Header, JointState
-from ..core.ratelimit import escape
+from ..core.text import printable
 from ..transport.node import Node
 from ..urdf import Kinematics, Robot
 import argparse
@@ -76,14 +76,14 @@ class JointStatePublisher:
         clean = {}
         for name, v in values.items():
             if name not in self.bounds:  # (names and values may come from the slider page: shown escaped, cut)
-                raise KeyError(f"'{escape(name, 64)}' is not a movable, non-mimic joint of robot "
-                               f"'{escape(self.robot.name, 64)}' (joints: {escape(', '.join(self.bounds), 512)})")
+                raise KeyError(f"'{printable(name, 64)}' is not a movable, non-mimic joint of robot "
+                               f"'{printable(self.robot.name, 64)}' (joints: {printable(', '.join(self.bounds), 512)})")
             try:  # an int too big for a float (a 400-digit JSON number) is as out of range as inf
                 finite = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
             except OverflowError:
                 finite = False
             if not finite:
-                raise ValueError(f"joint '{escape(name, 64)}': expected a finite number, got "
+                raise ValueError(f"joint '{printable(name, 64)}': expected a finite number, got "
                                  f"{_brief(v)}")
             lo, hi = self.bounds[name]
             clean[name] = min(max(float(v), lo), hi)
@@ -130,7 +130,7 @@ def _brief(value: object) -> str:
     """A refused value as one short line (a 400-digit integer is named by its size, not printed)."""
     if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 64:
         return f"an integer of {value.bit_length()} bits"
-    return escape(repr(value), 64)
+    return printable(repr(value), 64)
 
 
 # ---- the program (zentf run joint_state_publisher)
