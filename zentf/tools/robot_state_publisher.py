@@ -41,7 +41,7 @@ from ..core.messages import (Header, JointState, Quaternion, String, TFMessage, 
                              Vector3)
 from ..core.ratelimit import RateLimitedLogger
 from ..core.time import Time
-from ..transport.names import topic_to_key
+from ..transport.names import is_concrete_key, topic_to_key
 from ..transport.node import Node
 from ..urdf import Kinematics, Robot
 from ..urdf.kinematics import JointTransforms
@@ -214,6 +214,8 @@ class RobotStatePublisher:
     def _on_sample(self, sample: Any) -> None:
         """Zenoh thread: decode, compute, publish; never raises."""
         try:
+            if not is_concrete_key(str(sample.key_expr)):
+                raise ValueError("sent on a key expression with wildcards, not on the topic")
             self.on_payload(sample.payload.to_bytes())
         except Exception as e:  # noqa: BLE001 - one bad message must not stop the publisher
             with self._lock:
