@@ -25,15 +25,20 @@ def _ts(parent: str, child: str, x: float) -> TransformStamped:
 def test_listeners_drop_samples_put_on_wildcard_keys(isolated_router, test_namespace, wire) -> None:
     zopts = ZenohOptions(connect=[isolated_router], no_multicast=True, mode="client")
     opts = NodeOptions(namespace=test_namespace, zenoh=zopts, wire=wire)
-    with Node("listener", options=opts) as node, Node("forger", options=opts) as forger:
+    sim_opts = NodeOptions(namespace=test_namespace, zenoh=zopts, wire=wire, params={"use_sim_time": True})
+    with Node("sim", options=sim_opts) as sim, Node("listener", options=opts) as node, \
+            Node("forger", options=opts) as forger:
+        jumps: list[int] = []  # sim time going back (1000 -> 666) runs the jump callbacks
+        sim.get_clock().add_jump_callback(lambda old, new: jumps.append(new.nanoseconds))
         buf = Buffer(node=node)
         TransformListener(buf, node)
-        clock_heard = threading.Event()
+        seven = threading.Event()
         times: list[int] = []
 
         def on_clock(msg: Clock) -> None:
             times.append(msg.clock.sec)
-            clock_heard.set()
+            if msg.clock.sec == 7:
+                seven.set()
 
         node.create_subscription("/clock", Clock, on_clock)
         session = forger.session
@@ -53,19 +58,23 @@ def test_listeners_drop_samples_put_on_wildcard_keys(isolated_router, test_names
         watch.undeclare()
         pub.put(profile.encode_tf([_ts("base", "good", 1.0)]))
         buf.lookup_transform("base", "good", Time(), timeout=10)  # the listener takes concrete puts
+        clock_enc = profile.encoding(Clock.TYPE_NAME)
+        session.put(clock_key, profile.encode(Clock.from_dict({"clock": {"sec": 1000, "nanosec": 0}}), Clock.TYPE_NAME),
+                    encoding=clock_enc)
+        assert sim.get_clock().sleep_until(Time(1000, 0), timeout=10)  # ...and the sim clock concrete ones
         for key in wild:
             session.put(key, evil, encoding=enc)
         for key in clock_wild:
             session.put(key, clock_payload, encoding=profile.encoding(Clock.TYPE_NAME))
         last = profile.encode_tf([_ts("base", "last", 1.0)])
         session.put(clock_key, profile.encode(Clock.from_dict({"clock": {"sec": 7, "nanosec": 0}}), Clock.TYPE_NAME),
-                    encoding=profile.encoding(Clock.TYPE_NAME))
+                    encoding=clock_enc)
+        session.put(clock_key, profile.encode(Clock.from_dict({"clock": {"sec": 1001, "nanosec": 0}}), Clock.TYPE_NAME),
+                    encoding=clock_enc)
         pub.put(last)
         buf.lookup_transform("base", "last", Time(), timeout=10)  # sent after every wildcard put
-        assert clock_heard.wait(10)
-        while 7 not in times:
-            clock_heard.clear()
-            assert clock_heard.wait(10)
+        assert seven.wait(10) and sim.get_clock().sleep_until(Time(1001, 0), timeout=10)
         assert 666 not in times, times
+        assert jumps == [7 * 10**9], jumps  # only the concrete step back, 1000 -> 7
         frames = buf.all_frames_as_string()
         assert "evil" not in frames, frames
