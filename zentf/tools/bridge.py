@@ -26,6 +26,7 @@ from ..core.ratelimit import RateLimitedLogger
 from ..ros.tf import MAX_PAYLOAD
 from ..transport.broadcaster import StaticTransformBroadcaster
 from ..transport.heap import BurstRelease
+from ..transport.names import is_concrete_key
 from ..transport.node import Node
 from ..transport.wire.profiles import parse_ros2_attachment
 from ..transport.entities import undeclare_all
@@ -149,6 +150,8 @@ class Ros2Bridge:
                     self.stats.echoes += 1
                     return
                 key = str(sample.key_expr)
+                if not is_concrete_key(key):
+                    raise ValueError("sent on a key expression with wildcards, not on the topic")
                 size = len(sample.payload)
                 self._release.note(size)
                 if size > MAX_PAYLOAD:

@@ -24,6 +24,7 @@ from ..core.messages import Marker, MarkerArray, PointStamped, PoseStamped
 from ..core.ratelimit import RateLimitedLogger
 from ..core.text import printable
 from ..transport.entities import undeclare_all
+from ..transport.names import is_concrete_key
 
 __all__ = ["Viewer", "frame_path", "VIEW_TYPES", "require_rerun", "view_blueprint", "pick_fixed_frame",
            "LABELS_UP_TO"]
@@ -171,6 +172,8 @@ class Viewer:
 
     def _on_sample(self, sample: Any) -> None:  # Zenoh thread: filter by carried type, copy, hand over
         try:
+            if not is_concrete_key(str(sample.key_expr)):  # a put on `**` is no topic's message
+                return
             if self._profile.name == "ros2":
                 type_name = self._profile.topic_of_key(str(sample.key_expr))[1]
             else:

@@ -21,8 +21,8 @@ from .wire import codec as wire
 from .clock import Clock, ClockType, Rate
 from ..core.messages import Clock as ClockMsg
 from ..core.messages import Message
-from .names import (fully_qualified_node_name, key_to_topic, normalize_namespace, resolve_topic,
-                    validate_node_name)
+from .names import (fully_qualified_node_name, is_concrete_key, key_to_topic, normalize_namespace,
+                    resolve_topic, validate_node_name)
 from .options import NodeOptions
 from .wire.profiles import make_profile, zentf_entity_token, zentf_node_token
 from ..core.ratelimit import RateLimitedLogger
@@ -200,6 +200,8 @@ class Subscription:
                 payload, enc, att, key = self._queue.popleft()
             self.received += 1
             try:
+                if not is_concrete_key(key):
+                    raise ValueError("sent on a key expression with wildcards, not on the topic")
                 msg = self.node.wire.decode(payload, enc, key, self.msg_type)
             except ValueError as e:
                 self.errors += 1
@@ -502,6 +504,8 @@ class Node:
 
         def on_clock(sample: Any) -> None:  # Zenoh thread: tiny and never raises
             try:
+                if not is_concrete_key(str(sample.key_expr)):
+                    raise ValueError("sent on a key expression with wildcards, not on the topic")
                 if profile.name == "zentf":
                     d = wire.unpack(sample.payload.to_bytes())
                     st = d["clock"]

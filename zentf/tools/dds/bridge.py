@@ -26,7 +26,7 @@ from typing import Any, Iterable, Sequence
 
 from ...core.messages import MESSAGE_TYPES, TFMessage
 from ...transport.entities import undeclare_all
-from ...transport.names import encode_chunk, normalize_namespace, validate_node_name
+from ...transport.names import encode_chunk, is_concrete_key, normalize_namespace, validate_node_name
 from ...core.ratelimit import RateLimitedLogger
 from ...transport.node import Node
 from ...transport.wire.profiles import zentf_entity_token
@@ -264,6 +264,8 @@ class DdsBridge:
                 if self._z.is_own(sample):
                     self.stats.echoes += 1
                     return
+                if not is_concrete_key(str(sample.key_expr)):
+                    raise ValueError("sent on a key expression with wildcards, not on the topic")
                 payload = sample.payload.to_bytes()
                 if ros2:
                     check_cdr(payload, r.type_name)
