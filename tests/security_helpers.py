@@ -18,7 +18,7 @@ import pytest
 
 from conftest import REPO, Proc, free_port
 
-CLIENTS = ("robot-a", "base-b", "intruder")
+CLIENTS = ("robot-a", "base-b", "intruder", "operator")
 ROUTER_TLS = REPO / "configs/zenoh/router-tls.json5"
 ROUTER_ACL = REPO / "configs/zenoh/router-acl.json5"
 CLIENT_TLS = REPO / "configs/zenoh/client-tls.json5"

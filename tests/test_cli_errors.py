@@ -120,3 +120,31 @@ def test_ctrl_c_stops_cleanly(spawn, zenoh_env, args):
     proc.signal(signal.SIGINT)
     assert proc.wait(10) == 0, proc.output()
     assert "Traceback" not in proc.output()
+
+
+R2D2 = "tests/data/urdf/urdf_tutorial/urdf/06-flexible.urdf"
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["robot-state-publisher", R2D2, "--publish-frequency", "1e-300"], "--publish-frequency"),
+    (["robot-state-publisher", R2D2, "--publish-frequency", "inf"], "--publish-frequency"),
+    (["run", "robot_state_publisher", R2D2, "-p", "publish_frequency:=1e-300"], "parameter publish_frequency"),
+])
+def test_a_frequency_the_timer_cannot_serve_is_one_line_naming_it(offline_env, args, needle):
+    env = {**offline_env, "ZENTF_LOCAL_PORT": str(free_port())}
+    proc = zentf(args, env, timeout=60)
+    assert proc.returncode != 0 and "Traceback" not in proc.stderr, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("robot_state_publisher: error: ") and needle in lines[0], lines
+    assert "OverflowError" not in lines[0] and "must be a number of Hz from 1e-09 to 1e+09" in lines[0], lines
+
+
+def test_bag_play_of_a_log_time_at_the_end_of_time_is_one_line_naming_the_message(offline_env, tmp_path):
+    from bag_generate import write_zentf
+
+    bag = write_zentf(tmp_path / "end_of_time.mcap", [
+        ("tf", "/p", 10**18, [("a", "b", 1, 0, (1, 0, 0), (0, 0, 0, 1))]),
+        ("tf", "/p", 2**64 - 1, [("a", "b", 2, 0, (1, 0, 0), (0, 0, 0, 1))])])
+    proc = zentf(["bag", "play", str(bag)], {**offline_env, "ZENTF_LOCAL_PORT": str(free_port())}, timeout=60)
+    assert_one_line_error(proc, str(bag), "message 2 ", "(/tf, logged at 18446744073709551615 ns)",
+                          "damaged or forged log time")

@@ -148,6 +148,26 @@ def test_frame_names_are_interned_and_the_cache_is_bounded() -> None:
         assert len(_FRAMES) <= decoders.FRAME_CACHE_SIZE and held < 3_000_000, (i, held)
 
 
+
+def test_a_fleets_frame_names_stay_interned() -> None:
+    """100 robots x 51 frames in one listener (``tf_topic="/*/tf"``): every name decodes to the same str
+    object message after message. A cache started over each time 4096 names were reached made a new
+    str (and its hash, in the buffer's frame table) for every transform of such a fleet."""
+    from zentf.ros import tf as ros_tf
+    from zentf.core.constants import DEFAULT_MAX_FRAMES
+
+    assert decoders.FRAME_CACHE_SIZE > DEFAULT_MAX_FRAMES  # whatever a buffer takes fits
+    _FRAMES.clear()
+    ros_tf._FRAMES_HELD[0] = 0
+    robots = [[transform_dict(f"robot{i}/base_link", f"robot{i}/link_{j}") for j in range(50)] for i in range(100)]
+    payloads = [(msgpack.packb({"transforms": r}), cdr_encode_tf(r)) for r in robots]
+    first = [[(s[0], s[1]) for s in decoders.msgpack_tf(m)] for m, _ in payloads]
+    for (m, c), names in zip(payloads, first):
+        for decode, payload in ((decoders.msgpack_tf, m), (decoders.cdr_tf, c)):
+            again = [(s[0], s[1]) for s in decode(payload)]
+            assert all(a is b and p is q for (a, p), (b, q) in zip(again, names)), again[0]
+    assert len(_FRAMES) == 100 * 51
+
 # ------------------------------------------------------------------ anything else: same as before
 
 def transform_dict(parent: str = "world", child: str = "c", sec: int = 1, nsec: int = 0, x: float = 1.0) -> dict:

@@ -5,7 +5,11 @@ import http.client
 import json
 import math
 import shutil
+import socket
+import struct
+import time
 
+import psutil
 import pytest
 
 from conftest import REPO
@@ -137,3 +141,56 @@ def test_the_gui_server_refuses_foreign_hosts_and_non_json_posts(spawn) -> None:
     status, body = _get(port, "/set", method="POST", body=b'{"head_swivel": 99}', ctype="application/json")
     assert status == 200
     assert {j["name"]: j["value"] for j in json.loads(body)["joints"]}["head_swivel"] == pytest.approx(math.pi)
+
+
+def _raw(port: int, data: bytes, *, reset: bool) -> None:
+    """Send ``data`` and close at once: with a reset (RST, as a client killed mid-request) or a plain close."""
+    s = socket.create_connection(("127.0.0.1", port), timeout=5)
+    try:
+        s.sendall(data)
+        if reset:
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+    finally:
+        s.close()
+
+
+def test_the_slider_page_answers_bad_values_in_one_line_and_shrugs_off_hostile_clients(spawn) -> None:
+    from zentf.tools.joint_state_gui import MAX_CONNECTIONS, READ_TIMEOUT
+
+    jsp = spawn.python("-m", "nodes.joint_state_publisher", str(R2D2), "--gui", "--no-browser")
+    url = jsp.wait_for_line(r"sliders: (http://127\.0\.0\.1:\d+/)", timeout=30).group(1)
+    port = int(url.rsplit(":", 1)[1].strip("/"))
+    # a value no float holds, and JSON nested past the parser's depth: 400 with the reason in one line
+    status, body = _get(port, "/set", method="POST", body=b'{"head_swivel": 1' + b"0" * 400 + b"}",
+                        ctype="application/json")
+    assert status == 400, body
+    error = json.loads(body)["error"]
+    assert "head_swivel" in error and "finite number" in error and "\n" not in error and len(error) < 200, error
+    status, body = _get(port, "/set", method="POST", body=b"[" * 60000, ctype="application/json")
+    assert status == 400, body
+    # 150 clients that vanish mid-request (a cut body, a reset while the answer is written): no traceback
+    head = f"POST /set HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nContent-Type: application/json\r\n"
+    for i in range(50):
+        _raw(port, (head + "Content-Length: 1000\r\n\r\n{\"head").encode(), reset=i % 2 == 0)
+        _raw(port, f"GET / HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n".encode(), reset=True)
+        _raw(port, f"GET /state HTTP/1.1\r\nHost: 127.0.0".encode(), reset=True)
+    # half-open connections: each is served by a thread only up to MAX_CONNECTIONS, and for READ_TIMEOUT s
+    proc = psutil.Process(jsp.pid)
+    idle = [socket.create_connection(("127.0.0.1", port), timeout=10) for _ in range(MAX_CONNECTIONS + 24)]
+    try:
+        t0 = time.monotonic()
+        for s in idle:  # every one is closed by the server: refused at once (503) or after the timeout
+            s.recv(4096)
+        took = time.monotonic() - t0
+        assert took < READ_TIMEOUT + 5, took
+        assert proc.num_threads() < 40 + MAX_CONNECTIONS
+    finally:
+        for s in idle:
+            s.close()
+    assert _get(port, "/state")[0] == 200  # and it still serves
+    status, _ = _get(port, "/set", method="POST", body=b'{"head_swivel": 0.5}', ctype="application/json")
+    assert status == 200
+    jsp.stop()
+    out = jsp.output()
+    for word in ("Traceback", "ConnectionResetError", "BrokenPipeError", "OverflowError", "RecursionError"):
+        assert word not in out, out[-3000:]

@@ -90,10 +90,7 @@ def view(fixed_frame: Optional[str], labels: Optional[bool], web: bool, web_port
             raise CliError(f"cannot start the Rerun viewer: {exc}".splitlines()[0]) from exc
         if web:
             grpc_url = f"rerun+http://{'127.0.0.1' if bind in ('0.0.0.0', '::') else bind}:{grpc_port}/proxy"
-            try:
-                rr.serve_web_viewer(web_port=web_port, open_browser=False, connect_to=grpc_url)
-            except Exception as exc:  # noqa: BLE001
-                raise CliError(f"cannot serve the web viewer on port {web_port}: {exc}".splitlines()[0]) from exc
+            stack.enter_context(_web_viewer(bind, web_port, grpc_url))
             print(f"web viewer: http://{'localhost' if bind in ('127.0.0.1', '0.0.0.0') else bind}:{web_port}"
                   f"/?url={quote(grpc_url, safe='')}", flush=True)
         if save:
@@ -128,9 +125,8 @@ def view(fixed_frame: Optional[str], labels: Optional[bool], web: bool, web_port
         node.shutdown()
 
 
-@contextlib.contextmanager
-def _native_viewer(rec: Any, port: int) -> Iterator[subprocess.Popen]:
-    """Rerun's desktop viewer as our own child: it dies with us (parent-death signal) and on exit."""
+def _rerun_child(args: list[str], what: str, host: str, port: int, env: Optional[dict] = None) -> subprocess.Popen:
+    """The Rerun binary as our own child (it dies with us: parent-death signal), once `port` accepts."""
     try:
         import rerun_cli
     except ImportError as exc:
@@ -138,23 +134,51 @@ def _native_viewer(rec: Any, port: int) -> Iterator[subprocess.Popen]:
     exe = os.path.join(os.path.dirname(rerun_cli.__file__), "rerun")
     setpriv = shutil.which("setpriv")  # no Python between fork and exec: Zenoh threads are running
     argv = [setpriv, "--pdeathsig", "TERM", "--"] if setpriv else []
-    proc = subprocess.Popen([*argv, exe, "--port", str(port)], stdin=subprocess.DEVNULL)
+    proc = subprocess.Popen([*argv, exe, *args], stdin=subprocess.DEVNULL, env=env)
     try:
         deadline = time.monotonic() + 10.0
-        while True:  # the viewer is ready once its gRPC port accepts
+        while True:  # ready once its port accepts
             if proc.poll() is not None:
-                raise CliError(f"the Rerun viewer exited at start (code {proc.returncode})")
-            with contextlib.suppress(OSError), socket.create_connection(("127.0.0.1", port), timeout=0.2):
+                raise CliError(f"the Rerun {what} exited at start (code {proc.returncode})")
+            with contextlib.suppress(OSError), socket.create_connection((host, port), timeout=0.2):
                 break
             if time.monotonic() > deadline:
-                raise CliError(f"the Rerun viewer did not open port {port} within 10 s")
+                raise CliError(f"the Rerun {what} did not open port {port} within 10 s")
             time.sleep(0.05)
+    except BaseException:
+        _end(proc)
+        raise
+    return proc
+
+
+def _end(proc: subprocess.Popen) -> None:
+    proc.terminate()
+    try:
+        proc.wait(3.0)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+@contextlib.contextmanager
+def _native_viewer(rec: Any, port: int) -> Iterator[subprocess.Popen]:
+    """Rerun's desktop viewer; its data port listens on loopback only (Rerun's default is every interface)."""
+    proc = _rerun_child(["--bind", "127.0.0.1", "--port", str(port)], "viewer", "127.0.0.1", port)
+    try:
         rec.connect_grpc(f"rerun+http://127.0.0.1:{port}/proxy")
         yield proc
     finally:
-        proc.terminate()
-        try:
-            proc.wait(3.0)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+        _end(proc)
+
+
+@contextlib.contextmanager
+def _web_viewer(bind: str, port: int, grpc_url: str) -> Iterator[subprocess.Popen]:
+    """The web viewer's page, served on `bind` only (the SDK's own web server listens on every interface)."""
+    host = "127.0.0.1" if bind in ("0.0.0.0", "::") else bind
+    env = {**os.environ, "RUST_LOG": os.environ.get("RUST_LOG", "warn")}  # we print the URL ourselves
+    proc = _rerun_child(["--serve-web", "--bind", bind, "--web-viewer-port", str(port), grpc_url],
+                        "web viewer", host, port, env)
+    try:
+        yield proc
+    finally:
+        _end(proc)

@@ -7,10 +7,12 @@ from __future__ import annotations
 
 import os
 import select
+import signal
 import time
+from typing import Callable, Iterable
 
 __all__ = ["LAUNCH_ID_VAR", "snapshot", "alive", "descendants", "has_launch_id", "carrying_launch_id",
-           "launch_id_value", "wait_gone"]
+           "launch_id_value", "wait_gone", "freeze", "kill_frozen"]
 
 #: Environment variable every launched process inherits: `:`-joined ids of the launches above it.
 LAUNCH_ID_VAR = "ZENTF_LAUNCH_ID"
@@ -19,9 +21,8 @@ LAUNCH_ID_VAR = "ZENTF_LAUNCH_ID"
 def snapshot() -> "dict[int, tuple[int, int, str]]":
     """pid -> (parent pid, process group, state) for every process visible now."""
     table: dict[int, tuple[int, int, str]] = {}
-    for name in os.listdir("/proc"):
-        if not name.isdigit():
-            continue
+    # newest first: what was just forked is read before it can fork again (pids grow until they wrap)
+    for name in sorted((n for n in os.listdir("/proc") if n.isdigit()), key=int, reverse=True):
         try:  # os.open/os.read: this runs on every stop, in several processes at once
             fd = os.open(f"/proc/{name}/stat", os.O_RDONLY)
             try:
@@ -107,3 +108,53 @@ def wait_gone(pids: "list[int]", timeout: float) -> None:
     finally:
         for fd in fds:
             os.close(fd)
+
+
+def freeze(targets: "Callable[[dict[int, tuple[int, int, str]]], Iterable[int]]", rounds: int = 200) -> "list[int]":
+    """SIGSTOP the live processes `targets(snapshot)` names until two snapshots in a row find the same set,
+    all stopped; that set. A stopped process cannot fork, so a SIGKILL to the set leaves nothing behind.
+
+    A process that forks again faster than /proc can be read is out of reach one pid at a time; its process
+    group is not (forks inherit it), and a group signal reaches every member at once, forks in flight
+    included: a group all of whose members are targets is stopped as a whole."""
+    prev: "set[int] | None" = None
+    found: set[int] = set()
+    for _ in range(rounds):
+        table = snapshot()
+        found = {p for p in targets(table) if p in table and table[p][2] != "Z"}
+        running = [p for p in found if table[p][2] not in ("T", "t")]
+        for pid in running:
+            try:
+                os.kill(pid, signal.SIGSTOP)
+            except OSError:
+                pass
+        groups = {table[p][1] for p in found}
+        for pid, (_, pgid, state) in table.items():  # a group with a member that is not a target is not ours
+            if pgid in groups and pid not in found and state != "Z":
+                groups.discard(pgid)
+        for pgid in groups:
+            try:
+                os.killpg(pgid, signal.SIGSTOP)
+            except OSError:
+                pass
+        if not running and found == prev:
+            break
+        prev = found
+        if running:
+            time.sleep(0.001)  # let the stops land before the next look
+    return sorted(found)
+
+
+def kill_frozen(targets: "Callable[[dict[int, tuple[int, int, str]]], Iterable[int]]", rounds: int = 20,
+                wait: float = 0.2) -> None:
+    """Freeze the processes `targets` names, SIGKILL them, until none is left."""
+    for _ in range(rounds):
+        pids = freeze(targets)
+        if not pids:
+            return
+        for pid in pids:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except OSError:
+                pass
+        wait_gone(pids, wait)

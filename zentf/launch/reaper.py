@@ -1,7 +1,9 @@
 """Run one node under a child subreaper, so nothing it starts outlives it (stdlib only, run with -S -I).
 
-The launcher starts `python -S -I reaper.py LAUNCHER_PID GRACE -- CMD...` as the leader of the node's
-process group. This process marks itself PR_SET_CHILD_SUBREAPER, so every descendant of the node that is
+The launcher starts `python -S -I reaper.py LAUNCHER_PID GRACE [--cgroup NODE_CGROUP] -- CMD...` as the
+leader of the node's process group. With --cgroup (cgroup.py), this process joins the launch's cgroup
+(NODE_CGROUP's parent) and the node its own NODE_CGROUP before exec, so whatever the node starts is
+killed as a whole with cgroup.kill; without it (or if joining fails), the subreaper below is all there is. This process marks itself PR_SET_CHILD_SUBREAPER, so every descendant of the node that is
 orphaned (a double-forked daemon, a `setsid()` child, the children of a dead `sh -c`) is re-parented
 here, whatever session or process group it moved to; it forks and execs the node with PR_SET_PDEATHSIG
 SIGKILL. Then:
@@ -22,6 +24,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # -I leaves our own directory out
+import cgroup  # noqa: E402
 import proctree  # noqa: E402
 
 PR_SET_PDEATHSIG = 1
@@ -35,9 +38,10 @@ WATCHED = STOP_SIGNALS | {signal.SIGCHLD, PARENT_DIED}
 class Reaper:
     """The node's process and whatever it leaves: reaped on SIGCHLD, signalled, killed."""
 
-    def __init__(self, launcher: int, grace: float) -> None:
+    def __init__(self, launcher: int, grace: float, node_cgroup: str = "") -> None:
         self.launcher = launcher
         self.grace = grace
+        self.cgroup = node_cgroup  # the node's own cgroup ("" without one)
         self.me = os.getpid()
         self.group = os.getpgrp()
         self.node = 0
@@ -55,9 +59,10 @@ class Reaper:
             if pid == self.node:
                 self.status = status
 
-    def below(self, outside_group_only: bool = False) -> list[int]:
+    def below(self, outside_group_only: bool = False, table: "dict | None" = None) -> list[int]:
         """Live descendants and members of our process group, us excluded."""
-        table = proctree.snapshot()
+        if table is None:
+            table = proctree.snapshot()
         pids = set(proctree.descendants(self.me, table))
         pids.update(p for p, (_, g, _) in table.items() if g == self.group)
         pids.discard(self.me)
@@ -78,14 +83,21 @@ class Reaper:
             self.reap()
 
     def kill_all(self) -> None:
-        """SIGKILL every descendant until none is left (a fork meanwhile is caught on the next round)."""
-        for _ in range(200):
+        """SIGKILL every descendant until none is left: the node's cgroup at once when there is one, then
+        (for what is outside it) the tree frozen first, so that nothing forking meanwhile is missed."""
+        if self.cgroup:
+            cgroup.kill(self.cgroup)
+            cgroup.wait_empty(self.cgroup, 5.0)
+        for _ in range(50):
             self.reap()
-            pids = self.below()
+            pids = proctree.freeze(lambda table: self.below(table=table))
             if not pids:
-                return
+                break
             self.send(pids, signal.SIGKILL)
             self.wait_event(0.05)
+        self.reap()
+        if self.cgroup:
+            cgroup.remove(self.cgroup)
 
     def terminate_all(self) -> None:
         """The launcher is gone: SIGTERM to everything, SIGKILL to what is left after the grace period."""
@@ -122,8 +134,12 @@ def _exit_like(status: int) -> None:
 
 
 def main(argv: list[str]) -> int:
+    node_cgroup = ""
+    if len(argv) > 4 and argv[3] == "--cgroup":
+        node_cgroup = argv[4]
+        del argv[3:5]
     if len(argv) < 5 or argv[3] != "--":
-        sys.stderr.write("usage: reaper.py LAUNCHER_PID GRACE -- CMD...\n")
+        sys.stderr.write("usage: reaper.py LAUNCHER_PID GRACE [--cgroup NODE_CGROUP] -- CMD...\n")
         return 2
     launcher, grace, cmd = int(argv[1]), float(argv[2]), argv[4:]
     if os.getpgrp() != os.getpid():  # the launcher makes us a group leader; never kill a group not ours
@@ -132,15 +148,26 @@ def main(argv: list[str]) -> int:
     old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, WATCHED)
     libc.prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
     libc.prctl(PR_SET_PDEATHSIG, PARENT_DIED, 0, 0, 0)
-    r = Reaper(launcher, grace)
     if os.getppid() != launcher:  # it died before the parent-death signal was armed
         return 1
+    if node_cgroup:
+        try:  # before the fork: nothing of the node can be born outside the launch's cgroup
+            cgroup.join(os.path.dirname(node_cgroup))
+        except OSError as e:
+            sys.stderr.write(f"cannot join the launch's cgroup ({e.strerror}): only the subreaper contains this node\n")
+            node_cgroup = ""
+    r = Reaper(launcher, grace, node_cgroup)
     pid = os.fork()
     if pid == 0:  # the node: killed if we are, with the signal mask it would have had
         try:
             libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
             if os.getppid() != r.me:
                 os._exit(1)
+            if node_cgroup:
+                try:
+                    cgroup.join(node_cgroup)
+                except OSError:  # still in the launch's cgroup: only the launcher's cgroup.kill reaches it
+                    pass
             signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
             os.execvp(cmd[0], cmd)
         except OSError as e:

@@ -4,10 +4,13 @@ Everything happens on the calling (main) thread in one selector loop: child exit
 events, output as pipe reads, signals through the wakeup fd. Spawning only from this one long-lived
 thread matters: PR_SET_PDEATHSIG fires when the *thread* that forked the child exits.
 
-No orphans: every node runs under its own subreaper (reaper.py), which adopts and kills whatever the
-node leaves, setsid() daemons included, and stops the node's whole tree when the launcher dies; the
-launcher is a subreaper too (for what a killed reaper leaves), and a watchdog process finds the rest
-by the launch id every descendant inherits in its environment (ZENTF_LAUNCH_ID).
+No orphans: where the kernel allows it, the launch has a cgroup v2 of its own (cgroup.py), every node one
+inside it, and stopping writes cgroup.kill: nothing a node starts can slip out of that. Everywhere (and
+alone where there is no usable cgroup) every node runs under its own subreaper (reaper.py), which adopts
+and kills whatever the node leaves, setsid() daemons included, freezing a tree with SIGSTOP before it
+kills it, and stops the node's whole tree when the launcher dies; the launcher is a subreaper too (for
+what a killed reaper leaves), and a watchdog process kills the launch's cgroup, or finds the rest by the
+launch id every descendant inherits in its environment (ZENTF_LAUNCH_ID), when the launcher dies.
 """
 from __future__ import annotations
 
@@ -24,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import BinaryIO, Callable, Mapping
 
-from . import proctree
+from . import cgroup, proctree
 from .description import NodeSpec
 
 __all__ = ["Supervisor", "StopTimes", "exit_code_of", "respawn_wait", "RESPAWN_FLOOR", "RESPAWN_CAP",
@@ -91,6 +94,7 @@ class _Child:
     quick_exits: int = 0  # exits in a row that came less than RESPAWN_RESET s after the start
     last_code: int | None = None
     prefix: bytes = b""
+    cgroup: str = ""  # this spawn's own cgroup, when the launch has one
 
     @property
     def running(self) -> bool:
@@ -119,6 +123,7 @@ class Supervisor:
     _launch_id: str = field(default="", init=False)
     _adopted: set[int] = field(default_factory=set, init=False)  # orphans re-parented to us, until reaped
     _subreaper: bool = field(default=False, init=False)
+    _cgroup: str = field(default="", init=False)  # the launch's cgroup ("" when the subreapers are all there is)
 
     # ------------------------------------------------------------------ public
     def run(self) -> int:
@@ -129,6 +134,12 @@ class Supervisor:
         self._launch_id = f"{os.getpid()}-{secrets.token_hex(4)}"
         old_handlers, old_wakeup = self._install_signals()
         self._subreaper = _prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0) == 0  # what a killed reaper leaves comes here
+        path, why = cgroup.create(self._launch_id)
+        self._cgroup = path or ""
+        if path:
+            log.debug("nodes are contained in the cgroup %s", path)
+        else:
+            log.debug("no cgroup for this launch (%s): subreapers only", why)
         try:
             self._start_watchdog()
             self._children = [_Child(spec, i) for i, spec in enumerate(self.nodes)]
@@ -145,6 +156,8 @@ class Supervisor:
             self._kill_everything()
             self._restore_signals(old_handlers, old_wakeup)
             self._close_watchdog()
+            if self._cgroup:
+                cgroup.remove(self._cgroup)
             if self._subreaper:
                 _prctl(PR_SET_CHILD_SUBREAPER, 0, 0, 0, 0)
             for child in self._children:
@@ -206,7 +219,8 @@ class Supervisor:
         script = Path(__file__).with_name("watchdog.py")
         try:
             self._watchdog = subprocess.Popen(
-                [sys.executable, "-S", "-I", str(script), str(self.stop_times.sigterm), self._launch_id],
+                [sys.executable, "-S", "-I", str(script), str(self.stop_times.sigterm), self._launch_id,
+                 self._cgroup],
                 stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=None, start_new_session=True)
         except OSError as e:  # not fatal: the reapers still cover the nodes
             log.warning("cannot start the orphan watchdog: %s", e)
@@ -268,8 +282,15 @@ class Supervisor:
         spec = child.spec
         # The node's own reaper execs it (no Python between fork and exec here: the sim clock's Zenoh
         # threads may be running); it leads the node's process group.
-        argv = [sys.executable, "-S", "-I", _REAPER, str(os.getpid()), str(self.stop_times.sigterm), "--",
-                *spec.cmd]
+        argv = [sys.executable, "-S", "-I", _REAPER, str(os.getpid()), str(self.stop_times.sigterm)]
+        child.cgroup = ""
+        if self._cgroup:
+            try:
+                child.cgroup = cgroup.make_child(self._cgroup, f"{child.index}.{child.spawns + 1}")
+                argv += ["--cgroup", child.cgroup]
+            except OSError as e:  # the launch's cgroup still holds it (the reaper joins that)
+                log.warning("%s: cannot make its cgroup: %s", spec.full_name, e.strerror or e)
+        argv += ["--", *spec.cmd]
         group: dict = {"process_group": 0} if sys.version_info >= (3, 11) else {"start_new_session": True}
         stdout: int | BinaryIO
         if spec.output == "log" and self.log_dir is not None:
@@ -416,6 +437,11 @@ class Supervisor:
         except OSError:
             pass
         rc = popen.wait()
+        if child.cgroup:  # its reaper kills it on the node's exit, unless the reaper itself was killed
+            cgroup.kill(child.cgroup)
+            cgroup.wait_empty(child.cgroup, 2.0)
+            cgroup.remove(child.cgroup)
+            child.cgroup = ""
         self._tell_watchdog(f"-{pgid}")
         if not self._stopping:  # (when stopping, the final sweep does it once for all)
             self._sweep()  # what the launcher adopted if the node's reaper was killed
@@ -498,8 +524,10 @@ class Supervisor:
                 log.warning("still running after SIGTERM: %s; sending SIGKILL", ", ".join(running))
             self._stopping = 3
             self._stop_deadline = time.monotonic() + self.stop_times.sigkill
+            if self._cgroup:
+                cgroup.kill(self._cgroup)
+            self._sweep(keep_nodes=False)  # each node's whole tree frozen, then killed
             self._signal_all(signal.SIGKILL)
-            self._sweep(keep_nodes=False)
         else:
             for name in running:
                 log.error("%s does not die even from SIGKILL (stuck in the kernel?); giving up on it", name)
@@ -509,10 +537,11 @@ class Supervisor:
         """Kill and reap the orphans adopted as subreaper (what a node whose reaper was killed left)."""
         # Ours carry this launch's id (other children of this process, if any, are not ours to kill).
         # With keep_nodes=False the running nodes' trees go too (the SIGKILL step).
+        # Frozen (SIGSTOP) before killed, so that a tree re-forking faster than /proc is read is caught whole.
         me = os.getpid()
         nodes = {c.popen.pid for c in self._children if c.popen is not None}
-        for _ in range(50):
-            table = proctree.snapshot()
+
+        def targets(table: dict[int, tuple[int, int, str]]) -> list[int]:
             roots = [pid for pid, (ppid, _, _) in table.items() if ppid == me and pid not in self._adopted
                      and pid not in nodes and proctree.has_launch_id(pid, self._launch_id)]
             self._adopted.update(roots)
@@ -521,25 +550,21 @@ class Supervisor:
                 doomed += [pid for pid in nodes if pid in table]
             for pid in list(doomed):
                 doomed += proctree.descendants(pid, table)
-            live = [pid for pid in doomed if table[pid][2] != "Z"]
-            for pid in live:
-                try:
-                    os.kill(pid, signal.SIGKILL)
-                except OSError:
-                    pass
-            proctree.wait_gone(live, 1.0)
-            for pid in list(self._adopted):  # never a node's reaper: its Popen reaps it
-                try:
-                    if os.waitpid(pid, os.WNOHANG)[0] == pid:
-                        self._adopted.discard(pid)
-                except ChildProcessError:
+            return doomed
+
+        proctree.kill_frozen(targets, rounds=50, wait=1.0)
+        for pid in list(self._adopted):  # never a node's reaper: its Popen reaps it
+            try:
+                if os.waitpid(pid, os.WNOHANG)[0] == pid:
                     self._adopted.discard(pid)
-            if not live:
-                return
+            except ChildProcessError:
+                self._adopted.discard(pid)
 
     def _kill_everything(self) -> None:
         """Last resort on the way out (e.g. an exception in the loop): nothing may outlive us."""
         left = [c for c in self._children if c.popen is not None]
+        if self._cgroup:
+            cgroup.kill(self._cgroup)
         for child in left:
             try:
                 os.killpg(child.popen.pid, signal.SIGKILL)  # type: ignore[union-attr]
@@ -559,7 +584,13 @@ class Supervisor:
                 child.pidfd = None
             child.popen = None
         self._sweep(keep_nodes=False)
-        if self._subreaper:  # every descendant came back to us and is gone: the watchdog may just exit
+        clean = self._subreaper  # every descendant came back to us and is gone: the watchdog may just exit
+        if self._cgroup:  # (or the kernel says none is left)
+            clean = cgroup.wait_empty(self._cgroup, 5.0)
+            if not clean:
+                log.error("processes are left in the cgroup %s", self._cgroup)
+            cgroup.remove(self._cgroup)
+        if clean:
             self._tell_watchdog(".")
         for child in self._children:
             if child.log_file is not None:

@@ -6,7 +6,9 @@ launcher is gone (even by SIGKILL). Each node's reaper (reaper.py) then stops
 its own tree; this process sends SIGTERM to whatever no live reaper covers: groups whose reaper is gone,
 and every process whose environment carries this launch's id (`ZENTF_LAUNCH_ID`, inherited by all a
 node starts, whatever its session, group or parent: e.g. re-parented to init after its reaper was
-killed). After the grace period, everything left of the groups and of the id's carriers gets SIGKILL.
+killed). After the grace period, the launch's cgroup (when it has one: argument 3) is killed as a whole
+(cgroup.kill) and removed, and everything left of the groups and of the id's carriers is frozen
+(SIGSTOP) and killed.
 """
 from __future__ import annotations
 
@@ -16,6 +18,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # -I leaves our own directory out
+import cgroup  # noqa: E402
 import proctree  # noqa: E402
 
 
@@ -60,6 +63,7 @@ def main() -> int:
     signal.signal(signal.SIGHUP, signal.SIG_IGN)
     grace = float(sys.argv[1]) if len(sys.argv) > 1 else 1.0
     launch_id = sys.argv[2] if len(sys.argv) > 2 else ""
+    launch_cgroup = sys.argv[3] if len(sys.argv) > 3 else ""
     groups: set[int] = set()
     clean = False
     buf = b""
@@ -95,13 +99,31 @@ def main() -> int:
         if not alive and not pids:
             break
         time.sleep(0.02)
-    for _ in range(20):  # SIGKILL until nothing is left (forks meanwhile are caught next round)
-        alive = [g for g in alive if _alive(g)]
-        pids = _signal(alive, launch_id, signal.SIGKILL)
-        if not alive and not pids:
-            break
-        proctree.wait_gone(pids, 0.2)
+    if launch_cgroup:
+        cgroup.kill(launch_cgroup)
+        cgroup.wait_empty(launch_cgroup, 5.0)
+    proctree.kill_frozen(lambda table: _trees(alive, launch_id, table))
+    for g in alive:  # whatever is left in the groups, should a tree walk have missed it
+        try:
+            os.killpg(g, signal.SIGKILL)
+        except OSError:
+            pass
+    if launch_cgroup:
+        cgroup.remove(launch_cgroup)
     return 0
+
+
+def _trees(groups: list[int], launch_id: str, table: "dict[int, tuple[int, int, str]]") -> set[int]:
+    """The groups' members and their leaders' descendants, and the launch id's carriers."""
+    pids: set[int] = set()
+    for g in groups:
+        if g in table:
+            pids.add(g)
+            pids.update(proctree.descendants(g, table))
+    pids.update(p for p, (_, pg, _) in table.items() if pg in groups)
+    if launch_id:
+        pids.update(proctree.carrying_launch_id(launch_id))
+    return pids
 
 
 if __name__ == "__main__":

@@ -2,7 +2,7 @@
 """Frame names from wire bytes: one interned str per name, shared by every compiled decoder.
 
 Why: a stream of TFMessages repeats the same few names; turning their bytes into a str every time costs an
-allocation and a UTF-8 decode per name. ``zentf.ros.tf``'s bounded dict holds the names (the Python decoders
+allocation and a UTF-8 decode per name. ``zentf.ros.tf``'s dict holds the names, bounded there (the Python decoders
 use it too), and a direct-mapped memo in front makes a hit a hash and a memcmp, with no bytes object.
 """
 from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes_GET_SIZE
@@ -11,11 +11,14 @@ from libc.stdint cimport uint8_t, uint32_t
 from libc.string cimport memcmp
 
 from zentf.core.constants import DEFAULT_MAX_FRAME_ID_LENGTH
-from zentf.ros.tf import FRAME_CACHE_SIZE
 from zentf.ros.tf import _FRAMES as _NAMES
+from zentf.ros.tf import _FRAMES_HELD, _ENTRY_BYTES, FRAME_CACHE_BYTES, FRAME_CACHE_SIZE
 
 cdef dict _names = _NAMES
-cdef Py_ssize_t _NAMES_MAX = FRAME_CACHE_SIZE
+cdef list _held = _FRAMES_HELD  # estimated bytes in _names, shared with zentf.ros.tf.keep_frame_name
+cdef Py_ssize_t _MAX_NAMES = FRAME_CACHE_SIZE
+cdef Py_ssize_t _MAX_BYTES = FRAME_CACHE_BYTES
+cdef Py_ssize_t _ENTRY = _ENTRY_BYTES
 cdef Py_ssize_t _NAME_MAX_LEN = DEFAULT_MAX_FRAME_ID_LENGTH
 cdef enum:
     SLOTS = 1024
@@ -28,6 +31,7 @@ cdef object frame_name(const uint8_t* p, Py_ssize_t n):
     cdef uint32_t h = 2166136261u
     cdef Py_ssize_t i
     cdef object raw
+    cdef Py_ssize_t cost
     for i in range(n):
         h = (h ^ p[i]) * 16777619u
     cdef Py_ssize_t slot = h & (SLOTS - 1)
@@ -43,9 +47,13 @@ cdef object frame_name(const uint8_t* p, Py_ssize_t n):
             return None
         if n > _NAME_MAX_LEN:  # a forged huge name is not kept (the buffer refuses it anyway)
             return name
-        if len(_names) >= _NAMES_MAX:
+        # zentf.ros.tf.keep_frame_name's bounds (names and bytes), inline: a forged flood is all new names
+        cost = 2 * n + _ENTRY
+        if len(_names) >= _MAX_NAMES or <Py_ssize_t>_held[0] + cost > _MAX_BYTES:
             _names.clear()
+            _held[0] = 0
         _names[raw] = name
+        _held[0] = <Py_ssize_t>_held[0] + cost
     _slot_raw[slot] = raw
     _slot_name[slot] = name
     return name

@@ -26,12 +26,33 @@ _HEAD = struct.Struct("<4sI")          # encapsulation, transform count
 _U32 = struct.Struct("<I")
 _STAMP_LEN = struct.Struct("<iII")     # sec, nanosec, frame_id length
 _SEVEN = struct.Struct("<7d")
-#: Frame names decoded once, by their UTF-8 bytes (a tree has tens to hundreds). The one cache of every
-#: TFMessage decoder (this module's, zentf.transport.wire.codec's, the compiled ones in
-#: zentf/transport/ingest): when full it starts over and names longer than the buffer takes are not kept,
-#: so forged names cost at most ~4096 x 0.6 kB, whatever number of distinct names a peer sends.
-FRAME_CACHE_SIZE = 4096
+#: Frame names decoded once, by their UTF-8 bytes. The one cache of every TFMessage decoder (this
+#: module's, zentf.transport.wire.codec's, the compiled ones in zentf/transport/ingest and the bag loader):
+#: bounded in names and in bytes, started over when either bound is reached, names longer than the buffer
+#: takes not kept. The names bound is above what a buffer holds (DEFAULT_MAX_FRAMES): a fleet's trees in
+#: one listener (100 robots x 51 frames) must not start it over on every message; the bytes bound keeps
+#: forged long names to ~FRAME_CACHE_BYTES, whatever number of distinct names a peer sends.
+FRAME_CACHE_SIZE = 16384
+FRAME_CACHE_BYTES = 2_500_000
+_ENTRY_BYTES = 200  # a kept name's cost beyond twice its length: the bytes and str headers, its dict slot
 _FRAMES: dict[bytes, str] = {}
+_FRAMES_HELD = [0]  # estimated bytes held by _FRAMES (2 x length + _ENTRY_BYTES an entry)
+
+
+def bounded_put(cache: dict, held: list, key: Any, value: Any, cost: int) -> None:
+    """``cache[key] = value`` within FRAME_CACHE_SIZE entries and FRAME_CACHE_BYTES (``held[0]``: the
+    estimated bytes already in it; ``cost``: this entry's); a full cache starts over."""
+    if len(cache) >= FRAME_CACHE_SIZE or held[0] + cost > FRAME_CACHE_BYTES:
+        cache.clear()
+        held[0] = 0
+    cache[key] = value
+    held[0] += cost
+
+
+def keep_frame_name(raw: bytes, name: str) -> None:
+    """Remember a decoded frame name (zentf/ros/frame_names.pyx does the same inline, in C)."""
+    if len(raw) <= DEFAULT_MAX_FRAME_ID_LENGTH:  # a longer one the buffer refuses anyway
+        bounded_put(_FRAMES, _FRAMES_HELD, raw, name, 2 * len(raw) + _ENTRY_BYTES)
 
 
 def frame_name(raw: bytes) -> str:
@@ -39,10 +60,7 @@ def frame_name(raw: bytes) -> str:
     name = _FRAMES.get(raw)
     if name is None:
         name = raw.decode("utf-8")
-        if len(raw) <= DEFAULT_MAX_FRAME_ID_LENGTH:  # a longer one the buffer refuses anyway
-            if len(_FRAMES) >= FRAME_CACHE_SIZE:
-                _FRAMES.clear()
-            _FRAMES[raw] = name
+        keep_frame_name(raw, name)
     return name
 
 
@@ -122,6 +140,7 @@ def tf_samples(payload: bytes) -> tuple[list[tuple], int, str | None]:
 # ---- encoding
 
 _FRAME_BYTES: dict[str, bytes] = {}
+_FRAME_BYTES_HELD = [0]
 
 
 def _frame_bytes(name: Any) -> bytes:
@@ -133,9 +152,7 @@ def _frame_bytes(name: Any) -> bytes:
         b = name.encode("utf-8")
         raw = _U32.pack(len(b) + 1) + b + b"\x00"
         if len(b) <= DEFAULT_MAX_FRAME_ID_LENGTH:  # (a relay encodes names any peer sent: bounded as _FRAMES)
-            if len(_FRAME_BYTES) >= FRAME_CACHE_SIZE:
-                _FRAME_BYTES.clear()
-            _FRAME_BYTES[name] = raw
+            bounded_put(_FRAME_BYTES, _FRAME_BYTES_HELD, name, raw, 2 * len(raw) + _ENTRY_BYTES)
     return raw
 
 
@@ -168,6 +185,7 @@ def _fields(t: Any) -> tuple:
 
 
 _MIDS: dict[tuple[Any, Any, int], bytes] = {}
+_MIDS_HELD = [0]
 
 
 def frames_between(parent: Any, child: Any, off: int) -> bytes:
@@ -183,9 +201,7 @@ def frames_between(parent: Any, child: Any, off: int) -> bytes:
         at += pad1 + len(cb)
         mid = pb + _PAD[pad1] + cb + _PAD[-at & 7]
         if len(mid) <= 2 * DEFAULT_MAX_FRAME_ID_LENGTH + 16:
-            if len(_MIDS) >= FRAME_CACHE_SIZE:
-                _MIDS.clear()
-            _MIDS[key] = mid
+            bounded_put(_MIDS, _MIDS_HELD, key, mid, len(mid) + _ENTRY_BYTES)
     return mid
 
 

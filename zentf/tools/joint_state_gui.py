@@ -4,22 +4,94 @@ One slider per movable joint within its limits (continuous joints: ±π), its li
 Randomize and Center buttons. The page polls ``GET /state`` and sends ``POST /set`` (JSON). Safe
 by default: it listens on 127.0.0.1 only, answers only requests whose Host header is that address
 (no DNS rebinding), and changes values only on JSON POSTs (a cross-site form cannot send those).
+Whatever a client sends or does, the server answers in one line or closes quietly: a bad value gets
+400 with its reason, a client that resets or hangs up costs no traceback, each connection has a
+timeout per read and a deadline, and at most MAX_CONNECTIONS are served at once (503 beyond).
 """
 from __future__ import annotations
 
 import json
 import logging
+import socket
+import sys
 import threading
+import time
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import TYPE_CHECKING, Any
+
+from ..core.ratelimit import RateLimitedLogger
 
 if TYPE_CHECKING:  # the program (joint_state_publisher) imports this module
     from .joint_state_publisher import JointStatePublisher
 
-__all__ = ["JointStateGui", "PAGE"]
+__all__ = ["JointStateGui", "PAGE", "MAX_CONNECTIONS", "READ_TIMEOUT", "CONNECTION_DEADLINE"]
 
 log = logging.getLogger("zentf.joint_state_gui")
+_limited = RateLimitedLogger(log)
 _MAX_BODY = 64 * 1024
+#: connections served at once (the page keeps one or two; more get 503 and are closed)
+MAX_CONNECTIONS = 16
+#: seconds a connection may keep the server waiting for its next bytes
+READ_TIMEOUT = 5.0
+#: seconds any one connection may last, however slowly it keeps sending
+CONNECTION_DEADLINE = 20.0
+_BUSY = (b"HTTP/1.0 503 Service Unavailable\r\nContent-Type: application/json\r\nContent-Length: 35\r\n"
+         b"Connection: close\r\n\r\n{\"error\": \"too many connections\"}\r\n")
+
+
+class _Server(ThreadingHTTPServer):
+    """ThreadingHTTPServer with a bound on connections, a deadline per connection, and quiet errors."""
+
+    daemon_threads = True
+    block_on_close = False
+    request_queue_size = 64  # the listen backlog (5 by default: a burst of connects waits for SYN retries)
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        self._active: dict[socket.socket, float] = {}  # connection -> when it was accepted
+        self._active_lock = threading.Lock()
+        super().__init__(*args, **kwargs)
+
+    def process_request(self, request: Any, client_address: Any) -> None:
+        with self._active_lock:
+            full = len(self._active) >= MAX_CONNECTIONS
+            if not full:
+                self._active[request] = time.monotonic()
+        if full:
+            _limited.log(logging.WARNING, "busy", "slider page: more than %d connections at once; refusing more",
+                         MAX_CONNECTIONS)
+            try:
+                request.setblocking(False)
+                request.send(_BUSY)
+            except OSError:
+                pass
+            super().shutdown_request(request)
+            return
+        super().process_request(request, client_address)
+
+    def shutdown_request(self, request: Any) -> None:
+        with self._active_lock:
+            self._active.pop(request, None)
+        super().shutdown_request(request)
+
+    def service_actions(self) -> None:
+        """Between accepts (at least twice a second): end the connections past their deadline."""
+        now = time.monotonic()
+        with self._active_lock:
+            late = [r for r, t in self._active.items() if now - t > CONNECTION_DEADLINE]
+        for request in late:
+            try:
+                request.shutdown(socket.SHUT_RDWR)  # its thread's read or write returns at once
+            except OSError:
+                pass
+
+    def handle_error(self, request: Any, client_address: Any) -> None:
+        """A client that reset, hung up or stalled is no event; anything else is one line, not a traceback."""
+        exc = sys.exc_info()[1]
+        if isinstance(exc, OSError):  # ConnectionResetError, BrokenPipeError, TimeoutError, shut down
+            log.debug("slider page: connection ended: %s", exc)
+            return
+        _limited.log(logging.WARNING, type(exc).__name__, "slider page: request failed: %s: %s",
+                     type(exc).__name__, str(exc))
 
 
 class JointStateGui:
@@ -32,8 +104,7 @@ class JointStateGui:
         class Handler(_Handler):
             owner = gui
 
-        self._server = ThreadingHTTPServer((host, port), Handler)
-        self._server.daemon_threads = True
+        self._server = _Server((host, port), Handler)
         self.host, self.port = self._server.server_address[:2]
         self._allowed_hosts = {f"{self.host}:{self.port}", f"localhost:{self.port}"}
         self._thread = threading.Thread(target=self._server.serve_forever, name="joint-state-gui", daemon=True)
@@ -58,6 +129,7 @@ class JointStateGui:
 class _Handler(BaseHTTPRequestHandler):
     owner: JointStateGui
     server_version = "zentf-joint-state-gui"
+    timeout = READ_TIMEOUT  # (StreamRequestHandler: the socket's timeout)
 
     def log_message(self, fmt: str, *args: Any) -> None:  # http.server prints every request otherwise
         log.debug("%s " + fmt, self.address_string(), *args)
@@ -105,7 +177,10 @@ class _Handler(BaseHTTPRequestHandler):
         path = self.path.split("?", 1)[0]
         jsp = self.owner.jsp
         try:
-            body = json.loads(self.rfile.read(n) or b"{}")
+            data = self.rfile.read(n)
+            if len(data) < n:
+                return  # the client hung up mid-body
+            body = json.loads(data or b"{}")
             if path == "/set":
                 if not isinstance(body, dict):
                     raise ValueError("expected a JSON object {joint: value}")
@@ -117,8 +192,12 @@ class _Handler(BaseHTTPRequestHandler):
             else:
                 self._send(404, {"error": "not found"})
                 return
-        except (KeyError, ValueError) as e:
-            self._send(400, {"error": str(e.args[0]) if isinstance(e, KeyError) else str(e)})
+        except (KeyError, ValueError) as e:  # (json's errors are ValueErrors)
+            text = str(e.args[0]) if isinstance(e, KeyError) and e.args else str(e)
+            self._send(400, {"error": text.splitlines()[0] if text.strip() else type(e).__name__})
+            return
+        except RecursionError:
+            self._send(400, {"error": "JSON nested too deeply"})
             return
         self._send(200, self.owner.state())
 

@@ -27,6 +27,7 @@ import time
 from collections.abc import Mapping
 
 from ..core.messages import Header, JointState
+from ..core.text import printable
 from ..transport.node import Node
 from ..urdf import Kinematics, Robot
 import argparse
@@ -74,11 +75,16 @@ class JointStatePublisher:
         """Set some joints (clamped to their range); KeyError/ValueError name a bad joint or value."""
         clean = {}
         for name, v in values.items():
-            if name not in self.bounds:
-                raise KeyError(f"'{name}' is not a movable, non-mimic joint of robot '{self.robot.name}' "
-                               f"(joints: {', '.join(self.bounds)})")
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"joint '{name}': expected a finite number, got {v!r}")
+            if name not in self.bounds:  # (names and values may come from the slider page: shown escaped, cut)
+                raise KeyError(f"'{printable(name, 64)}' is not a movable, non-mimic joint of robot "
+                               f"'{printable(self.robot.name, 64)}' (joints: {printable(', '.join(self.bounds), 512)})")
+            try:  # an int too big for a float (a 400-digit JSON number) is as out of range as inf
+                finite = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
+            except OverflowError:
+                finite = False
+            if not finite:
+                raise ValueError(f"joint '{printable(name, 64)}': expected a finite number, got "
+                                 f"{_brief(v)}")
             lo, hi = self.bounds[name]
             clean[name] = min(max(float(v), lo), hi)
         with self._lock:
@@ -118,6 +124,13 @@ class JointStatePublisher:
 
     def close(self) -> None:
         self._timer.cancel()
+
+
+def _brief(value: object) -> str:
+    """A refused value as one short line (a 400-digit integer is named by its size, not printed)."""
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 64:
+        return f"an integer of {value.bit_length()} bits"
+    return printable(repr(value), 64)
 
 
 # ---- the program (zentf run joint_state_publisher)

@@ -6,7 +6,7 @@ from collections.abc import Mapping
 
 __all__ = [
     "validate_node_name", "normalize_namespace", "expand_topic", "resolve_topic", "topic_to_key",
-    "key_to_topic", "fully_qualified_node_name", "encode_chunk", "decode_chunk",
+    "key_to_topic", "fully_qualified_node_name", "encode_chunk", "decode_chunk", "is_concrete_key",
 ]
 
 _TOKEN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
@@ -109,3 +109,9 @@ def encode_chunk(text: str) -> str:
 
 def decode_chunk(chunk: str) -> str:
     return chunk[1:].replace("%", "/") if chunk.startswith("%") else chunk
+
+
+def is_concrete_key(key: str) -> bool:
+    """False for a key expression with wildcards (``**``, ``*``, ``t$*``): a put on one reaches every
+    subscriber it intersects and arrives under that wildcard, so it is no topic's message (a receiver drops it)."""
+    return "*" not in key

@@ -22,7 +22,8 @@ from typing import Any, NamedTuple
 from .clock import Clock, ClockType, Rate
 from ..core.messages import Clock as ClockMsg
 from ..core.messages import Message
-from .names import fully_qualified_node_name, normalize_namespace, resolve_topic, validate_node_name
+from .names import (fully_qualified_node_name, is_concrete_key, normalize_namespace, resolve_topic,
+                    validate_node_name)
 from .options import NodeOptions
 from .wire.profiles import make_profile
 from ..core.ratelimit import RateLimitedLogger
@@ -223,6 +224,8 @@ class RawSubscription:
             key = str(sample.key_expr)
             enc = str(sample.encoding)
             self.received += 1
+            if not is_concrete_key(key):  # a put on `**` reaches every subscriber it intersects: no topic's message
+                raise ValueError("sent on a key expression with wildcards, not on the topic")
             self.callback(RawSample(sample.payload.to_bytes(), att.to_bytes() if att is not None else None, key,
                                     self._type_of(key, enc), enc))
         except Exception as e:  # noqa: BLE001 - never raise into Zenoh's thread
@@ -285,6 +288,8 @@ class Subscription:
                 payload, enc, att, key = self._queue.popleft()
             self.received += 1
             try:
+                if not is_concrete_key(key):
+                    raise ValueError("sent on a key expression with wildcards, not on the topic")
                 msg = self.node.wire.decode(payload, enc, key, self.msg_type)
             except ValueError as e:
                 self.errors += 1

@@ -368,9 +368,9 @@ def _warn_if_exposed(cfg: Any) -> None:
     what = exposure(cfg)
     if what:
         _warned_exposed = True
-        log.warning("Zenoh reachable beyond this machine without authentication (%s): anyone on "
-                    "the network can read and inject transforms; see docs/networking.md#security",
-                    "; ".join(what))
+        log.warning("Zenoh reachable beyond this machine without authentication (%s): anyone on the network can "
+                    "read every topic, publish transforms and /clock, call services, set parameters and take "
+                    "node names; see docs/networking.md#what-the-lan-profile-exposes", "; ".join(what))
 
 
 def _check_tls_files(cfg: Any, source: str | None) -> None:

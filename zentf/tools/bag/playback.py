@@ -21,8 +21,10 @@ from dataclasses import dataclass
 from typing import Any
 
 from ...core.messages import Clock, message_type
+from ...core.text import printable
 from ...transport.wire import codec as zentf_codec
 from ...transport.wire.zentf_wire import ZentfProfile
+from .errors import BagError
 from .native import BagMessage, rebase_key
 from .source import open_bag
 
@@ -31,6 +33,10 @@ __all__ = ["Recorder", "Player", "PlayStats"]
 log = logging.getLogger("zentf.tools.bag")
 
 _NS = 1_000_000_000
+#: the longest single wait (a wait past ``threading.TIMEOUT_MAX`` raises OverflowError)
+_MAX_WAIT = 3600.0
+#: a message due further into the play than this (seconds of wall time) is refused, not waited for
+_MAX_PLAY = 100 * 365.25 * 86400.0
 #: tf stamps this far from their log times are in another time base (sim time recorded with a wall
 #: clock), not late: network and recorder delays are milliseconds, clock skew seconds.
 CLOCK_BASE_GAP = 60 * _NS
@@ -187,7 +193,7 @@ class Player:
             if period is not None:
                 self._publish_clock(bag0 + int((now - wall0) * self.rate * _NS))
                 nxt = min(deadline, now + period)
-            if self.stop_event.wait(max(0.0, nxt - time.monotonic())):
+            if self.stop_event.wait(min(max(0.0, nxt - time.monotonic()), _MAX_WAIT)):
                 return False
 
     def play(self, progress: Callable[[PlayStats], None] | None = None) -> PlayStats:
@@ -216,10 +222,17 @@ class Player:
                 self._send(m)
             wall0 = time.monotonic()
             base = (wall0, begin)
+            index = 0
             while pending is not None:
                 m = pending
+                index += 1
                 if not (skip_clock and m.key == "clock"):
-                    due = wall0 + (m.log_time - begin) / _NS / self.rate
+                    after = (m.log_time - begin) / _NS / self.rate
+                    if after > _MAX_PLAY:
+                        raise BagError(f"{printable(self.path)}: message {index} of the play (/{printable(m.key, 200)}, logged "
+                                       f"at {m.log_time} ns) is due {after:.4g} s after the first at rate "
+                                       f"{self.rate:g}: more than a century (a damaged or forged log time?)")
+                    due = wall0 + after
                     if not self._wait_until(due, base):
                         break
                     if skip_clock:

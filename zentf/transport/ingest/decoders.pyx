@@ -30,7 +30,7 @@ cdef int64_t _MAX_SEC = 9223372036  # (2**63 - 1) // 1e9: stamps are int64 nanos
 cdef extern from "Python.h":
     void PyObject_GC_UnTrack(object)
 
-#: frame names are interned by zentf.ros.frame_names (bounded at FRAME_CACHE_SIZE, shared with the bag loader)
+#: frame names are interned by zentf.ros.frame_names (bounded in names and bytes, shared with the bag loader)
 from ...ros.tf import FRAME_CACHE_SIZE
 
 cdef inline double _f64le(const uint8_t* p) noexcept nogil:

@@ -51,7 +51,7 @@ cdef class TfHandler:
     cdef object tf_encoding
     cdef object check_encoding
     cdef object last_raw, last_authority
-    cdef public Py_ssize_t messages, transforms, rejected, malformed
+    cdef public Py_ssize_t messages, transforms, rejected, malformed, wildcard
     cdef public Py_ssize_t payload_bytes
     cdef public object topic
     cdef object authority(self, object sample, object raw)

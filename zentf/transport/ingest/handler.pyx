@@ -38,18 +38,18 @@ cdef extern from *:
     object _descr_get "zentf_descr_get"(object d, object obj)
     object _call1 "zentf_call1"(object f, object a)
 
-cdef object _SampleType = None, _get_payload = None, _get_attachment = None, _to_bytes = None
+cdef object _SampleType = None, _get_payload = None, _get_attachment = None, _get_key_expr = None, _to_bytes = None
 
 
 cdef int _zenoh_descriptors() except -1:
     """Find zenoh.Sample's payload and attachment getters and ZBytes.to_bytes (once; the handlers and the
     tf thread use them for zenoh.Sample objects, anything else is read by name)."""
-    global _SampleType, _get_payload, _get_attachment, _to_bytes
+    global _SampleType, _get_payload, _get_attachment, _get_key_expr, _to_bytes
     if _SampleType is not None:
         return 0
     import zenoh
     d = zenoh.Sample.__dict__
-    _get_payload, _get_attachment = d["payload"], d["attachment"]
+    _get_payload, _get_attachment, _get_key_expr = d["payload"], d["attachment"], d["key_expr"]
     _to_bytes = zenoh.ZBytes.__dict__["to_bytes"]
     _SampleType = zenoh.Sample
     return 0
@@ -60,6 +60,13 @@ cdef object payload_of(object sample):
     if type(sample) is _SampleType:
         return _call1(_to_bytes, _descr_get(_get_payload, sample))
     return sample.payload.to_bytes()
+
+
+cdef object wildcard_key(object sample):
+    """The sample's key expression when it is not a concrete key (a put on ``**`` or ``t$*`` arrives
+    under that wildcard in every subscriber it intersects: it is no topic's message), else None."""
+    cdef str key = str(_descr_get(_get_key_expr, sample) if type(sample) is _SampleType else sample.key_expr)
+    return key if "*" in key else None
 
 
 cdef object attachment_of(object sample):
@@ -287,7 +294,7 @@ cdef class TfHandler:
         self.topic = topic  # the key expression the handler's subscriber was declared on (lines)
         self.check_encoding = check_encoding  # None: not looked at (ROS 2: the type is in the key)
         self.tf_encoding = tf_encoding
-        self.messages = self.transforms = self.rejected = self.malformed = 0
+        self.messages = self.transforms = self.rejected = self.malformed = self.wildcard = 0
         self.payload_bytes = 0
         _zenoh_descriptors()
 
@@ -326,6 +333,8 @@ cdef class TfHandler:
         if raw is None or self.cingest is None:
             return None
         try:
+            if wildcard_key(sample) is not None:
+                return None  # queued as the sample: handle() names and drops it
             payload = payload_of(sample)
         except Exception:
             return None
@@ -340,6 +349,12 @@ cdef class TfHandler:
     cdef bint handle(self, object sample, object raw, bint have_raw) except -1:
         """One message from its sample (``raw``: its attachment's bytes, when have_raw)."""
         try:
+            wild = wildcard_key(sample)
+            if wild is not None:
+                self.wildcard += 1
+                self.events.bad_message(wild, self.senders.authority_of(sample.attachment, "unknown sender"),
+                                        ValueError("sent on a key expression with wildcards, not on the topic"))
+                return False
             if not have_raw and self.senders.fixed is None:
                 raw = attachment_of(sample)
             authority = self.authority(sample, raw)
