@@ -113,6 +113,23 @@ def test_raw_subscription_gets_payload_sender_key_and_type(nodes) -> None:
                                                        (b.resolve_topic_name("points"), PointStamped.TYPE_NAME)]
 
 
+def test_raw_subscription_drops_puts_on_wildcard_keys(nodes) -> None:
+    """A put on a key expression with wildcards reaches every subscription it intersects, under that
+    wildcard: no topic's message, so a raw subscription (and all that use one) never hands it over."""
+    a, b = nodes
+    got = Samples()
+    sub = b.create_raw_subscription("points", got, type_name=PointStamped)
+    pub = a.create_publisher("points", PointStamped)
+    assert pub.wait_for_subscribers(20)
+    payload = a.wire.encode(point(6.0), PointStamped.TYPE_NAME)
+    wild = sub.key.rsplit("/", 1)[0] + "/*"  # intersects this subscription's key only
+    a.session.put(wild, payload, encoding=a.wire.encoding(PointStamped.TYPE_NAME), attachment=b"/forger")
+    pub.publish(point(1.0))  # sent after the wildcard put: once it is in, the other was seen and dropped
+    s = got.wait()[0]
+    assert b.wire.decode(s.payload, s.encoding, s.key, PointStamped).point.x == 1.0 and len(got.got) == 1
+    assert sub.errors == 1 and sub.received == 2
+
+
 def test_declare_entity_announces_in_the_wire_layout(nodes) -> None:
     a, _ = nodes
     topic = a.resolve_topic_name("announced")
