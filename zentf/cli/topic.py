@@ -229,7 +229,7 @@ def topic_echo(name: str, once: bool, count: Optional[int], as_json: bool, timeo
               help="Messages in the moving window.")
 @click.option("--duration", "-d", type=finite_float(min=0.0), default=None,
               help="Stop after this many seconds (default: until Ctrl-C).")
-@click.option("--period", type=finite_float(min=0.05), default=1.0, show_default=True,
+@click.option("--period", type=finite_float(min=0.05, max=1e6), default=1.0, show_default=True,
               help="Seconds between reports.")
 @with_options
 def topic_hz(name: str, window: int, duration: Optional[float], period: float, *, opts: CliOptions) -> None:
@@ -338,7 +338,7 @@ def _out_of_range(value: Any, path: str = "") -> Optional[tuple[str, int]]:
 @click.argument("name")
 @click.argument("type_name", metavar="TYPE")
 @click.argument("data", default="{}", required=False)
-@click.option("--rate", "-r", type=finite_float(min=0.001), default=1.0, show_default=True,
+@click.option("--rate", "-r", type=finite_float(min=0.001, max=1e6), default=1.0, show_default=True,
               help="Messages per second.")
 @click.option("--once", "-1", is_flag=True, help="Publish one message and exit.")
 @click.option("--times", "-t", type=click.IntRange(min=1), default=None,

@@ -43,6 +43,7 @@ from ..core.ratelimit import RateLimitedLogger
 from ..core.time import Time
 from ..transport.names import topic_to_key
 from ..transport.node import Node
+from ..transport.clock import rate_problem
 from ..urdf import Kinematics, Robot
 from ..urdf.kinematics import JointTransforms
 from ..transport.entities import undeclare_all
@@ -141,8 +142,9 @@ class RobotStatePublisher:
 
     def __init__(self, node: Node, robot: Robot, *, frame_prefix: str = "", publish_frequency: float = 20.0,
                  ignore_timestamp: bool = False, joint_states_topic: str = "joint_states") -> None:
-        if not publish_frequency > 0:
-            raise ValueError(f"publish_frequency must be > 0, got {publish_frequency!r}")
+        problem = rate_problem("publish_frequency", publish_frequency)
+        if problem is not None:
+            raise ValueError(problem)
         self.node = node
         self.robot = robot
         self.frame_prefix = frame_prefix
@@ -403,10 +405,8 @@ def run(p: Prepared) -> int:
 def _run(opts, robot: Robot, args: argparse.Namespace) -> None:
     with program.make_node(opts, PROG) as node:
         prefix = args.frame_prefix if args.frame_prefix is not None else str(program.param(node, "frame_prefix", ""))
-        freq = (args.publish_frequency if args.publish_frequency is not None
-                else program.param_positive(node, "publish_frequency", 20.0))
-        if not freq > 0 or freq != freq:
-            raise program.OptionsError(f"--publish-frequency must be > 0, got {freq}")
+        freq = (program.check_rate("--publish-frequency", args.publish_frequency)
+                if args.publish_frequency is not None else program.param_rate(node, "publish_frequency", 20.0))
         ignore = bool(args.ignore_timestamp) or program.param_bool(node, "ignore_timestamp", False)
         rsp = RobotStatePublisher(node, robot, frame_prefix=prefix, publish_frequency=freq, ignore_timestamp=ignore)
         movable = len(rsp._movable.names)
