@@ -294,14 +294,21 @@ def resolve_type_name(text: str) -> str:
     raise CliError(f"unknown message type {text!r} (known: {known})", code=2)
 
 
+#: Longest DATA of `topic pub` / `service call` (characters).
+DATA_LIMIT = 1024 * 1024
+
+
 def parse_message(type_name: str, data: str) -> Any:
     """DATA (YAML or JSON) -> message of the type; one-line CliError naming the bad field."""
     import yaml
 
     from zentf.core.messages import message_type
+    from zentf.core.safe_yaml import YamlRefused, load
 
     try:
-        plain = yaml.safe_load(data) if data.strip() else {}
+        plain = load(data, limit=DATA_LIMIT) if data.strip() else {}
+    except YamlRefused as exc:
+        raise CliError(f"DATA refused: {exc}", code=2) from None
     except yaml.YAMLError as exc:
         raise CliError(f"DATA is not valid YAML/JSON: {' '.join(str(exc).split())}", code=2) from exc
     if plain is None:

@@ -15,6 +15,7 @@ from typing import Any, Mapping, Sequence
 
 import yaml
 
+from ..core import safe_yaml
 from ..core.text import parse_bool
 from ..transport.clock import MAX_RATE, MIN_RATE
 from ..transport.names import fully_qualified_node_name
@@ -490,8 +491,8 @@ class _Loader:
         text = self._sub_text(y, scope.ctx)
         if y.plain:
             try:
-                parsed = yaml.safe_load(text) if text.strip() else ""
-            except yaml.YAMLError:
+                parsed = safe_yaml.load(text) if text.strip() else ""
+            except (yaml.YAMLError, safe_yaml.YamlRefused):  # (refused: kept as the text it is)
                 return text
             if isinstance(parsed, (bool, int, float, str)) or parsed is None:
                 return parsed
