@@ -31,6 +31,7 @@ from zentf.core.messages import Header, Quaternion, Transform, TransformStamped,
 from zentf.core.time import Time
 from zentf.transport.listener import _FutureGuard
 from zentf.ros import CdrError, encode_tf as cdr_encode_tf, tf_samples
+from zentf.ros.tf import _FRAMES  # the one interned-name cache every decoder shares
 from zentf.transport.ingest.handler import TfIngest
 
 NS = 1_000_000_000
@@ -135,7 +136,7 @@ def test_frame_names_are_interned_and_the_cache_is_bounded() -> None:
     assert a[0] is b[0] and a[1] is b[1]  # one str object per name, whichever wire brought it
     long_name = "n" * 300
     assert decoders.msgpack_tf(msgpack.packb({"transforms": [transform_dict(long_name, "c")]}))[0][0] == long_name
-    assert long_name.encode() not in decoders._NAMES  # forged huge names are not kept
+    assert long_name.encode() not in _FRAMES  # forged huge names are not kept
     assert decoders.FRAME_CACHE_SIZE == wire.FRAME_CACHE_SIZE
     names = [f"forged_{'x' * 200}_{i}" for i in range(15_000)]
     for i in range(0, len(names), 500):  # forged names by the thousand: read right, the cache starts over
@@ -143,8 +144,8 @@ def test_frame_names_are_interned_and_the_cache_is_bounded() -> None:
         samples = decoders.msgpack_tf(msgpack.packb({"transforms": [transform_dict("p", c) for c in batch]}))
         assert [s[1] for s in samples] == batch
         assert [s[1] for s in decoders.cdr_tf(cdr_encode_tf([transform_dict("p", c) for c in batch]))] == batch
-        held = sum(sys.getsizeof(k) + sys.getsizeof(v) for k, v in decoders._NAMES.items())
-        assert len(decoders._NAMES) <= decoders.FRAME_CACHE_SIZE and held < 3_000_000, (i, held)
+        held = sum(sys.getsizeof(k) + sys.getsizeof(v) for k, v in _FRAMES.items())
+        assert len(_FRAMES) <= decoders.FRAME_CACHE_SIZE and held < 3_000_000, (i, held)
 
 
 # ------------------------------------------------------------------ anything else: same as before

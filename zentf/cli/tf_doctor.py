@@ -160,7 +160,6 @@ def why(target: str, source: str, at_time: Optional[float], duration: Optional[f
     Exit code 0 when the lookup answers, 1 when it does not.
     """
     from zentf.core.time import Time
-    from zentf.tools.doctor import explain_lookup
 
     for value, what in ((target, "TARGET"), (source, "SOURCE")):
         if not value.strip():

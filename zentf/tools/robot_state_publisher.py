@@ -51,7 +51,6 @@ import argparse
 import sys
 from typing import Sequence
 from .robot_model import START_ERRORS, Prepared, own_arguments, prepare
-from ..urdf import Robot
 from ..transport import program
 
 from .jointtf import JointTfFiller

@@ -14,12 +14,12 @@ the whole message to ``fallback(channel, payload)``, the Python path that decode
 uncompiled loader did, so the compiled path only ever stores what that path would store.
 """
 from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes_GET_SIZE
-from cpython.unicode cimport PyUnicode_DecodeUTF8
 from libc.stdint cimport int32_t, int64_t, uint8_t, uint32_t, uint64_t
 from libc.stdlib cimport free, malloc, realloc
 from libc.string cimport memcmp, memcpy, memset
 
 from zentf.core.buffer_core cimport BufferCore
+from zentf.ros.frame_names cimport frame_name
 
 __all__ = ["TfLoader", "KIND_SKIP", "KIND_CDR", "KIND_ROS1", "KIND_OTHER", "MCAP", "ROS1"]
 
@@ -28,52 +28,12 @@ KIND_SKIP, KIND_CDR, KIND_ROS1, KIND_OTHER = 0, 1, 2, 3
 #: record framings ``feed`` reads
 MCAP, ROS1 = 0, 1
 
-from zentf.core.constants import DEFAULT_MAX_FRAME_ID_LENGTH
-from zentf.ros.tf import FRAME_CACHE_SIZE, MAX_PAYLOAD
-from zentf.ros.tf import _FRAMES as _NAMES
+from zentf.ros.tf import MAX_PAYLOAD
 
 cdef Py_ssize_t _MAX_PAYLOAD = MAX_PAYLOAD
 cdef int64_t _NS = 1000000000
 cdef uint32_t _MAX_CHANNELS = 1 << 20      # larger ids are not in any real bag: such messages are skipped
 cdef Py_ssize_t _MAX_DEFINITION = 16 << 20  # a schema/channel/connection record larger than this is damage
-
-# ---------------------------------------------------------------- frame names (shared with the decoders)
-
-cdef dict _names = _NAMES
-cdef Py_ssize_t _NAMES_MAX = FRAME_CACHE_SIZE
-cdef Py_ssize_t _NAME_MAX_LEN = DEFAULT_MAX_FRAME_ID_LENGTH
-cdef enum:
-    SLOTS = 1024
-cdef list _slot_raw = [None] * SLOTS
-cdef list _slot_name = [None] * SLOTS
-
-
-cdef object _name(const uint8_t* p, Py_ssize_t n):
-    """UTF-8 bytes -> interned str (zentf.ros.tf's bounded cache, a direct-mapped memo in front); None if
-    not UTF-8."""
-    cdef uint32_t h = 2166136261u
-    cdef Py_ssize_t i
-    for i in range(n):
-        h = (h ^ p[i]) * 16777619u
-    cdef Py_ssize_t slot = h & (SLOTS - 1)
-    raw = _slot_raw[slot]
-    if raw is not None and PyBytes_GET_SIZE(raw) == n and memcmp(PyBytes_AS_STRING(raw), p, n) == 0:
-        return _slot_name[slot]
-    raw = PyBytes_FromStringAndSize(<const char*>p, n)
-    name = _names.get(raw)
-    if name is None:
-        try:
-            name = PyUnicode_DecodeUTF8(<const char*>p, n, "strict")
-        except UnicodeDecodeError:
-            return None
-        if n > _NAME_MAX_LEN:  # a forged huge name is not kept (the buffer refuses it anyway)
-            return name
-        if len(_names) >= _NAMES_MAX:
-            _names.clear()
-        _names[raw] = name
-    _slot_raw[slot] = raw
-    _slot_name[slot] = name
-    return name
 
 
 cdef inline uint32_t _u32(const uint8_t* p) noexcept nogil:
@@ -209,8 +169,8 @@ cdef class TfLoader:
                 return 0
         if self.dry:
             return 0
-        a = _name(parent, plen)
-        b = _name(child, clen)
+        a = frame_name(parent, plen)
+        b = frame_name(child, clen)
         if a is None or b is None:
             return 0
         _seven(values, v)

@@ -7,29 +7,14 @@ name, the caller id); rosbag2 bags do not, so their publishers cannot be told ap
 from __future__ import annotations
 
 import os
-from typing import Any, Callable, Optional
+from typing import Callable, Optional
 
 from .checks import Report, Thresholds, run_checks
-from .evidence import Evidence
+from .evidence import Evidence, RowCapture
 
 __all__ = ["evidence_from_bag", "diagnose_bag"]
 
 _NS = 1_000_000_000
-
-
-class _Capture:
-    __slots__ = ("rows",)
-
-    def __init__(self) -> None:
-        self.rows: list = []
-
-    def set_transforms_raw(self, samples: list, authority: str, is_static: bool = False) -> int:
-        self.rows.extend(samples)
-        return len(samples)
-
-    def set_transform_raw(self, *args: Any) -> bool:
-        self.rows.append(args[:10])
-        return True
 
 
 def _is_tf(topic: str) -> Optional[bool]:
@@ -59,7 +44,7 @@ def evidence_from_bag(path: str | os.PathLike, *, start: Optional[float] = None,
             kind = _is_tf(m.topic)
             if kind is None or not inside(m.log_time):
                 continue
-            cap = _Capture()
+            cap = RowCapture()
             sender = m.sender or "unknown sender"
             try:
                 _, _, malformed, _ = ingest_tf(m.payload, cap, sender, kind)

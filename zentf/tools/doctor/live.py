@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Optional, Sequence
 
 from .checks import Report, Thresholds, run_checks
-from .evidence import Evidence, GraphView
+from .evidence import Evidence, GraphView, RowCapture
 from .why import Explanation, explain_lookup
 
 __all__ = ["TapMessage", "TransformTap", "GraphTap", "TfDoctor"]
@@ -36,23 +36,6 @@ class TapMessage:
     zid: str                        # the sender's Zenoh session, if the sample says
     malformed: int = 0
     problem: Optional[str] = None
-
-
-class _Capture:
-    """What a profile's ingest_tf inserts into: keeps the decoded rows."""
-
-    __slots__ = ("rows",)
-
-    def __init__(self) -> None:
-        self.rows: list = []
-
-    def set_transforms_raw(self, samples: list, authority: str, is_static: bool = False) -> int:
-        self.rows.extend(samples)
-        return len(samples)
-
-    def set_transform_raw(self, *args: Any) -> bool:
-        self.rows.append(args[:10])
-        return True
 
 
 def _source_of(sample: Any) -> tuple[Optional[int], str]:
@@ -128,7 +111,7 @@ class TransformTap:
         clock = self._clock.now().nanoseconds
         key = str(sample.key_expr)
         sender, source, zid = self._sender(sample)
-        cap = _Capture()
+        cap = RowCapture()
         try:
             _, _, malformed, problem = self.profile.ingest_tf(sample.payload.to_bytes(), cap, sender, is_static)
         except ValueError as e:

@@ -175,7 +175,6 @@ def explain_lookup(buffer: Any, target: str, source: str, time: Any = None, *, n
     edges fail (every one of them) and the fix. ``buffer`` is a Buffer/BufferCore; ``now`` (Time, ns or
     s; default the buffer node's clock, else the wall clock); ``evidence`` (zentf.tools.doctor.Evidence,
     optional) adds arrival rates, publisher names and clock offsets."""
-    from zentf.core.time import Time
 
     now_ns = _to_ns(now) if now is not None else _clock_now(buffer)
     ex = Explanation(target, source, now_ns)

@@ -13,11 +13,11 @@ frame names (a bounded cache).
 """
 cimport cython
 from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes_GET_SIZE
-from cpython.unicode cimport PyUnicode_DecodeUTF8
 from libc.stdint cimport int32_t, int64_t, uint8_t, uint32_t, uint64_t
 from libc.stdlib cimport free, realloc
 from libc.string cimport memcmp, memcpy
 
+from ...ros.frame_names cimport frame_name
 from .msgpack_reader cimport Cur, _be64, _container, _float, _int, _is, _skip, _str
 
 __all__ = ["msgpack_tf", "cdr_tf", "canonical_hits", "MAX_PAYLOAD", "FRAME_CACHE_SIZE"]
@@ -30,50 +30,8 @@ cdef int64_t _MAX_SEC = 9223372036  # (2**63 - 1) // 1e9: stamps are int64 nanos
 cdef extern from "Python.h":
     void PyObject_GC_UnTrack(object)
 
-# ---------------------------------------------------------------- frame names
-
-#: Interned frame names, raw UTF-8 bytes -> str: zentf.ros.tf's cache, shared by every TFMessage decoder
-#: (bounded at FRAME_CACHE_SIZE, started over when full, names longer than the buffer takes not kept).
-from ...core.constants import DEFAULT_MAX_FRAME_ID_LENGTH
+#: frame names are interned by zentf.ros.frame_names (bounded at FRAME_CACHE_SIZE, shared with the bag loader)
 from ...ros.tf import FRAME_CACHE_SIZE
-from ...ros.tf import _FRAMES as _NAMES
-cdef dict _names = _NAMES
-cdef Py_ssize_t _NAMES_MAX = FRAME_CACHE_SIZE
-cdef Py_ssize_t _NAME_MAX_LEN = DEFAULT_MAX_FRAME_ID_LENGTH
-# a direct-mapped memo in front of it, so a hit costs a hash and a memcmp (no bytes object)
-cdef enum:
-    SLOTS = 1024
-cdef list _slot_raw = [None] * SLOTS
-cdef list _slot_name = [None] * SLOTS
-
-
-cdef object _name(const uint8_t* p, Py_ssize_t n):
-    """UTF-8 bytes -> interned str; None if not valid UTF-8 (the Python path names that)."""
-    cdef uint32_t h = 2166136261u
-    cdef Py_ssize_t i
-    cdef object raw
-    for i in range(n):
-        h = (h ^ p[i]) * 16777619u
-    cdef Py_ssize_t slot = h & (SLOTS - 1)
-    raw = _slot_raw[slot]
-    if raw is not None and PyBytes_GET_SIZE(raw) == n and memcmp(PyBytes_AS_STRING(raw), p, n) == 0:
-        return _slot_name[slot]
-    raw = PyBytes_FromStringAndSize(<const char*>p, n)
-    name = _names.get(raw)
-    if name is None:
-        try:
-            name = PyUnicode_DecodeUTF8(<const char*>p, n, "strict")
-        except UnicodeDecodeError:
-            return None
-        if n > _NAME_MAX_LEN:  # a forged huge name is not kept (the buffer refuses it anyway)
-            return name
-        if len(_names) >= _NAMES_MAX:
-            _names.clear()
-        _names[raw] = name
-    _slot_raw[slot] = raw
-    _slot_name[slot] = name
-    return name
-
 
 cdef inline double _f64le(const uint8_t* p) noexcept nogil:
     cdef uint64_t u = 0
@@ -116,8 +74,8 @@ cdef class Batch:
     cdef int push(self, Sample* s) except -1:
         """Add a decoded sample; 0 if a frame name is not UTF-8 (the payload is then doubtful)."""
         cdef void* p
-        parent = _name(s.parent, s.parent_len)
-        child = _name(s.child, s.child_len)
+        parent = frame_name(s.parent, s.parent_len)
+        child = frame_name(s.child, s.child_len)
         if parent is None or child is None:
             return 0
         if self.n == self.cap:
@@ -343,8 +301,8 @@ def canonical_hits():
 
 cdef inline object _tuple(Sample* s):
     """The sample tuple; None if a frame name is not UTF-8."""
-    parent = _name(s.parent, s.parent_len)
-    child = _name(s.child, s.child_len)
+    parent = frame_name(s.parent, s.parent_len)
+    child = frame_name(s.child, s.child_len)
     if parent is None or child is None:
         return None
     t = (parent, child, s.sec * _NS + s.nsec, s.v[0], s.v[1], s.v[2], s.v[3], s.v[4], s.v[5], s.v[6])

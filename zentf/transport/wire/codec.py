@@ -8,7 +8,7 @@ other and names what is wrong, each bad element skipped on its own; ``encode_tf`
 """
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 import threading
 from functools import lru_cache
 from typing import Any

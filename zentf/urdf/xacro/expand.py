@@ -15,11 +15,11 @@ from typing import Any
 
 from . import dom
 from .budget import Budget, Meter
-from .dom import Comment, Element, Text
+from .dom import Element, Text
 from .errors import BudgetExceeded, XacroError
 from .evaluator import Evaluator, ExprError, Function
 from .files import FilePolicy
-from .symbols import NameSpace, Table, YamlDict, YamlList, make_globals, math_names, wrap
+from .symbols import NameSpace, Table, YamlDict, make_globals, math_names, wrap
 from .yaml_safe import load_yaml_text
 
 __all__ = ["Processor", "expand", "MAX_MACRO_DEPTH", "MAX_INCLUDE_DEPTH"]

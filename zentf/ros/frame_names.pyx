@@ -1,0 +1,51 @@
+# cython: language_level=3, boundscheck=False, wraparound=False, cdivision=True
+"""Frame names from wire bytes: one interned str per name, shared by every compiled decoder.
+
+Why: a stream of TFMessages repeats the same few names; turning their bytes into a str every time costs an
+allocation and a UTF-8 decode per name. ``zentf.ros.tf``'s bounded dict holds the names (the Python decoders
+use it too), and a direct-mapped memo in front makes a hit a hash and a memcmp, with no bytes object.
+"""
+from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes_GET_SIZE
+from cpython.unicode cimport PyUnicode_DecodeUTF8
+from libc.stdint cimport uint8_t, uint32_t
+from libc.string cimport memcmp
+
+from zentf.core.constants import DEFAULT_MAX_FRAME_ID_LENGTH
+from zentf.ros.tf import FRAME_CACHE_SIZE
+from zentf.ros.tf import _FRAMES as _NAMES
+
+cdef dict _names = _NAMES
+cdef Py_ssize_t _NAMES_MAX = FRAME_CACHE_SIZE
+cdef Py_ssize_t _NAME_MAX_LEN = DEFAULT_MAX_FRAME_ID_LENGTH
+cdef enum:
+    SLOTS = 1024
+cdef list _slot_raw = [None] * SLOTS
+cdef list _slot_name = [None] * SLOTS
+
+
+cdef object frame_name(const uint8_t* p, Py_ssize_t n):
+    """UTF-8 bytes -> interned str; None if not valid UTF-8 (the caller's Python path names that)."""
+    cdef uint32_t h = 2166136261u
+    cdef Py_ssize_t i
+    cdef object raw
+    for i in range(n):
+        h = (h ^ p[i]) * 16777619u
+    cdef Py_ssize_t slot = h & (SLOTS - 1)
+    raw = _slot_raw[slot]
+    if raw is not None and PyBytes_GET_SIZE(raw) == n and memcmp(PyBytes_AS_STRING(raw), p, n) == 0:
+        return _slot_name[slot]
+    raw = PyBytes_FromStringAndSize(<const char*>p, n)
+    name = _names.get(raw)
+    if name is None:
+        try:
+            name = PyUnicode_DecodeUTF8(<const char*>p, n, "strict")
+        except UnicodeDecodeError:
+            return None
+        if n > _NAME_MAX_LEN:  # a forged huge name is not kept (the buffer refuses it anyway)
+            return name
+        if len(_names) >= _NAMES_MAX:
+            _names.clear()
+        _names[raw] = name
+    _slot_raw[slot] = raw
+    _slot_name[slot] = name
+    return name
