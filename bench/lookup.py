@@ -364,6 +364,17 @@ def zentf_side(quick: bool) -> dict[str, float]:
                 buf.lookup_transforms("f0", f"f{d}", stamps[:100])       # warm-up
                 out[f"lookup_transforms 100k d{d}"] = best(lambda n: buf.lookup_transforms("f0", f"f{d}", stamps),
                                                            1, 3 if quick else 5) / 1e3  # ms
+            # the same without numba: what the [fast] extra's kernel is worth on this machine
+            from zentf.core import batch
+            if batch.fast_path() == "numba":
+                batch.USE_NUMBA = False
+                try:
+                    for d in DEPTHS:
+                        buf.lookup_transforms("f0", f"f{d}", stamps[:100])
+                        out[f"lookup_transforms 100k d{d} (numpy)"] = best(
+                            lambda n: buf.lookup_transforms("f0", f"f{d}", stamps), 1, 3 if quick else 5) / 1e3
+                finally:
+                    batch.USE_NUMBA = True
             pts = np.random.default_rng(0).normal(size=(1_000_000, 3))
             out["transform_points 1M"] = best(lambda n: buf.transform_points(pts, "f0", "f20",
                                                                              Time(nanoseconds=T_INTERP)),
@@ -586,8 +597,8 @@ def main() -> None:
         zs = f"{z:12.2f}" if z is not None else f"{'':12}"
         rs = f"{r:12.2f}" if r is not None else f"{'':12}"
         print(f"{key:44} {unit:>4} {zs} {rs} {ratio:>8}  {verdict}".rstrip())
-    from zentf.core.geometry import fast_path
-    print(f"lookup_transforms plain-chain path: {fast_path()}"
+    from zentf.core.batch import fast_path
+    print(f"lookup_transforms arithmetic: {fast_path()}"
           + ("" if fast_path() == "numba" else " (pip install 'zentf[fast]' for the numba kernel)"))
     print("targets: ratios are zentf/tf2 of this run; the ≤64B memory target (issue 15) applies to the two "
           "fresh-process (RSS) rows; cold random time = a uniformly random in-range stamp on every call")

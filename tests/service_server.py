@@ -1,5 +1,6 @@
 """A child program for the service tests: serves `echo` (SetBool, answers data in message), `fail`
-(Trigger, whose handler raises) and `stall` (Trigger, whose handler blocks until the process dies).
+(Trigger, whose handler raises), `stall` (Trigger, whose handler blocks until the process dies) and `frames`
+(tf2_msgs/srv/FrameGraph, a type zentf has only a definition of: its class is made from it).
 
 Prints `serving` once its services are declared and `handling stall` when a stall call arrives.
 """
@@ -9,6 +10,7 @@ import sys
 import threading
 
 from zentf.core.services import SetBool, Trigger
+from zentf.ros.classes import service_class
 from zentf.transport.node import Node
 
 
@@ -31,6 +33,8 @@ def main() -> int:
     node.create_service("echo", SetBool, echo)
     node.create_service("fail", Trigger, fail)
     node.create_service("stall", Trigger, stall)
+    frame_graph = service_class("tf2_msgs/srv/FrameGraph")
+    node.create_service("frames", frame_graph, lambda req, resp: frame_graph.Response(frame_yaml="av1: {parent: world}"))
     print("serving", flush=True)
     node.spin()
     return 0

@@ -3,12 +3,15 @@
 The oracle is tests/tf2_geometry_oracle.cpp compiled here against Debian's tf2 headers (ROS 1
 geometry2 0.7.6, libtf2-geometry-msgs-dev) and KDL (liborocos-kdl-dev): the actual tf2 code
 applies each transform, and zentf must give the same doubles, bit for bit, for points, vectors,
-poses, quaternions, transforms and poses with covariance. Two documented exceptions:
+poses, quaternions, transforms and poses with covariance, and the same roll/pitch/yaw as
+``Matrix3x3::getRPY`` / quaternions as ``Quaternion::setRPY``. Three documented exceptions:
 - WrenchStamped: 0.7.6 only rotates force and torque; current tf2 (noetic's last release and
   ROS 2) adds t x force to the torque, which zentf follows, so the oracle's torque plus that term
   is compared.
 - TwistStamped: tf2_geometry_msgs has none; tf2_kdl's ``KDL::Frame * KDL::Twist`` is the
   reference. KDL builds its rotation matrix with another formula, so it agrees to 1e-12.
+- Roll/pitch/yaw at gimbal lock (|R20| = 1): tf2's roll there is atan2 of two entries that are
+  zero, rounding noise; zentf's is the rotation's own (the quaternion rebuilt from it is the input).
 """
 from __future__ import annotations
 
@@ -29,6 +32,7 @@ from zentf.core.messages import (Header, Point, PointStamped, Pose, PoseStamped,
                                  PoseWithCovarianceStamped, Quaternion, QuaternionStamped, Transform,
                                  TransformStamped, Twist, TwistStamped, Vector3, Vector3Stamped, Wrench,
                                  WrenchStamped)
+from zentf.core.rotation import matrix_from_quaternion, quaternion_from_rpy, rpy_from_quaternion
 from zentf.core.time import Time
 
 SOURCE = Path(__file__).resolve().parent / "tf2_geometry_oracle.cpp"
@@ -229,3 +233,63 @@ def test_buffer_transform_takes_every_registered_type() -> None:
         assert type(out).from_dict(out.to_dict()) == out  # the wire form round-trips
     assert buf.transform(PointStamped(hdr, Point(1, 1, 1)), "map").point == Point(2, 3, 4)
     assert buf.transform(TransformStamped(hdr, "x"), "map").transform.translation == Vector3(1, 2, 3)
+
+
+def _same_rotation(a: list[float], b: list[float]) -> float:
+    """How far apart two quaternions are as rotations (q and -q are one rotation)."""
+    return min(max(abs(x - y) for x, y in zip(a, b)), max(abs(x + y) for x, y in zip(a, b)))
+
+
+def _near_gimbal_lock(rng: random.Random, n: int) -> list[list[float]]:
+    """Quaternions of pitch ±π/2 and just off it (within 1e-12 .. 1e-2), any roll and yaw, both signs."""
+    out = []
+    for _ in range(n):
+        pitch = rng.choice([1.0, -1.0]) * (math.pi / 2 - rng.choice([0.0, 0.0, 1e-12, 1e-9, 1e-7, 1e-4, 1e-2]))
+        q = list(quaternion_from_rpy(rng.uniform(-math.pi, math.pi), pitch, rng.uniform(-math.pi, math.pi)))
+        out.append([-x for x in q] if rng.random() < 0.5 else q)
+    return out
+
+
+def test_rpy_is_tf2s_getrpy_off_gimbal_lock(oracle) -> None:
+    rng = random.Random(21)
+    quats = [t[3:] for t in transforms(300, seed=4)] + _near_gimbal_lock(rng, 600)
+    quats += [[x * 1.004 for x in rand_quat(rng)] for _ in range(50)]   # non-unit: getRPY scales by 2/|q|²
+    quats = [q for q in quats if abs(matrix_from_quaternion(q)[2][0]) < 1.0]
+    assert len(quats) > 600
+    theirs = oracle([("rpy", [0.0, 0.0, 0.0] + q, []) for q in quats])
+    for q, ref in zip(quats, theirs):
+        assert list(rpy_from_quaternion(q)) == ref, (q, ref)
+
+
+def test_rpy_at_gimbal_lock_is_the_rotations_own_angle(oracle) -> None:
+    """Where tf2's roll is noise, zentf's rebuilds the rotation; pitch and yaw are tf2's (±π/2, 0)."""
+    rng = random.Random(22)
+    quats = [q for q in _near_gimbal_lock(rng, 2000) if abs(matrix_from_quaternion(q)[2][0]) >= 1.0]
+    h = math.sqrt(0.5)
+    quats += [[0.0, h, 0.0, h], [0.0, -h, 0.0, h], [h, 0.0, h, 0.0], [0.5, 0.5, -0.5, 0.5]]
+    assert all(abs(matrix_from_quaternion(q)[2][0]) >= 1.0 for q in quats) and len(quats) > 500
+    ours = [list(rpy_from_quaternion(q)) for q in quats]
+    theirs = oracle([("rpy", [0.0, 0.0, 0.0] + q, []) for q in quats])
+    rebuilt = oracle([("setrpy", [0.0] * 7, rpy) for rpy in ours])
+    rebuilt_tf2 = oracle([("setrpy", [0.0] * 7, rpy) for rpy in theirs])
+    tf2_off = 0
+    for q, mine, ref, back, back_tf2 in zip(quats, ours, theirs, rebuilt, rebuilt_tf2):
+        assert mine[1:] == ref[1:], (q, mine, ref)
+        # exactly at ±π/2 the rebuild is exact to rounding; within 1e-8 of it the matrix cannot tell
+        # pitch from ±π/2 (cos ε rounds to 1), which bounds how well a yaw-0 answer can rebuild it
+        assert _same_rotation(back, q) < 2e-8, (q, mine, back)
+        tf2_off += _same_rotation(back_tf2, q) > 1e-3
+    assert tf2_off > len(quats) // 4            # what the test guards against: tf2's roll there
+    exact = [quaternion_from_rpy(r, p, y) for r, p, y in
+             [(0.3, math.pi / 2, 0.0), (-2.0, -math.pi / 2, 0.0), (1.0, math.pi / 2, 0.4), (3.0, -math.pi / 2, -1.1)]]
+    for q in exact:
+        assert _same_rotation(list(quaternion_from_rpy(*rpy_from_quaternion(q))), list(q)) < 1e-15
+    assert rpy_from_quaternion(exact[0]) == pytest.approx((0.3, math.pi / 2, 0.0), abs=1e-15)
+
+
+def test_quaternion_from_rpy_is_tf2s_setrpy_bit_for_bit(oracle) -> None:
+    rng = random.Random(23)
+    angles = [[rng.uniform(-7, 7) for _ in range(3)] for _ in range(300)] + [[0.3, math.pi / 2, 0.0]]
+    theirs = oracle([("setrpy", [0.0] * 7, a) for a in angles])
+    for a, ref in zip(angles, theirs):
+        assert list(quaternion_from_rpy(*a)) == ref, (a, ref)

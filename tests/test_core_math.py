@@ -24,7 +24,25 @@ def test_rpy_round_trip_and_gimbal_lock() -> None:
     for r, p, y in rng.uniform([-3, -1.5, -3], [3, 1.5, 3], (50, 3)):
         assert m.rpy_from_quaternion(m.quaternion_from_rpy(r, p, y)) == pytest.approx((r, p, y), abs=1e-9)
     roll, pitch, yaw = m.rpy_from_quaternion(m.quaternion_from_rpy(0.3, math.pi / 2, 0.0))
-    assert pitch == pytest.approx(math.pi / 2) and yaw == 0.0
+    assert pitch == pytest.approx(math.pi / 2) and yaw == 0.0 and roll == pytest.approx(0.3, abs=1e-15)
+
+
+@pytest.mark.parametrize("rpy", [(0.1, 0.2, 0.3), (-1.0, 0.5, 2.5), (0.0, 0.0, -3.0), (3.0, -1.2, 0.4)])
+def test_rpy_and_matrix_are_fixed_axes_zyx(rpy: tuple[float, float, float]) -> None:
+    r, p, y = rpy
+    q = m.quaternion_from_rpy(r, p, y)
+    assert m.rpy_from_quaternion(q) == pytest.approx(rpy, abs=1e-12)
+    mat = m.matrix_from_quaternion(q)
+    # R = Rz(y) Ry(p) Rx(r): first column is (cy cp, sy cp, -sp)
+    assert [mat[0][0], mat[1][0], mat[2][0]] == pytest.approx([math.cos(y) * math.cos(p), math.sin(y) * math.cos(p),
+                                                               -math.sin(p)], abs=1e-12)
+
+
+def test_math3d_reexports_the_numpy_free_rotation_helpers() -> None:
+    from zentf.core import rotation
+
+    for name in rotation.__all__:
+        assert getattr(m, name) is getattr(rotation, name)
 
 
 def test_matrix_round_trip_and_4x4() -> None:

@@ -70,9 +70,9 @@ def test_service_call_under_ros2(ros2_env, cli_env, spawn) -> None:
     assert out.endswith("response:\nsuccess: true\nmessage: data was True\n"), out
     assert_one_line_error(zentf(["service", "call", "/fail", "std_srvs/srv/Trigger", *w], cli_env),
                           "service /fail failed: RuntimeError: the disk is full")
-    # a zentf client without the profile does not reach a ros2 server
+    # a zentf client without the profile does not reach a ros2 server: it is not in zentf's graph
     assert_one_line_error(zentf(["service", "call", "/echo", "std_srvs/srv/SetBool", "{data: true}",
-                                 "--timeout", "1"], cli_env), "not available")
+                                 "--timeout", "1"], cli_env), "service /echo is not offered by any node")
 
 
 def test_sdk_client_calls_zentf_services(ros2_env, spawn) -> None:

@@ -130,7 +130,7 @@ def test_zentf_service_list_type_call(server, zenoh_env, test_namespace):
     # nobody offers it: one line at once naming what is offered (the 30 s timeout is never waited out)
     assert_one_line_error(zentf(["service", "call", "absent", "std_srvs/srv/Empty", "--timeout", "30"], zenoh_env,
                                 timeout=20),
-                          f"service {ns}/absent is not offered by any node (offered: {ns}/echo, {ns}/fail, {ns}/stall",
+                          f"service {ns}/absent is not offered by any node (offered: {ns}/echo, {ns}/fail, {ns}/frames, {ns}/stall",
                           code=1)
     # a server that is there but does not answer: the timeout applies
     started = time.monotonic()

@@ -102,6 +102,19 @@ def test_blocking_lookup_wakes_on_arrival(node_options) -> None:
     assert not ok and "canTransform returned after" in msg
 
 
+def test_tf2_py_core_spellings_on_a_buffer_answer_at_once() -> None:
+    """A Buffer inherits tf2_py's *_core methods: (bool, reason) without waiting, as on a BufferCore."""
+    buf = Buffer()
+    buf.set_transform(_ts("map", "odom", 1.0, stamp=Time(10)), "test")
+    assert buf.can_transform_core("map", "odom", Time(10)) == (True, "")
+    ok, why = buf.can_transform_core("map", "nowhere", Time(10))
+    assert not ok and "nowhere" in why
+    assert buf.can_transform_full_core("map", Time(10), "odom", Time(10), "map") == (True, "")
+    ok, why = buf.can_transform_full_core("map", Time(10), "nowhere", Time(10), "map")
+    assert not ok and "nowhere" in why
+    assert buf.lookup_transform_core("map", "odom", Time(10)).transform.translation.x == 1.0
+
+
 def test_blocking_lookup_across_processes_and_publisher_restart(spawn, node_options) -> None:
     with Node("waiter", options=node_options) as node:
         buf = Buffer(node=node)

@@ -71,6 +71,8 @@ def robot_columns(image) -> tuple[list[tuple[int, int]], tuple[int, int, int, in
 
 
 def test_view_web_shows_r2d2_in_one_framed_3d_view(spawn, zenoh_env, gl_browser, tmp_path):
+    from selenium.common.exceptions import TimeoutException
+
     env = {**zenoh_env, "ZENTF_PACKAGE_PATH": str(DATA)}
     spawn.python("-m", "nodes.robot_state_publisher", str(R2D2), env=env).wait_for_line("publishing robot", 60)
     spawn.python("-m", "nodes.joint_state_publisher", str(R2D2), env=env).wait_for_line("publishing joint_states", 60)
@@ -82,7 +84,10 @@ def test_view_web_shows_r2d2_in_one_framed_3d_view(spawn, zenoh_env, gl_browser,
     shot = None
     while time.monotonic() < deadline:
         time.sleep(2)
-        shot = Image.open(io.BytesIO(gl_browser.get_screenshot_as_png()))
+        try:
+            shot = Image.open(io.BytesIO(gl_browser.get_screenshot_as_png()))
+        except TimeoutException:  # the renderer busy drawing in software on a loaded machine: ask again
+            continue
         runs, box = robot_columns(shot)
         if box is not None and box[3] - box[1] > 40:
             break

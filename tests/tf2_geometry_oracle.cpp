@@ -4,6 +4,7 @@
 //   point x y z | vector x y z | pose px py pz qx qy qz qw | quat x y z w
 //   transform tx ty tz qx qy qz qw | posecov px py pz qx qy qz qw c0..c35
 //   wrench fx fy fz tx ty tz | twist vx vy vz wx wy wz (KDL::Frame * KDL::Twist, as tf2_kdl)
+//   rpy (no data: Matrix3x3(rotation).getRPY -> roll pitch yaw) | setrpy roll pitch yaw (-> x y z w)
 #include <tf2_geometry_msgs/tf2_geometry_msgs.h>
 #include <kdl/frames.hpp>
 #include <cstdio>
@@ -87,6 +88,16 @@ int main() {
       KDL::Frame f(KDL::Rotation::Quaternion(t[3], t[4], t[5], t[6]), KDL::Vector(t[0], t[1], t[2]));
       KDL::Twist tw = f * KDL::Twist(KDL::Vector(d[0], d[1], d[2]), KDL::Vector(d[3], d[4], d[5]));
       out({tw.vel.x(), tw.vel.y(), tw.vel.z(), tw.rot.x(), tw.rot.y(), tw.rot.z()});
+    } else if (!std::strcmp(kind, "rpy")) {
+      tf2::Quaternion q(t[3], t[4], t[5], t[6]);
+      double roll, pitch, yaw;
+      tf2::Matrix3x3(q).getRPY(roll, pitch, yaw);
+      out({roll, pitch, yaw});
+    } else if (!std::strcmp(kind, "setrpy")) {
+      if (!read(d, 3)) return 2;
+      tf2::Quaternion q;
+      q.setRPY(d[0], d[1], d[2]);
+      out({q.x(), q.y(), q.z(), q.w()});
     } else {
       std::fprintf(stderr, "unknown kind %s\n", kind);
       return 2;

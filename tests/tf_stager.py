@@ -28,11 +28,6 @@ def main() -> int:
     from zentf.transport.options import NodeOptions
 
     spec = json.loads(sys.argv[1])
-    stop = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    signal.signal(signal.SIGINT, lambda *_: stop.set())
-    silenced = threading.Event()
-    signal.signal(signal.SIGUSR1, lambda *_: silenced.set())
     nodes, jobs = [], []
     for n in spec["nodes"]:
         opts = NodeOptions.from_env()
@@ -49,6 +44,12 @@ def main() -> int:
                 jobs.append((node, static, s, None))
             else:
                 jobs.append((node, dyn, s, 1.0 / float(s.get("rate", 20.0))))
+    # after the nodes: a node takes SIGINT/SIGTERM for itself, and this loop must see them
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    silenced = threading.Event()
+    signal.signal(signal.SIGUSR1, lambda *_: silenced.set())
 
     def stamped(node: object, s: dict, now_ns: int) -> TransformStamped:
         t = now_ns / 1e9
@@ -65,10 +66,9 @@ def main() -> int:
     while not stop.is_set():
         now = time.monotonic()
         for i, (node, pub, s, period) in enumerate(jobs):
-            if s.get("stop_on") and silenced.is_set():
-                continue
             if period is not None and now >= due[i]:
-                pub.send_transform(stamped(node, s, node.get_clock().now().nanoseconds))
+                if not (s.get("stop_on") and silenced.is_set()):  # silenced: keep the schedule, send nothing
+                    pub.send_transform(stamped(node, s, node.get_clock().now().nanoseconds))
                 due[i] += period
                 if due[i] < now:
                     due[i] = now + period

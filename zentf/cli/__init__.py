@@ -60,7 +60,7 @@ class LazyGroup(click.Group):
 
 _COMMANDS: dict[str, tuple[str, str]] = {
     "tf": ("zentf.cli.tf:tf", "Transforms: echo, monitor, frames, doctor, why (tf2_echo, tf2_monitor, view_frames)."),
-    "topic": ("zentf.cli.topic:topic", "Topics: list, echo, hz, pub."),
+    "topic": ("zentf.cli.topic:topic", "Topics: list, info, type, find, echo, hz, bw, delay, pub."),
     "node": ("zentf.cli.node:node", "Nodes: list, info."),
     "graph": ("zentf.cli.graph:graph", "The node <-> topic graph (rqt_graph) as DOT + image + text."),
     "static-transform-publisher": ("zentf.cli.static:static_transform_publisher",

@@ -6,50 +6,14 @@ import statistics
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Mapping, Sequence
 
+from zentf.core.rotation import matrix_from_quaternion, rpy_from_quaternion  # numpy-free: tf echo's start
 from zentf.core.text import printable  # names from the network, printed: the one escaping rule
 
 __all__ = [
-    "printable", "FrameStat", "NodeDesc", "rpy_from_quaternion", "matrix_from_quaternion", "format_echo",
+    "printable", "FrameStat", "NodeDesc", "format_echo",
     "frame_trees", "format_frame_tree", "frames_dot", "node_graph_dot",
     "format_node_graph", "format_hz", "format_stamp", "stats_from_frame_info",
 ]
-
-
-# --------------------------------------------------------------------------------------------
-# Rotation helpers (pure Python: tf echo must start fast, so no numpy on its path).
-# --------------------------------------------------------------------------------------------
-
-def matrix_from_quaternion(q: Sequence[float]) -> list[list[float]]:
-    """3x3 rotation matrix of (x, y, z, w), as tf2's Matrix3x3(q) (scaled by 2/|q|^2)."""
-    x, y, z, w = q
-    d = x * x + y * y + z * z + w * w
-    s = 2.0 / d if d else 0.0
-    xs, ys, zs = x * s, y * s, z * s
-    wx, wy, wz = w * xs, w * ys, w * zs
-    xx, xy, xz = x * xs, x * ys, x * zs
-    yy, yz, zz = y * ys, y * zs, z * zs
-    return [
-        [1.0 - (yy + zz), xy - wz, xz + wy],
-        [xy + wz, 1.0 - (xx + zz), yz - wx],
-        [xz - wy, yz + wx, 1.0 - (xx + yy)],
-    ]
-
-
-def rpy_from_quaternion(q: Sequence[float]) -> tuple[float, float, float]:
-    """(roll, pitch, yaw) as tf2 Matrix3x3::getRPY / getEulerYPR (fixed axes, R = Rz*Ry*Rx)."""
-    m = matrix_from_quaternion(q)
-    if abs(m[2][0]) >= 1.0:
-        yaw = 0.0
-        if m[2][0] < 0:
-            delta = math.atan2(m[0][1], m[0][2])
-            return delta, math.pi / 2, yaw
-        delta = math.atan2(-m[0][1], -m[0][2])
-        return delta, -math.pi / 2, yaw
-    pitch = -math.asin(m[2][0])
-    c = math.cos(pitch)
-    roll = math.atan2(m[2][1] / c, m[2][2] / c)
-    yaw = math.atan2(m[1][0] / c, m[0][0] / c)
-    return roll, pitch, yaw
 
 
 def format_stamp(stamp_ns: int) -> str:
@@ -64,7 +28,11 @@ def _vec(values: Iterable[float], p: int) -> str:
 
 def format_echo(stamp_ns: int, translation: Sequence[float], rotation: Sequence[float],
                 precision: int = 3) -> str:
-    """One tf2_echo block: time, translation, quaternion, RPY (rad and deg), 4x4 matrix."""
+    """One tf2_echo block: time, translation, quaternion, RPY (rad and deg), 4x4 matrix.
+
+    The RPY is zentf.core.rotation's: tf2's getRPY, except at gimbal lock where tf2's roll is
+    rounding noise and this one is the rotation's (docs/cli.md).
+    """
     p = max(0, int(precision))
     rpy = rpy_from_quaternion(rotation)
     m = matrix_from_quaternion(rotation)

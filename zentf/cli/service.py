@@ -1,6 +1,8 @@
 """`zentf service list | type | call`: the live services (ros2 service), from liveliness tokens."""
 from __future__ import annotations
 
+from typing import Any
+
 import click
 
 from .common import CONTEXT_SETTINGS, CliError, CliOptions, finite_float, liveliness_wait_option, with_options
@@ -84,18 +86,12 @@ def service_call(name: str, type_name: str, values: str, timeout: float, *, opts
     """Call service NAME of TYPE with a request given as YAML ('{x: 4.0, y: 2.0, name: t2}')."""
     import yaml
 
-    from zentf.core.services import service_type
     from zentf.transport.service import ServiceException
 
     from .common import open_node
 
-    try:
-        srv = service_type(type_name)
-    except KeyError as exc:
-        raise CliError(str(exc.args[0]), code=2) from exc
-    from .topic import parse_message
-
-    request = parse_message(srv.Request.TYPE_NAME, values)  # one CliError line (exit 2) naming what is wrong
+    srv = known_service_type(type_name)
+    request = _parse_request(srv, values)  # one CliError line (exit 2) naming what is wrong
     full = _full_name(opts, name)
     from .introspect import require_service
 
@@ -112,7 +108,42 @@ def service_call(name: str, type_name: str, values: str, timeout: float, *, opts
             raise CliError(str(exc)) from exc
         print()
         print("response:")
-        text = yaml.safe_dump(response.to_dict(), default_flow_style=False, sort_keys=False).rstrip()
-        print(text if text != "{}" else "{}")
+        data = response.to_dict() if hasattr(response, "to_dict") else response
+        text = yaml.safe_dump(data, default_flow_style=False, sort_keys=False, allow_unicode=True).rstrip()
+        print("\n".join(printable(line) for line in text.split("\n")))
     finally:
         node.shutdown()
+
+
+def known_service_types() -> list[str]:
+    """Every service type `service call` takes: the registered classes and every .srv definition zentf has."""
+    import zentf.core.parameters  # noqa: F401 - registers the rcl_interfaces parameter services
+    from zentf.core.services import SERVICE_TYPES
+    from zentf.ros import service_types
+
+    return sorted(set(SERVICE_TYPES) | set(service_types()))
+
+
+def known_service_type(text: str) -> Any:
+    """TYPE of `service call` ('pkg/srv/Name' or 'pkg/Name') -> its service class; one line (exit 2) if unknown."""
+    from zentf.ros import RosFormatError
+    from zentf.ros.classes import service_class
+
+    known = known_service_types()
+    name = text.strip()
+    parts = name.split("/")
+    if len(parts) == 2:
+        name = next((n for n in (f"{parts[0]}/srv/{parts[1]}", f"{parts[0]}/action/{parts[1]}") if n in known), name)
+    if name not in known:
+        raise CliError(f"unknown service type {printable(text)!r} (known: {', '.join(known)})", code=2)
+    try:
+        return service_class(name)
+    except RosFormatError as exc:  # a definition zentf cannot make a class of
+        raise CliError(f"service type {name}: {exc}", code=2) from exc
+
+
+def _parse_request(srv: Any, values: str) -> Any:
+    """The YAML request as srv.Request; one CliError line (exit 2) naming the bad field."""
+    from .topic import parse_message_as
+
+    return parse_message_as(srv.Request, values)

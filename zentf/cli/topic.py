@@ -1,4 +1,4 @@
-"""`zentf topic list | info | echo | hz | pub`: rostopic/ros2 topic over Zenoh."""
+"""`zentf topic list | info | type | find | echo | hz | bw | delay | pub`: ros2 topic over Zenoh."""
 from __future__ import annotations
 
 import json
@@ -11,13 +11,14 @@ import click
 
 from .common import (CONTEXT_SETTINGS, liveliness_wait_option, CliError, CliOptions, finite_float, node_options,
                      open_session, status, wire_profile, with_options)
+from .toolclock import use_sim_time_option
 
-__all__ = ["topic", "resolve_type_name", "render_sample"]
+__all__ = ["topic", "resolve_type_name", "render_sample", "message_type_arg"]
 
 
 @click.group("topic", context_settings=CONTEXT_SETTINGS)
 def topic() -> None:
-    """Topics: list, info, type, find, echo, hz, pub."""
+    """Topics: list, info, type, find, echo, hz, bw, delay, pub."""
 
 
 def _resolve(opts: CliOptions, name: str) -> tuple[str, str]:
@@ -114,12 +115,18 @@ def topic_find(type_name: str, wait: float, *, opts: CliOptions) -> None:
             print(printable(t.name))
 
 
-def render_sample(payload: bytes, encoding: str, as_json: bool, key: str = "", profile: Any = None) -> str:
-    """One received sample as YAML (ros2 topic echo style) or one JSON line; raw bytes if unknown.
-    The wire ``profile`` (zentf's by default) decodes it: by the carried encoding, or (ros2) the key's type."""
+def render_sample(payload: bytes, encoding: str, as_json: bool, key: str = "", profile: Any = None,
+                  view: Any = None) -> str:
+    """One received sample as YAML (ros2 topic echo style), CSV or one JSON line; raw bytes if unknown.
+    The wire ``profile`` (zentf's by default) decodes it: by the carried encoding, or (ros2) the key's type;
+    ``view`` (zentf.cli.msgview.View) carries echo's --field/--csv/--no-arr/... choices."""
     from zentf.transport.wire.profiles import WireProfile
 
+    from .msgview import FieldError, View
+
+    view = view or View(as_json=as_json, truncate=None)
     data: Any
+    type_name = None
     try:
         type_name, value, known = (profile or WireProfile()).decode_any(payload, encoding, key)
         data = value.to_dict() if hasattr(value, "to_dict") else value
@@ -127,35 +134,77 @@ def render_sample(payload: bytes, encoding: str, as_json: bool, key: str = "", p
         known = False
     from .format import printable
 
+    if known and not _shallow(data, MAX_DEPTH):
+        known = False  # no ROS type nests this deep: shown raw, not walked (a crafted payload)
     if not known:
+        if view.field:
+            raise FieldError(f"cannot select field {'.'.join(view.field)!r}: the payload is not a message zentf "
+                             f"can decode (encoding {printable(encoding)}, type {printable(type_name or '?')})")
         if as_json:
             return json.dumps({"encoding": str(encoding), "size": len(payload), "raw_hex": payload.hex()})
         return f"# raw payload: {len(payload)} bytes, encoding {printable(encoding)}\n{payload!r}\n---"
-    if as_json:  # (json.dumps escapes every control and non-ASCII character)
-        return json.dumps(data, default=_json_default, separators=(",", ":"))
-    import yaml
-
-    # YAML keeps NEL, bidi overrides and other format characters raw under allow_unicode: each line escaped
-    text = yaml.safe_dump(data, sort_keys=False, default_flow_style=False, allow_unicode=True).rstrip()
-    return "\n".join(printable(line) for line in text.split("\n")) + "\n---"
+    data, type_name = view.select(data, type_name)
+    return view.render(data, type_name)
 
 
-def _json_default(obj: Any) -> Any:
-    if isinstance(obj, (bytes, bytearray, memoryview)):
-        return bytes(obj).hex()
-    if hasattr(obj, "to_dict"):
-        return obj.to_dict()
-    return str(obj)
+#: Nesting beyond which a decoded payload is shown raw: ROS types are a few levels deep, and the views walk
+#: values recursively.
+MAX_DEPTH = 64
 
 
-def _subscribe(session: Any, key: str, history: bool) -> tuple[Any, "queue.Queue[tuple[bytes, str, float, str]]"]:
-    """Subscriber whose Zenoh-thread callback only copies the sample into a queue."""
+def _shallow(value: Any, limit: int) -> bool:
+    """Whether ``value`` nests no deeper than ``limit`` dicts/lists (walked without recursion)."""
+    todo = [(value, 0)]
+    while todo:
+        v, depth = todo.pop()
+        if isinstance(v, dict):
+            v = list(v.values())
+        elif not isinstance(v, (list, tuple)):
+            continue
+        if depth >= limit:
+            return False
+        todo.extend((x, depth + 1) for x in v if isinstance(x, (dict, list, tuple)))
+    return True
+
+
+def message_type_arg(text: str) -> str:
+    """TYPE of `topic echo` ('pkg/msg/Name' or 'pkg/Name') -> the full name of a type zentf can decode."""
+    from zentf.core.messages import MESSAGE_TYPES
+    from zentf.ros import message_types
+
+    from .format import printable
+
+    known = set(MESSAGE_TYPES) | set(message_types())
+    name = text.strip()
+    parts = name.split("/")
+    if len(parts) == 2:
+        name = f"{parts[0]}/msg/{parts[1]}"
+    if name not in known:
+        raise CliError(f"unknown message type {printable(text)!r} (see 'zentf interface list -m')", code=2)
+    return name
+
+
+def _check_type_in_graph(opts: CliOptions, fq: str, type_name: str) -> None:
+    """A TYPE that the graph's publishers and subscribers of the topic do not declare is one line (exit 2)."""
+    from .format import printable
+    from .introspect import PRESENCE_WAIT, graph_snapshot
+
+    t = graph_snapshot(opts, PRESENCE_WAIT, None)[1].get(fq)
+    if t is not None and t.types and type_name not in t.types:
+        raise CliError(f"topic {printable(fq)} has type {printable(', '.join(sorted(t.types)))}, not {type_name}",
+                       code=2)
+
+
+def _subscribe(session: Any, key: str, history: bool,
+               stamp: Any = None) -> tuple[Any, "queue.Queue[tuple[bytes, str, float, str]]"]:
+    """Subscriber whose Zenoh-thread callback only copies the sample into a queue (with ``stamp()``'s value,
+    time.monotonic() by default, taken on arrival)."""
     inbox: "queue.Queue[tuple[bytes, str, float, str]]" = queue.Queue(maxsize=100_000)
+    when = stamp or time.monotonic
 
     def on_sample(sample: Any) -> None:
         try:
-            inbox.put_nowait((sample.payload.to_bytes(), str(sample.encoding), time.monotonic(),
-                              str(sample.key_expr)))
+            inbox.put_nowait((sample.payload.to_bytes(), str(sample.encoding), when(), str(sample.key_expr)))
         except Exception:  # noqa: BLE001 - full queue or odd sample: drop, never raise in Zenoh's thread
             pass
 
@@ -171,20 +220,53 @@ def _subscribe(session: Any, key: str, history: bool) -> tuple[Any, "queue.Queue
 
 @topic.command("echo", context_settings=CONTEXT_SETTINGS)
 @click.argument("name")
+@click.argument("type_name", metavar="[TYPE]", required=False)
 @click.option("--once", is_flag=True, help="Print one message and exit.")
 @click.option("--count", "-c", type=click.IntRange(min=1), default=None,
               help="Exit after this many messages (default: run until Ctrl-C).")
-@click.option("--json", "as_json", is_flag=True, help="One JSON object per line instead of YAML.")
+@click.option("--field", default=None, help="Print only this field ('.' between levels, e.g. 'pose.position').")
+@click.option("--csv", "as_csv", is_flag=True, help="One line per message: every field, comma separated.")
+@click.option("--json", "as_json", is_flag=True, help="One JSON object per line instead of YAML (never truncated).")
+@click.option("--no-arr", is_flag=True, help="Show arrays as their type and length, not their values.")
+@click.option("--no-str", is_flag=True, help="Show strings as their length, not their text.")
+@click.option("--truncate-length", "-l", type=click.IntRange(min=0), default=128, show_default=True,
+              help="Cut arrays, bytes and strings after this many elements (shown as '...').")
+@click.option("--full-length", "-f", is_flag=True, help="Do not cut arrays, bytes and strings.")
 @click.option("--timeout", type=finite_float(min=0.0), default=None,
               help="Exit 1 if nothing arrives within this many seconds (default: wait).")
 @click.option("--no-history", is_flag=True, help="Do not fetch latched samples (e.g. of tf_static).")
 @with_options
-def topic_echo(name: str, once: bool, count: Optional[int], as_json: bool, timeout: Optional[float], no_history: bool,
-               *, opts: CliOptions) -> None:
-    """Print messages on a topic, decoded by their carried type (raw bytes when unknown)."""
-    from .common import open_node
+def topic_echo(name: str, type_name: Optional[str], once: bool, count: Optional[int], field: Optional[str],
+               as_csv: bool, as_json: bool, no_arr: bool, no_str: bool, truncate_length: int, full_length: bool,
+               timeout: Optional[float], no_history: bool, *, opts: CliOptions) -> None:
+    """Print messages on a topic (ros2 topic echo), decoded by their carried type (raw bytes when unknown).
 
+    TYPE, when given, must be the topic's type in the graph; only messages of that type are shown.
+    """
+    from .common import open_node
+    from .msgview import FieldError, View, field_type, parse_field
+
+    if as_csv and as_json:
+        raise click.UsageError("--csv and --json exclude each other")
+    try:
+        path = parse_field(field)
+    except FieldError as exc:
+        raise CliError(str(exc), code=2) from exc
     fq, key = _resolve(opts, name)
+    want = message_type_arg(type_name) if type_name else None
+    if want is not None:
+        if path:
+            try:
+                field_type(want, path)
+            except FieldError as exc:
+                raise CliError(str(exc), code=2) from exc
+        _check_type_in_graph(opts, fq, want)
+        try:
+            key = wire_profile(opts).data_key(fq, want)  # ros2: the type is in the key; zentf: the same key
+        except ValueError:
+            pass  # no ROS 2 definition: every type's key, filtered below
+    view = View(csv=as_csv, as_json=as_json, no_arr=no_arr, no_str=no_str,
+                truncate=None if full_length or as_json else truncate_length, field=path)
     limit = 1 if once else count
     node = open_node(opts, "topic_echo")
     token = None
@@ -192,7 +274,7 @@ def topic_echo(name: str, once: bool, count: Optional[int], as_json: bool, timeo
         sub, inbox = _subscribe(node.session, key, history=not no_history)
         declare = getattr(node, "_declare_entity", None)
         if declare is not None:  # show up as a subscriber, so `topic pub` and `graph` see us
-            token = declare("sub", "", key)
+            token = declare("sub", want or "", key)
         started = time.monotonic()
         shown = 0
         while (not limit or shown < limit) and node.ok():
@@ -209,7 +291,13 @@ def topic_echo(name: str, once: bool, count: Optional[int], as_json: bool, timeo
                     payload, enc, _, got = inbox.get(timeout=wait)
             except queue.Empty:
                 continue
-            sys.stdout.write(render_sample(payload, enc, as_json, got, node.wire) + "\n")
+            if want is not None and _sample_type(node.wire, enc, got) not in (None, want):
+                continue  # another type on the same name: TYPE picks
+            try:
+                text = render_sample(payload, enc, as_json, got, node.wire, view)
+            except FieldError as exc:
+                raise CliError(str(exc), code=2) from exc
+            sys.stdout.write(text + "\n")
             sys.stdout.flush()
             shown += 1
         sub.undeclare()
@@ -221,6 +309,13 @@ def topic_echo(name: str, once: bool, count: Optional[int], as_json: bool, timeo
                 except Exception:  # noqa: BLE001
                     pass
         node.shutdown()
+
+
+def _sample_type(profile: Any, encoding: str, key: str) -> Optional[str]:
+    """The type a sample carries (zentf: in its encoding; ros2: in its key), None when it says none."""
+    from zentf.transport.wire.codec import type_name_from_encoding
+
+    return profile.topic_of_key(key)[1] or type_name_from_encoding(encoding)
 
 
 @topic.command("hz", context_settings=CONTEXT_SETTINGS)
@@ -275,6 +370,130 @@ def topic_hz(name: str, window: int, duration: Optional[float], period: float, *
         session.close()
 
 
+@topic.command("bw", context_settings=CONTEXT_SETTINGS)
+@click.argument("name")
+@click.option("--window", "-w", type=click.IntRange(min=1), default=100, show_default=True,
+              help="Messages in the moving window.")
+@click.option("--duration", "-d", type=finite_float(min=0.0, min_open=True), default=None,
+              help="Stop after this many seconds (default: until Ctrl-C).")
+@click.option("--period", type=finite_float(min=0.05), default=1.0, show_default=True,
+              help="Seconds between reports.")
+@with_options
+def topic_bw(name: str, window: int, duration: Optional[float], period: float, *, opts: CliOptions) -> None:
+    """Print the bandwidth a topic uses (ros2 topic bw): bytes per second as received, message sizes."""
+    from .topic_stats import BandwidthWindow
+
+    fq, key = _resolve(opts, name)
+    session = open_session(opts)
+    try:
+        sub, inbox = _subscribe(session, key, history=False)
+        print(f"Subscribed to [{fq}]", flush=True)
+        stats = BandwidthWindow(window)
+        _report_loop(inbox, lambda item: stats.add(item[2], len(item[0])), lambda: stats.report(time.monotonic()),
+                     duration, period, f"Measuring the bandwidth of {fq}")
+        sub.undeclare()
+        if duration is not None and len(stats.times) < 2:
+            raise CliError(f"nothing published on {fq} in {duration:g} s" if not stats.times else
+                           f"only one message on {fq} in {duration:g} s: no bandwidth")
+    finally:
+        session.close()
+
+
+def _report_loop(inbox: "queue.Queue", take: Any, report: Any, duration: Optional[float], period: float,
+                 what: str, ok: Any = lambda: True) -> None:
+    """Feed arrivals to ``take`` and print ``report()`` every ``period`` s, until ``duration`` s, Ctrl-C or
+    not ``ok()`` (a node's shutdown)."""
+    started = time.monotonic()
+    end = None if duration is None else started + duration
+    next_report = started + period
+    with status(what) as st:
+        while ok():
+            now = time.monotonic()
+            stop_at = min(next_report, now + 0.5) if end is None else min(next_report, end, now + 0.5)
+            try:
+                take(inbox.get(timeout=max(0.0, stop_at - now)))
+                continue
+            except queue.Empty:
+                pass
+            now = time.monotonic()
+            if now >= next_report:
+                text = report()
+                if text:
+                    sys.stdout.write(text + "\n")
+                    sys.stdout.flush()
+                else:
+                    st.update(f"{what}: no messages yet")
+                next_report += period
+            if end is not None and now >= end:
+                break
+
+
+@topic.command("delay", context_settings=CONTEXT_SETTINGS)
+@click.argument("name")
+@click.option("--window", "-w", type=click.IntRange(min=1), default=10000, show_default=True,
+              help="Messages in the moving window.")
+@click.option("--duration", "-d", type=finite_float(min=0.0, min_open=True), default=None,
+              help="Stop after this many seconds (default: until Ctrl-C).")
+@click.option("--period", type=finite_float(min=0.05), default=1.0, show_default=True,
+              help="Seconds between reports.")
+@use_sim_time_option
+@with_options
+def topic_delay(name: str, window: int, duration: Optional[float], period: float, use_sim_time: bool, *,
+                opts: CliOptions) -> None:
+    """Print how late a topic's messages arrive (ros2 topic delay): now minus header.stamp, in /clock time
+    under sim time."""
+    from .common import open_node
+    from .format import printable
+    from .toolclock import ToolClock
+    from .topic_stats import DelayWindow, header_stamp_ns
+
+    fq, key = _resolve(opts, name)
+    node = open_node(opts, "topic_delay")
+    clock = None
+    try:
+        stats = DelayWindow(window)
+        clock = ToolClock(node, use_sim_time)
+        sub, inbox = _subscribe(node.session, key, history=False, stamp=lambda: (clock.is_sim, clock.now_ns()))
+        seen = {"sim": clock.is_sim, "last": None, "count": 0}
+
+        def take(item: tuple) -> None:
+            payload, enc, (sim, now), got = item
+            if sim != seen["sim"]:  # /clock started: delays against the wall clock mean nothing now
+                seen["sim"], seen["last"] = sim, None
+                if stats.delays:
+                    print("now in /clock time (sim time), resetting counters", flush=True)
+                stats.clear()
+            if now is None or now == 0:  # sim time before the first /clock
+                return
+            if seen["last"] is not None and now < seen["last"]:
+                print("time has reset, resetting counters", flush=True)
+                stats.clear()
+            seen["last"] = now
+            try:
+                type_name, value, known = node.wire.decode_any(payload, enc, got)
+            except ValueError as exc:
+                raise CliError(f"a message on {fq} could not be decoded: {printable(str(exc))}") from exc
+            if not known:
+                raise CliError(f"{fq} carries {printable(type_name or enc)}, which zentf cannot decode: no header "
+                               "stamp to measure a delay from", code=2)
+            stamp = header_stamp_ns(value.to_dict() if hasattr(value, "to_dict") else value)
+            if stamp is None:
+                raise CliError(f"{fq} carries {printable(type_name or '?')}, which has no header: no stamp to "
+                               "measure a delay from", code=2)
+            seen["count"] += 1
+            stats.add(now - stamp)
+
+        _report_loop(inbox, take, stats.report, duration, period, f"Measuring the delay of {fq}", node.ok)
+        sub.undeclare()
+        if duration is not None and not stats.delays:
+            why = " (no /clock yet: sim time)" if seen["count"] == 0 and clock.is_sim and clock.now_ns() is None else ""
+            raise CliError(f"nothing published on {fq} in {duration:g} s{why}")
+    finally:
+        if clock is not None:
+            clock.close()
+        node.shutdown()
+
+
 def resolve_type_name(text: str) -> str:
     """'geometry_msgs/msg/Point', 'geometry_msgs/Point' or 'Point' -> the registered type name."""
     from zentf.core.messages import MESSAGE_TYPES
@@ -300,11 +519,17 @@ DATA_LIMIT = 1024 * 1024
 
 def parse_message(type_name: str, data: str) -> Any:
     """DATA (YAML or JSON) -> message of the type; one-line CliError naming the bad field."""
-    import yaml
-
     from zentf.core.messages import message_type
     from zentf.core.safe_yaml import YamlRefused, load
 
+    return parse_message_as(message_type(type_name), data)
+
+
+def parse_message_as(cls: Any, data: str) -> Any:
+    """DATA (YAML or JSON) -> a ``cls`` message; one-line CliError naming the bad field."""
+    import yaml
+
+    type_name = cls.TYPE_NAME
     try:
         plain = load(data, limit=DATA_LIMIT) if data.strip() else {}
     except YamlRefused as exc:
@@ -314,7 +539,7 @@ def parse_message(type_name: str, data: str) -> Any:
     if plain is None:
         plain = {}
     try:
-        msg = message_type(type_name).from_dict(plain)
+        msg = cls.from_dict(plain)
     except (ValueError, TypeError) as exc:
         raise CliError(f"bad DATA for {type_name}: {exc}", code=2) from exc
     where = _out_of_range(msg.to_dict() if hasattr(msg, "to_dict") else plain)

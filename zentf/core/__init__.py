@@ -1,9 +1,10 @@
 """zentf.core: tf2 itself (time, messages, math, per-frame caches, BufferCore, batches); no Zenoh, nothing from outside.
 
 Mirrors tf2's own split: ``buffer_core`` (BufferCore, the walk) over ``cache`` (TimeCache and
-StaticCache, one object per frame), with ``time``, ``messages``, ``math3d``, ``exceptions``,
-``constants`` below and ``geometry`` (do_transform_*, vectorized batches) beside. ``buffer_core``
-and ``cache`` are compiled (Cython, built on install). The transport
+StaticCache, one object per frame), with ``time``, ``messages``, ``rotation`` (numpy-free),
+``math3d``, ``exceptions``, ``constants`` below, and beside it ``geometry`` (do_transform_*) and
+``batch`` (whole series and clouds at once, over BufferCore's walk). ``buffer_core``, ``cache`` and
+``time`` are compiled (Cython, built on install). The transport
 (``zentf.transport.node``, ``zentf.transport.listener`` ...) builds on this package, never the other way.
 """
 from __future__ import annotations

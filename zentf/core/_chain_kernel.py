@@ -1,9 +1,9 @@
-"""numba-compiled fast path of ``geometry.lookup_transforms``: the whole chain fused in one call.
+"""numba-compiled arithmetic of ``batch.lookup_transforms``: a planned chain composed in one pass per time.
 
-Imported lazily by ``zentf.core.geometry`` (never at ``import zentf``); needs numba (the ``fast`` extra).
+Imported lazily by ``zentf.core.batch`` (never at ``import zentf``); needs numba (the ``fast`` extra).
 The arithmetic repeats the numpy path's operation for operation (same Taylor slerp, same
-composition formulas, same order), so the two paths agree to rounding (bit for bit where
-measured); only the loop structure differs: no temporary rows, no Python between links.
+composition formulas, same order), so the two paths agree to rounding; only the loop structure
+differs: no temporary rows, no Python between links.
 """
 from __future__ import annotations
 

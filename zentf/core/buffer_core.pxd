@@ -14,6 +14,20 @@ cdef struct _Memo:
     double v[7]
 
 
+cdef struct _Link:
+    # one link of a walk planned over a range of times: the frame and the samples it reads
+    int32_t frame
+    Py_ssize_t first, last
+
+
+cdef struct _Plan:
+    # what a walk over a range of times found (BufferCore.chain_plan): links[0:n_source] lead up
+    # from the source, links[target_at:target_at + n_target] up from the target
+    _Link* links
+    int n_source, target_at, n_target
+    int64_t split                       # where the walk changes, when it does
+
+
 @cython.final
 cdef class _Lock:
     cdef PyThread_type_lock _lk
@@ -23,7 +37,7 @@ cdef class _Lock:
 
 
 cdef class BufferCore:
-    cdef dict __dict__          # attributes beyond these, as on the Python class it was
+    cdef dict __dict__          # attributes beyond these (the bounds, the rate-limited logger, subclasses' own)
     cdef object __weakref__
     cdef readonly _Lock _lock
     cdef public dict _ids
@@ -53,8 +67,8 @@ cdef class BufferCore:
     cdef int32_t _clean_id(self, object frame) except -1
     cdef int64_t _lookup_ids(self, int32_t target_id, int32_t source_id, int64_t t, double* out,
                              object target, object source) except -1
-    cdef int _walk(self, int32_t target_id, int32_t source_id, int64_t t, double* out,
-                   int32_t* bad) noexcept
+    cdef int _walk(self, int32_t target_id, int32_t source_id, int64_t t, int64_t t_hi, double* out,
+                   int32_t* bad, _Plan* plan) noexcept
     cdef int _raise_walk(self, int res, int32_t bad, int32_t target_id, int32_t source_id, int64_t t,
                          object target, object source) except -1
     cdef int _mark_room(self) except -1

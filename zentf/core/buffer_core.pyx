@@ -78,6 +78,7 @@ cdef enum:
     _W_EXTRAP_TARGET = 2    # same, on the target side (tf2 raises at once, frame in *bad)
     _W_CONNECT = 3          # not part of the same tree
     _W_LOOP = 4             # longer than MAX_GRAPH_DEPTH
+    _W_SPLIT = 5            # over a range of times: some time would walk otherwise (plan.split)
 
 assert MAX_GRAPH_DEPTH == _MAX_DEPTH
 
@@ -222,13 +223,17 @@ cdef inline void _compose(double* acc, const double* s) noexcept nogil:
     acc[6] = w * qw - x * qx - y * qy - z * qz
 
 
-cdef inline bint _step(PyObject* cache, int64_t t, int32_t* parent, double* s, bint values) noexcept:
-    """One link of a walk: the frame's sample at t (values), or only its parent at t (a parent of 0:
-    no data, as tf2's getParent)."""
+cdef inline int _step(PyObject* cache, int64_t t, int64_t t_hi, int32_t* parent, double* s, bint values,
+                      _Link* link, int64_t* split) noexcept:
+    """One link of a walk. values: the frame's sample at t. link NULL: only its parent at t (a
+    parent of 0: no data, as tf2's getParent). Otherwise the link's data over [t, t_hi], recorded
+    in link. 1: data (parent set); 0: no data; -1: that changes at *split (a range only)."""
     if values:
         return (<CacheBase>cache).get_c(t, parent, s)
-    parent[0] = (<CacheBase>cache).parent_at_c(t)
-    return parent[0] != 0
+    if link == NULL:
+        parent[0] = (<CacheBase>cache).parent_at_c(t)
+        return parent[0] != 0
+    return (<CacheBase>cache).span_c(t, t_hi, parent, &link.first, &link.last, split)
 
 
 cdef inline void _invert(const double* a, double* out) noexcept nogil:
@@ -349,7 +354,7 @@ cdef class BufferCore:
     ``set_transform_raw``/``set_transforms_raw`` (insert without messages),
     ``add_insert_callback`` (wake waiters), ``add_transformable_request`` (MessageFilter),
     ``frame_info``/``chain_as_vector``/``get_parent``/``frame_exists`` (tools), and the numpy
-    batches ``lookup_transforms``/``transform_points`` (see zentf.core.geometry).
+    batches ``lookup_transforms``/``transform_points`` (zentf.core.batch, over ``chain_plan``).
 
     Bounds tf2 does not have (deliberate, for memory under hostile input): at most ``max_frames``
     distinct frame names (default 10,000) and frame ids of at most ``max_frame_id_length`` UTF-8
@@ -745,8 +750,6 @@ cdef class BufferCore:
 
     # ------------------------------------------------------------------------ lookups
 
-    # ------------------------------------------------------------------------ lookups
-
     cdef int32_t _clean_id(self, object frame) except -1:
         """Id of a frame usable as given (known, non-empty, no leading '/'); 0 otherwise."""
         return _usable_id(self._ids, frame)
@@ -773,8 +776,8 @@ cdef class BufferCore:
         return _make_ts_c(target_frame, source_frame, stamp, out)
 
     def lookup_transform_core(self, target_frame: str, source_frame: str, time: TimeArg) -> TransformStamped:
-        """tf2_py spelling."""
-        return self.lookup_transform(target_frame, source_frame, time)
+        """tf2_py spelling (BufferCore's own lookup: never waits, also on a Buffer)."""
+        return BufferCore.lookup_transform(self, target_frame, source_frame, time)
 
     def _lookup(self, target: str, source: str, t: int) -> tuple:
         """(stamp, tx, ty, tz, qx, qy, qz, qw) or a tf2 exception; call with the lock held."""
@@ -807,7 +810,7 @@ cdef class BufferCore:
             for i in range(7):
                 out[i] = m.v[i]
             return m.stamp
-        res = self._walk(target_id, source_id, t, out, &bad)
+        res = self._walk(target_id, source_id, t, t, out, &bad, NULL)
         if res != _W_OK:
             self._raise_walk(res, bad, target_id, source_id, t, target, source)
         m.version = self._version
@@ -819,20 +822,25 @@ cdef class BufferCore:
             m.v[i] = out[i]
         return t
 
-    cdef int _walk(self, int32_t target_id, int32_t source_id, int64_t t, double* out,
-                   int32_t* bad) noexcept:
-        """tf2's walk (BufferCore::walkToTopParent) at time t, in C.
+    cdef int _walk(self, int32_t target_id, int32_t source_id, int64_t t, int64_t t_hi, double* out,
+                   int32_t* bad, _Plan* plan) noexcept:
+        """tf2's walk (BufferCore::walkToTopParent), in C: the single lookup, can_transform and the
+        batches all take this one.
 
         Source side up to the top, then target side up to the same top; the answer is
         inverse(target -> top) ∘ (source -> top). _W_OK with out set, or what went wrong. With out
-        NULL only the parents are followed (tf2's CanTransformAccum: canTransform's walk), and a frame
-        counts as having data at t when it has a parent there.
+        NULL only the parents are followed at t (tf2's CanTransformAccum: canTransform's walk), and
+        a frame counts as having data at t when it has a parent there. With a plan, the walk is
+        taken for every time of [t, t_hi] at once (BufferCore.chain_plan): the links it would
+        compose are recorded instead, or _W_SPLIT where some time would walk otherwise.
         """
         cdef list caches = self._caches
         cdef PyObject* o
         cdef int32_t frame = source_id, top = source_id, p = 0, extrap_frame = 0
-        cdef int depth = 0, source_links, k
+        cdef int depth = 0, source_links, k, r
         cdef bint values = out != NULL
+        cdef _Link* link = NULL
+        cdef int64_t* split = &plan.split if plan != NULL else NULL
         cdef double s[7]
         cdef double sacc[7]
         cdef double tacc[7]
@@ -844,7 +852,12 @@ cdef class BufferCore:
             if o == <PyObject*>None:
                 top = frame
                 break
-            if not _step(o, t, &p, s, values):
+            if plan != NULL:
+                link = &plan.links[depth]
+            r = _step(o, t, t_hi, &p, s, values, link, split)
+            if r <= 0:
+                if r < 0:
+                    return _W_SPLIT
                 top = frame
                 extrap_frame = frame
                 break
@@ -852,6 +865,8 @@ cdef class BufferCore:
                 if values:
                     for k in range(7):
                         out[k] = sacc[k]
+                elif plan != NULL:
+                    plan.n_source, plan.target_at, plan.n_target = depth, depth, 0
                 return _W_OK
             if values:
                 if depth:
@@ -859,6 +874,8 @@ cdef class BufferCore:
                 else:
                     for k in range(7):
                         sacc[k] = s[k]
+            elif plan != NULL:
+                link.frame = frame
             top = frame
             frame = p
             depth += 1
@@ -873,12 +890,19 @@ cdef class BufferCore:
             o = PyList_GET_ITEM(caches, frame)
             if o == <PyObject*>None:
                 break
-            if not _step(o, t, &p, s, values):
+            if plan != NULL:
+                link = &plan.links[source_links + depth]
+            r = _step(o, t, t_hi, &p, s, values, link, split)
+            if r <= 0:
+                if r < 0:
+                    return _W_SPLIT
                 bad[0] = frame
                 return _W_EXTRAP_TARGET
             if frame == source_id:
                 if values:
                     _invert(tacc, out)   # source is an ancestor of target: inverse(target -> source)
+                elif plan != NULL:
+                    plan.n_source, plan.target_at, plan.n_target = 0, source_links, depth
                 return _W_OK
             if values:
                 if depth:
@@ -886,6 +910,8 @@ cdef class BufferCore:
                 else:
                     for k in range(7):
                         tacc[k] = s[k]
+            elif plan != NULL:
+                link.frame = frame
             frame = p
             depth += 1
             if depth > _MAX_DEPTH:
@@ -896,6 +922,8 @@ cdef class BufferCore:
                 return _W_EXTRAP
             return _W_CONNECT
         if not values:
+            if plan != NULL:
+                plan.n_source, plan.target_at, plan.n_target = source_links, source_links, depth
             return _W_OK
         # full path: inverse(target -> top) ∘ (source -> top); when one side is empty this is
         # exactly the other side (identity terms add zeros), so skip the arithmetic
@@ -912,6 +940,54 @@ cdef class BufferCore:
         for k in range(7):
             out[k] = sacc[k]
         return _W_OK
+
+    def chain_plan(self, target_frame: str, source_frame: str, t_lo: int, t_hi: int) -> Any:
+        """The walk lookup_transform takes, for every time of [t_lo, t_hi] (ns, 0 < t_lo <= t_hi) at
+        once: what the batch engine (zentf.core.batch) composes, read under the lock in one call.
+
+        Returns one of
+        - ``(links, n_source)`` when every time of the range walks the same links, each with data:
+          the answer at t is inverse(T) ∘ S, S the composition of ``links[:n_source]`` (from the
+          source frame up) and T that of ``links[n_source:]`` (from the target frame up). A link is
+          ``(stamps, values)``: the frame's samples that the range reads, oldest first (int64[k] ns,
+          float64[k, 7] tx, ty, tz, qx, qy, qz, qw), interpolated between neighbours as tf2 does,
+          the last one applying as is from its stamp on; stamps is None for a static frame.
+        - an int b, t_lo < b <= t_hi, where some link's data or parent changes: plan [t_lo, b) and
+          [b, t_hi] apart.
+        - None: the lookup fails at every time of the range (lookup_transform at one raises why).
+        Frame names are checked as lookup_transform checks them.
+        """
+        cdef _Plan plan
+        cdef int32_t tid, sid, bad = 0
+        cdef int res, k
+        cdef int64_t lo = t_lo, hi = t_hi
+        if not 0 < lo <= hi:
+            raise ValueError(f"chain_plan needs 0 < t_lo <= t_hi, got {t_lo}, {t_hi}")
+        if target_frame == source_frame:
+            return [], 0
+        plan.links = <_Link*>malloc(2 * (_MAX_DEPTH + 1) * sizeof(_Link))
+        if plan.links == NULL:
+            raise MemoryError()
+        try:
+            with self._lock:
+                tid = self._validate("lookupTransform argument target_frame", target_frame)
+                sid = self._validate("lookupTransform argument source_frame", source_frame)
+                res = self._walk(tid, sid, lo, hi, NULL, &bad, &plan)
+                if res == _W_SPLIT:
+                    return plan.split
+                if res != _W_OK:
+                    return None
+                caches = self._caches
+                links = []
+                for k in range(plan.n_source):
+                    links.append((<CacheBase>caches[plan.links[k].frame]).link_columns(
+                        plan.links[k].first, plan.links[k].last))
+                for k in range(plan.target_at, plan.target_at + plan.n_target):
+                    links.append((<CacheBase>caches[plan.links[k].frame]).link_columns(
+                        plan.links[k].first, plan.links[k].last))
+                return links, plan.n_source
+        finally:
+            free(plan.links)
 
     cdef int _raise_walk(self, int res, int32_t bad, int32_t target_id, int32_t source_id, int64_t t,
                          object target, object source) except -1:
@@ -934,7 +1010,7 @@ cdef class BufferCore:
             a = self._lookup(fixed_frame, source_frame, st)
             b = self._lookup(target_frame, fixed_frame, tt)
         # tf2 composes these as tf2::Transform (rotation matrices), then converts back to a quaternion
-        from .math3d import matrix_from_quaternion, quaternion_from_matrix
+        from .rotation import matrix_from_quaternion, quaternion_from_matrix
         ma = matrix_from_quaternion(a[4:8])
         mb = matrix_from_quaternion(b[4:8])
         m = [[mb[i][0] * ma[0][j] + mb[i][1] * ma[1][j] + mb[i][2] * ma[2][j] for j in range(3)]
@@ -945,8 +1021,9 @@ cdef class BufferCore:
 
     def lookup_transform_full_core(self, target_frame: str, target_time: TimeArg, source_frame: str,
                                    source_time: TimeArg, fixed_frame: str) -> TransformStamped:
-        """tf2_py spelling."""
-        return self.lookup_transform_full(target_frame, target_time, source_frame, source_time, fixed_frame)
+        """tf2_py spelling (BufferCore's own lookup: never waits, also on a Buffer)."""
+        return BufferCore.lookup_transform_full(self, target_frame, target_time, source_frame, source_time,
+                                                fixed_frame)
 
     def can_transform(self, target_frame: str, source_frame: str, time: TimeArg,
                       return_debug_tuple: bool = False) -> Union[bool, tuple[bool, str]]:
@@ -957,8 +1034,8 @@ cdef class BufferCore:
         return (ok, msg) if return_debug_tuple else ok
 
     def can_transform_core(self, target_frame: str, source_frame: str, time: TimeArg) -> tuple[bool, str]:
-        """tf2_py spelling: always (bool, reason)."""
-        return self.can_transform(target_frame, source_frame, time, True)  # type: ignore[return-value]
+        """tf2_py spelling: always (bool, reason), at once (a Buffer's can_transform would wait)."""
+        return BufferCore.can_transform(self, target_frame, source_frame, time, True)  # type: ignore[return-value]
 
     def can_transform_full(self, target_frame: str, target_time: TimeArg, source_frame: str,
                            source_time: TimeArg, fixed_frame: str,
@@ -972,9 +1049,9 @@ cdef class BufferCore:
 
     def can_transform_full_core(self, target_frame: str, target_time: TimeArg, source_frame: str,
                                 source_time: TimeArg, fixed_frame: str) -> tuple[bool, str]:
-        """tf2_py spelling: always (bool, reason)."""
-        return self.can_transform_full(target_frame, target_time, source_frame, source_time,  # type: ignore[return-value]
-                                       fixed_frame, True)
+        """tf2_py spelling: always (bool, reason), at once (a Buffer's can_transform_full would wait)."""
+        return BufferCore.can_transform_full(self, target_frame, target_time, source_frame,  # type: ignore[return-value]
+                                             source_time, fixed_frame, True)
 
     def _can_full(self, target: str, tt: int, source: str, st: int, fixed: str) -> tuple[bool, str]:
         """tf2 0.7.6's advanced canTransform, including its message quirks (probed)."""
@@ -1030,7 +1107,7 @@ cdef class BufferCore:
                 t = self._lct(target_id, source_id)
         except TransformException as e:
             return False, str(e)
-        res = self._walk(target_id, source_id, t, NULL, &bad)
+        res = self._walk(target_id, source_id, t, t, NULL, &bad, NULL)
         if res == _W_OK:
             return True, ""
         if res == _W_LOOP:
@@ -1048,9 +1125,6 @@ cdef class BufferCore:
             tid = self._validate("get_latest_common_time", target_frame)
             sid = self._validate("get_latest_common_time", source_frame)
             return Time(nanoseconds=self._lct(tid, sid))
-
-    def _latest_common_time(self, target_id: int, source_id: int) -> int:
-        return self._lct(target_id, source_id)
 
     cdef int _mark_room(self) except -1:
         cdef Py_ssize_t n = len(self._caches)
@@ -1304,7 +1378,7 @@ cdef class BufferCore:
         if target_id == source_id:
             return []
         if t == 0:
-            t = self._latest_common_time(target_id, source_id)
+            t = self._lct(target_id, source_id)
         ok, msg = self._can_ids(target_id, source_id, t)
         if not ok:
             if "loop" in msg:
@@ -1384,7 +1458,7 @@ cdef class BufferCore:
                 return 0
             if tid and sid:
                 try:
-                    latest = self._latest_common_time(tid, sid)
+                    latest = self._lct(tid, sid)
                 except TransformException:
                     latest = 0
                 if latest and t + self._cache_ns < latest:
@@ -1410,7 +1484,7 @@ cdef class BufferCore:
                 latest = 0
                 if tid and sid:
                     try:
-                        latest = self._latest_common_time(tid, sid)
+                        latest = self._lct(tid, sid)
                     except TransformException:
                         latest = 0
                 if latest and req.time + self._cache_ns < latest:
@@ -1435,12 +1509,12 @@ cdef class BufferCore:
 
     def transform_points(self, points: Any, target_frame: str, source_frame: str, time: TimeArg) -> Any:
         """points[N,3] given in source_frame -> target_frame at time, one numpy pass."""
-        from .geometry import transform_points as _tp
+        from .batch import transform_points as _tp
         return _tp(self, points, target_frame, source_frame, time)
 
     def lookup_transforms(self, target_frame: str, source_frame: str, times: Any) -> Any:
         """Vectorized lookup_transform over times[N]: (translations[N,3], quaternions[N,4])."""
-        from .geometry import lookup_transforms as _lt
+        from .batch import lookup_transforms as _lt
         return _lt(self, target_frame, source_frame, times)
 
     # ------------------------------------------------------------------------ velocity (ROS 2 tf2)
@@ -1459,16 +1533,3 @@ cdef class BufferCore:
         return _lvf(self, tracking_frame, observation_frame, reference_frame, reference_point,
                     reference_point_frame, time, averaging_interval)
 
-
-def _inverse(tx: float, ty: float, tz: float, x: float, y: float, z: float, w: float) -> tuple:
-    """Inverse of (t, q) as tf2 computes it: q⁻¹ = conjugate, t' = quatRotate(q⁻¹, −t)."""
-    x, y, z = -x, -y, -z
-    vx, vy, vz = -tx, -ty, -tz
-    ax = w * vx + y * vz - z * vy
-    ay = w * vy + z * vx - x * vz
-    az = w * vz + x * vy - y * vx
-    aw = -x * vx - y * vy - z * vz
-    return (-aw * x + ax * w - ay * z + az * y,
-            -aw * y + ay * w - az * x + ax * z,
-            -aw * z + az * w - ax * y + ay * x,
-            x, y, z, w)

@@ -12,6 +12,9 @@ cdef class CacheBase:
     cdef bint get_c(self, int64_t t, int32_t* parent, double* out) noexcept
     cdef int32_t parent_at_c(self, int64_t t) noexcept
     cdef int32_t latest_parent_c(self) noexcept
+    cdef int span_c(self, int64_t lo, int64_t hi, int32_t* parent, Py_ssize_t* first, Py_ssize_t* last,
+                    int64_t* split) noexcept
+    cdef object link_columns(self, Py_ssize_t first, Py_ssize_t last)
     cdef void clear_c(self) noexcept
 
 

@@ -51,6 +51,17 @@ cdef class CacheBase:
     cdef int32_t latest_parent_c(self) noexcept:
         return 0
 
+    cdef int span_c(self, int64_t lo, int64_t hi, int32_t* parent, Py_ssize_t* first, Py_ssize_t* last,
+                    int64_t* split) noexcept:
+        """get_c's answer for every time of [lo, hi] (0 < lo <= hi) at once, for a batch of lookups:
+        1 if there is data at each of them, from one parent (*parent; the samples read are first..last),
+        0 if there is none at any, -1 if that changes at *split (lo < *split <= hi)."""
+        return 0
+
+    cdef object link_columns(self, Py_ssize_t first, Py_ssize_t last):
+        """(stamps int64[k], values float64[k, 7]) of samples first..last (span_c's); stamps None if static."""
+        return None
+
     cdef void clear_c(self) noexcept:
         pass
 
@@ -925,6 +936,42 @@ cdef class TimeCache(CacheBase):
             return 0
         return self._parent(self._slot(self._n - 1))
 
+    cdef int span_c(self, int64_t lo, int64_t hi, int32_t* parent, Py_ssize_t* first, Py_ssize_t* last,
+                    int64_t* split) noexcept:
+        cdef int64_t newest = self.newest, oldest = self.oldest
+        cdef Py_ssize_t i0, i1, i, run
+        cdef int32_t p
+        if newest < 0 or hi < oldest or lo > newest:
+            return 0
+        if lo < oldest:
+            split[0] = oldest
+            return -1
+        if hi > newest:
+            split[0] = newest + 1
+            return -1
+        # (one sample: oldest == newest, so lo == hi == its stamp here)
+        i0 = self._floor(lo, &run)
+        i1 = self._floor(hi, &run)
+        p = self._parent(self._slot(i0))
+        if self._par != NULL:
+            for i in range(i0 + 1, i1 + 1):
+                if self._parent(self._slot(i)) != p:
+                    split[0] = self._stamp(i)
+                    return -1
+        parent[0] = p
+        first[0] = i0
+        # the sample after the range ends the last interval, unless its parent differs: tf2 then
+        # returns the older sample as is
+        if self._stamp(i1) < hi and self._parent(self._slot(i1 + 1)) == p:
+            last[0] = i1 + 1
+        else:
+            last[0] = i1
+        return 1
+
+    cdef object link_columns(self, Py_ssize_t first, Py_ssize_t last):
+        st, _, d = self.columns(first, last + 1)
+        return st, d
+
     # ---------------------------------------------------------------- Python face
 
     def error(self, int64_t t) -> str:
@@ -941,11 +988,6 @@ cdef class TimeCache(CacheBase):
                     f"Requested time {fmt_stamp(t)} but the latest data is at time {fmt_stamp(newest)}")
         return (f"Lookup would require extrapolation {fmt_stamp(oldest - t)}s into the past.  "
                 f"Requested time {fmt_stamp(t)} but the earliest data is at time {fmt_stamp(oldest)}")
-
-    def latest_stamp_parent(self) -> tuple:
-        if self._n == 0:
-            return 0, 0
-        return self.newest, self.latest_parent_c()
 
     def newest_stamp(self) -> int:
         return 0 if self._n == 0 else self.newest
@@ -969,25 +1011,32 @@ cdef class TimeCache(CacheBase):
         """True while the values array lives in an anonymous mapping of its own (large rings)."""
         return (self._mm & 2) != 0
 
-    def columns(self):
-        """Copies of the samples, oldest first: (stamps int64[n], parents int32[n], values float64[n, 7])."""
+    def columns(self, Py_ssize_t start=0, Py_ssize_t stop=-1):
+        """Copies of samples start..stop-1 (all by default), oldest first: (stamps int64[k], parents
+        int32[k], values float64[k, 7])."""
         import numpy as np
         cdef Py_ssize_t n = self._n, i, j, k = 0
         cdef int64_t v
-        st = np.empty(n, dtype=np.int64)
-        par = np.empty(n, dtype=np.int32)
-        d = np.empty((n, 7), dtype=np.float64)
+        if stop < 0 or stop > n:
+            stop = n
+        if start < 0:
+            start = 0
+        if start > stop:
+            start = stop
+        st = np.empty(stop - start, dtype=np.int64)
+        par = np.empty(stop - start, dtype=np.int32)
+        d = np.empty((stop - start, 7), dtype=np.float64)
         cdef int64_t[::1] stv = st
         cdef int32_t[::1] pv = par
         cdef double[:, ::1] dv = d
-        for i in range(n):
+        for i in range(start, stop):
             j = self._slot(i)
             v = self._base + i
             while k + 1 < self._nruns and self._runs[k + 1].start <= v:
                 k += 1
-            stv[i] = self._epoch + ((self._runs[k].hi << 32) | <int64_t>self._lo[j])
-            pv[i] = self._parent(j)
-            self._unpack(j, &dv[i, 0])
+            stv[i - start] = self._epoch + ((self._runs[k].hi << 32) | <int64_t>self._lo[j])
+            pv[i - start] = self._parent(j)
+            self._unpack(j, &dv[i - start, 0])
         return st, par, d
 
 
@@ -1023,6 +1072,19 @@ cdef class StaticCache(CacheBase):
     cdef int32_t latest_parent_c(self) noexcept:
         return self._parent
 
+    cdef int span_c(self, int64_t lo, int64_t hi, int32_t* parent, Py_ssize_t* first, Py_ssize_t* last,
+                    int64_t* split) noexcept:
+        parent[0] = self._parent
+        first[0] = last[0] = 0
+        return 1
+
+    cdef object link_columns(self, Py_ssize_t first, Py_ssize_t last):
+        import numpy as np
+        d = np.empty((1, 7), dtype=np.float64)
+        cdef double[:, ::1] dv = d
+        memcpy(&dv[0, 0], self._v, 7 * sizeof(double))
+        return None, d
+
     @property
     def sample(self) -> tuple:
         """(parent, tx, ty, tz, qx, qy, qz, qw)."""
@@ -1031,9 +1093,6 @@ cdef class StaticCache(CacheBase):
 
     def error(self, int64_t t) -> str:
         return ""
-
-    def latest_stamp_parent(self) -> tuple:
-        return 0, self._parent
 
     def newest_stamp(self) -> int:
         return 0

@@ -1,4 +1,4 @@
-"""Limits and status codes shared by the buffer core, its caches and the vectorized batches."""
+"""Limits and status codes shared by the buffer core and its caches."""
 from __future__ import annotations
 
 __all__ = ["DEFAULT_CACHE_TIME", "MAX_GRAPH_DEPTH", "MAX_STAMP_NS", "DEFAULT_MAX_FRAMES",
@@ -10,10 +10,10 @@ DEFAULT_CACHE_TIME = 10.0
 MAX_GRAPH_DEPTH = 1000
 #: Largest stamp a buffer holds: int64 nanoseconds (year 2262). Later stamps are refused on insert.
 MAX_STAMP_NS = 2**63 - 1
-#: Distinct frame names a buffer takes before it refuses new ones (not in tf2, which has no bound:
-#: 200k forged frames took a listener from 106 to 399 MB). A robot has tens to hundreds of frames.
+#: Distinct frame names a buffer takes before it refuses new ones (not in tf2, which has no bound: a
+#: flood of forged names would grow a listener without limit). A robot has tens to hundreds of frames.
 DEFAULT_MAX_FRAMES = 10_000
-#: Longest frame id a buffer takes, in UTF-8 bytes (not in tf2: a 10 MB frame id was stored).
+#: Longest frame id a buffer takes, in UTF-8 bytes (not in tf2, which stores a frame id of any size).
 DEFAULT_MAX_FRAME_ID_LENGTH = 256
 
 #: What a cache's insert() answers: stored, older than the cache keeps, or a stamp already held.

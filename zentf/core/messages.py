@@ -204,7 +204,7 @@ class PoseStamped(Message):
     pose: Pose = field(default_factory=Pose)
 
 
-# --- More geometry_msgs that tf2_geometry_msgs transforms (issue 16) ----------------------------
+# --- More geometry_msgs that tf2_geometry_msgs transforms -----------------------------------------
 
 
 @register

@@ -23,8 +23,8 @@ import math
 from typing import Any, Sequence
 
 from .exceptions import InvalidArgumentException
-from .math3d import matrix_from_quaternion, quaternion_from_matrix
 from .messages import Header, Twist, Vector3, VelocityStamped
+from .rotation import matrix_from_quaternion, quaternion_from_matrix
 from .time import Duration, Time, ns_from_sec, to_duration
 
 __all__ = ["lookup_velocity", "lookup_velocity_full"]

@@ -317,4 +317,8 @@ string[] names
 ---
 uint8[] types
 """,
+    "tf2_msgs/srv/FrameGraph": """
+---
+string frame_yaml
+""",
 }

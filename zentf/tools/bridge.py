@@ -155,6 +155,7 @@ class Ros2Bridge:
                     raise ValueError(f"payload of {size} bytes exceeds the {MAX_PAYLOAD} byte limit")
                 payload = sample.payload.to_bytes()
                 if topic.startswith("tf") and profile.topic_of_key(key)[1] in (None, TFMessage.TYPE_NAME):
+                    profile.check_tf_encoding(str(sample.encoding))  # zentf: another type on tf is named as such
                     if not self._relay_tf(src, dst, topic, fq, latched, payload):
                         self.stats.dropped += 1
                         return

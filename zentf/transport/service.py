@@ -176,7 +176,7 @@ class Service:
             return
         try:
             if ros2_id is not None:
-                request = cdr_codec.decode(payload, self._req_type)
+                request = _as_class(cdr_codec.decode(payload, self._req_type), self.srv_type.Request)
             else:
                 request = wire.decode(payload, self.srv_type.Request) if payload else self.srv_type.Request()
         except ValueError as e:
@@ -354,7 +354,7 @@ class Client:
                         got = parse_ros2_attachment(ok.attachment.to_bytes())[0]
                         if got != seq:
                             raise ValueError(f"reply to request {got}, expected {seq}")
-                    fut.set_result(cdr_codec.decode(ok.payload.to_bytes(), resp_type))
+                    fut.set_result(_as_class(cdr_codec.decode(ok.payload.to_bytes(), resp_type), resp_cls))
                     return
                 enc_type = wire.type_name_from_encoding(str(ok.encoding))
                 if enc_type is not None and enc_type != resp_type:
@@ -414,3 +414,14 @@ class Client:
             return
         self._destroyed = True
         undeclare_all((self._querier, self._token))
+
+
+def _as_class(value: Any, cls: type[Message]) -> Any:
+    """A decoded CDR value as the service's own class: the codec returns a plain dict for a type that has no
+    registered class (one made from its definition, zentf.ros.classes), and handlers and callers get instances."""
+    if isinstance(value, dict):
+        try:
+            return cls.from_dict(cdr_codec.fit_plain(cls, value))
+        except (ValueError, TypeError) as e:
+            raise CdrError(f"{cls.TYPE_NAME}: {e}") from None
+    return value
