@@ -520,7 +520,6 @@ DATA_LIMIT = 1024 * 1024
 def parse_message(type_name: str, data: str) -> Any:
     """DATA (YAML or JSON) -> message of the type; one-line CliError naming the bad field."""
     from zentf.core.messages import message_type
-    from zentf.core.safe_yaml import YamlRefused, load
 
     return parse_message_as(message_type(type_name), data)
 
@@ -528,6 +527,8 @@ def parse_message(type_name: str, data: str) -> Any:
 def parse_message_as(cls: Any, data: str) -> Any:
     """DATA (YAML or JSON) -> a ``cls`` message; one-line CliError naming the bad field."""
     import yaml
+
+    from zentf.core.safe_yaml import YamlRefused, load
 
     type_name = cls.TYPE_NAME
     try:
