@@ -6,8 +6,11 @@ BufferClient has the Buffer API (``lookup_transform``, ``lookup_transform_full``
 ``<ns>/tf2_buffer_server`` (type ``tf2_msgs/action/LookupTransform``; tf2_ros runs it as an action,
 zentf as one request and one reply, with no feedback or cancel). The server answers at once from
 Zenoh's thread when it can; a lookup that must wait (``timeout`` > 0) waits on the buffer's insert
-events in a worker thread, never polling. Errors come back as tf2's exception classes with the
-server's text. A client whose server restarts simply reaches the new one.
+events in a worker thread, never polling. A wait never outlives its caller: the call says when its
+caller gives up (``deadline_ms``, see ``zentf.transport.service``), a request that does not say is
+taken to give up after Zenoh's default query timeout, and the server caps every wait (``max_wait``),
+so a wait slot held by a client that left is free again by then. Errors come back as tf2's exception
+classes with the server's text (cut and escaped). A client whose server restarts simply reaches the new one.
 """
 from __future__ import annotations
 
@@ -25,6 +28,7 @@ from ..core.services import TF2Error, LookupTransform
 from ..core.time import Duration, Time, to_duration
 from .entities import undeclare_all
 from .names import topic_to_key
+from .service import DEADLINE_PARAMETER, ERROR_TEXT_LIMIT, error_text
 
 __all__ = ["BufferServer", "BufferClient", "DEFAULT_NAME"]
 
@@ -32,6 +36,12 @@ log = logging.getLogger("zentf.transport.buffer_server")
 
 #: tf2_ros's default name of the buffer server.
 DEFAULT_NAME = "tf2_buffer_server"
+#: Longest wait the server grants a lookup by default (s); ``max_wait`` changes it.
+DEFAULT_MAX_WAIT = 60.0
+#: How long a caller that did not say when it gives up is taken to wait (s): Zenoh's default query timeout.
+UNSTATED_DEADLINE = 10.0
+#: A wait ends this much (s) before its caller's deadline, so the answer can still reach it.
+_REPLY_MARGIN = 0.02
 
 _CODES: list[tuple[type[Exception], int]] = [
     (LookupException, TF2Error.LOOKUP_ERROR), (ConnectivityException, TF2Error.CONNECTIVITY_ERROR),
@@ -49,6 +59,18 @@ def _code(e: BaseException) -> int:
     return TF2Error.TRANSFORM_ERROR
 
 
+def caller_deadline(query: Any) -> float | None:
+    """Seconds from now until the caller of ``query`` gives up (its ``deadline_ms`` parameter), or None
+    when it did not say (or said something that is not a count of milliseconds)."""
+    try:
+        text = query.parameters.get(DEADLINE_PARAMETER)
+    except Exception:
+        return None
+    if text is None or not text.isdigit() or len(text) > 12:
+        return None
+    return int(text) / 1000.0
+
+
 def _stamp_ns(d: Any, what: str) -> int:
     if not isinstance(d, dict):
         raise ValueError(f"{what} must be {{sec, nanosec}}")
@@ -62,10 +84,14 @@ class BufferServer:
     """Answers LookupTransform queries from ``buffer`` (a Buffer that a TransformListener fills).
 
     ``max_waiting`` bounds the lookups waiting for data at once (each holds a worker thread); one more
-    is answered with a TIMEOUT_ERROR saying the server is busy.
+    is answered with a TIMEOUT_ERROR saying the server is busy. A wait lasts the request's ``timeout``,
+    but never past its caller's deadline nor ``max_wait`` seconds, so abandoned waits free their slots.
     """
 
-    def __init__(self, buffer: Any, node: Any, ns: str = DEFAULT_NAME, *, max_waiting: int = 64) -> None:
+    def __init__(self, buffer: Any, node: Any, ns: str = DEFAULT_NAME, *, max_waiting: int = 64,
+                 max_wait: float = DEFAULT_MAX_WAIT) -> None:
+        if not 0.0 < max_wait <= 1e6:  # (a float: NaN is refused too)
+            raise ValueError(f"max_wait must be within (0, 1e6] seconds, got {max_wait!r}")
         self.buffer = buffer
         self.node = node
         self.name = node.resolve_topic_name(ns)
@@ -75,6 +101,7 @@ class BufferServer:
         self._resp_enc = wire.encoding_for(LookupTransform.Response.TYPE_NAME)
         self._req_type = LookupTransform.Request.TYPE_NAME
         self._max_waiting = max_waiting
+        self.max_wait = float(max_wait)
         self._waiting = 0
         self._lock = threading.Lock()
         self._pool = ThreadPoolExecutor(max_workers=max_waiting, thread_name_prefix="tf2-buffer-server")
@@ -100,6 +127,7 @@ class BufferServer:
             args = (target, _stamp_ns(d.get("target_time", {}), "target_time"), source,
                     _stamp_ns(d.get("source_time", {}), "source_time"), fixed, bool(d.get("advanced", False)))
             timeout_ns = _stamp_ns(d.get("timeout", {}), "timeout")
+            deadline = caller_deadline(query)
         except Exception as e:
             self.errors += 1
             self._reply(query, None, TF2Error.INVALID_ARGUMENT_ERROR, f"bad LookupTransform request: {e}")
@@ -122,7 +150,9 @@ class BufferServer:
             self._reply(query, None, TF2Error.TIMEOUT_ERROR,
                         f"buffer server {self.name} is busy ({self._max_waiting} lookups waiting)")
             return
-        self._pool.submit(self._wait_and_reply, query, args, timeout_ns / 1e9)
+        left = UNSTATED_DEADLINE if deadline is None else deadline
+        self._pool.submit(self._wait_and_reply, query, args,
+                          max(0.0, min(timeout_ns / 1e9, left - _REPLY_MARGIN, self.max_wait)))
 
     def _lookup(self, target: str, tt: int, source: str, st: int, fixed: str, advanced: bool,
                 timeout: float) -> TransformStamped:
@@ -145,7 +175,7 @@ class BufferServer:
 
     def _reply(self, query: Any, ts: TransformStamped | None, code: int, text: str) -> None:
         body = {"transform": wire.tf_to_plain(ts) if ts is not None else _ZERO_TS,
-                "error": _NO_ERROR if code == 0 else {"error": code, "error_string": text}}
+                "error": _NO_ERROR if code == 0 else {"error": code, "error_string": error_text(text)}}
         try:
             query.reply(query.key_expr, wire.pack(body), encoding=self._resp_enc)
         except Exception as e:
@@ -242,7 +272,7 @@ class BufferClient:
             raise TimeoutException(f"buffer server {self.name}: {e}") from None
         err = resp.error
         if err.error != TF2Error.NO_ERROR:
-            raise _EXCEPTIONS.get(err.error, TransformException)(err.error_string)
+            raise _EXCEPTIONS.get(err.error, TransformException)(error_text(err.error_string, 4 * ERROR_TEXT_LIMIT))
         return resp.transform
 
     def destroy(self) -> None:

@@ -4,7 +4,9 @@ A server is a *complete* queryable on the service's key (the resolved service na
 topic: ``spawn`` in namespace ``sim`` is key ``sim/spawn``). A call is one Zenoh ``get`` carrying the
 request (msgpack, encoding ``application/msgpack;<type>_Request``, attachment = caller node); the
 server answers with one ok reply (the response, ``..._Response``) or one error reply (UTF-8 text:
-why the request failed). Handlers run on the server node's executor, one at a time, like rclpy's
+why the request failed, escaped and cut to ERROR_TEXT_LIMIT characters on both sides: it may quote a
+payload). The selector's ``deadline_ms`` parameter says how many milliseconds the caller waits, so a
+server that would wait for something (the buffer server) stops when its caller has given up. Handlers run on the server node's executor, one at a time, like rclpy's
 single-threaded executor. Graph tokens ``@zentf/srv/...`` and ``@zentf/cli/...`` let tools list them.
 Details in docs/protocol.md.
 
@@ -30,12 +32,14 @@ from typing import Any
 from .wire import codec as wire
 from ..core.messages import Message
 from ..core.services import ServiceType
+from ..core.text import printable
 from .entities import undeclare_all
 from ..ros import CdrError, UnknownTypeError
 from ..ros import codec as cdr_codec
 
 __all__ = ["Service", "Client", "ServiceException", "ServiceTimeoutError", "ServiceUnavailableError",
-           "ERROR_ENCODING"]
+           "ERROR_ENCODING", "DEADLINE_PARAMETER", "ERROR_TEXT_LIMIT", "error_text",
+           "received_error_text"]
 
 log = logging.getLogger("zentf.transport.service")
 
@@ -43,8 +47,26 @@ log = logging.getLogger("zentf.transport.service")
 ERROR_ENCODING = "text/plain;zentf/service_error"
 #: Zenoh needs a finite query timeout; "wait forever" is this many seconds (about 11.5 days).
 _FOREVER = 1_000_000.0
+#: The selector parameter of a call saying in how many milliseconds its caller gives up.
+DEADLINE_PARAMETER = "deadline_ms"
+#: Most characters of an error reply's text (before escaping): a reason, not a copy of the payload.
+ERROR_TEXT_LIMIT = 1000
 #: rclpy's default service QoS depth (rmw_qos_profile_services_default), shown in ROS 2 tokens.
 DEFAULT_DEPTH = 10
+
+
+def error_text(text: str, limit: int = ERROR_TEXT_LIMIT) -> str:
+    """An error reply's text as it may travel and be shown: control characters escaped, at most ``limit``
+    characters of the original (a handler's exception may quote a 100 KB payload), 4 x ``limit`` once
+    escaped."""
+    out = printable(text, limit)
+    return out if len(out) <= 4 * limit else out[:4 * limit - 3] + "..."
+
+
+def received_error_text(raw: bytes) -> str:
+    """The text of an error reply from anyone, as it may be shown (``error_text`` with room for what a
+    zentf server already cut and escaped)."""
+    return error_text(raw[:16 * ERROR_TEXT_LIMIT].decode("utf-8", "replace"), 4 * ERROR_TEXT_LIMIT)
 
 
 def _service_key(node: Any, name: str, srv_type: type[ServiceType], role: str) -> str | None:
@@ -191,7 +213,7 @@ class Service:
 
     def _reply_err(self, query: Any, text: str) -> None:
         try:
-            query.reply_err(text.encode("utf-8"), encoding=ERROR_ENCODING)
+            query.reply_err(error_text(text).encode("utf-8"), encoding=ERROR_ENCODING)
         except Exception as e:
             log.debug("service %s: error reply failed: %s", self.service_name, e)
         finally:
@@ -317,7 +339,7 @@ class Client:
                 ok = reply.ok
                 if ok is None:
                     err = reply.err
-                    text = err.payload.to_bytes().decode("utf-8", "replace") if err is not None else ""
+                    text = received_error_text(err.payload.to_bytes()) if err is not None else ""
                     if err is not None and str(err.encoding) == ERROR_ENCODING:
                         fut.set_exception(ServiceException(text or f"service {name}: error reply"))
                     elif text.strip().lower() == "timeout":  # Zenoh's own reply when the query times out
@@ -357,8 +379,9 @@ class Client:
             if ros2:
                 self.node.session.get(self.key, handler, target=self._target, consolidation=self._consolidation,
                                       timeout=limit, payload=payload, attachment=attachment)
-            else:
-                self.node.session.get(self.key, handler, target=self._target, timeout=limit, payload=payload,
+            else:  # the selector says when this caller gives up (a server may stop waiting for it then)
+                selector = f"{self.key}?{DEADLINE_PARAMETER}={int(limit * 1000)}"
+                self.node.session.get(selector, handler, target=self._target, timeout=limit, payload=payload,
                                       encoding=self._req_enc, attachment=attachment)
         except Exception as e:
             fut.set_exception(ServiceException(f"service {name}: query failed: {e}"))
