@@ -25,6 +25,13 @@ TFMessages (``--forged-size`` bytes, each a new shape, frame names without their
 valid sentinel; reported for a ``zentf tf echo --wire ros2`` listener and a ``zentf bridge ros2``: peak RSS
 above idle and RSS above idle once the sentinel is through (target <= 50 MB), against the same run of
 the tree ``--reference-tree`` names (a checkout built in place, e.g. the main branch before the fix).
+
+MCAP decompression bomb (``--only bomb``): a forged MCAP (a few KB) whose one zstd chunk expands to
+``--bomb-size`` bytes of zeros (default 1.5 GiB, the reported case); reported for ``zentf bag info`` and
+``zentf tf echo --bag`` (each a fresh process, which reads the bag and exits): peak RSS (the kernel's
+high-water mark of that process, VmHWM) and the RSS last seen before it exits, in MB, against the same commands
+on a valid 1 MiB chunk (the reference without a bomb) and against the ``--reference-tree`` (e.g. main
+before the bounded decompression; target for this tree: peak <= +100 MB over the valid chunk).
 """
 from __future__ import annotations
 
@@ -363,7 +370,8 @@ def main() -> None:
     ap.add_argument("--forged", type=int, default=40, help="forged ROS 2 TFMessages in the forged case")
     ap.add_argument("--forged-size", type=int, default=1_800_000, help="bytes of each forged TFMessage")
     ap.add_argument("--reference-tree", help="a zentf checkout (built in place) measured the same way in the forged case")
-    ap.add_argument("--only", choices=["flood", "memory", "forged"], help="run one part")
+    ap.add_argument("--bomb-size", type=int, default=3 << 29, help="bytes the bomb's chunk expands to (--only bomb)")
+    ap.add_argument("--only", choices=["flood", "memory", "forged", "bomb"], help="run one part")
     args = ap.parse_args()
     if args.role != "main":
         {"listener": role_listener, "legit": role_legit, "flood": role_flood, "forge_ros2": role_forge_ros2,
@@ -372,6 +380,10 @@ def main() -> None:
     if args.only == "forged":
         print(f"# zentf abuse bench  (python {sys.version.split()[0]}, {os.cpu_count()} cpus; loopback router)")
         forged_table(args)
+        return
+    if args.only == "bomb":
+        print(f"# zentf abuse bench  (python {sys.version.split()[0]}, {os.cpu_count()} cpus)")
+        bomb_table(args)
         return
 
     print(f"# zentf abuse bench  (python {sys.version.split()[0]}, {os.cpu_count()} cpus; loopback router)")
@@ -430,6 +442,7 @@ def main() -> None:
     if args.only != "flood":
         memory_table(args)  # (a router of its own per row)
         forged_table(args)
+        bomb_table(args)
 
 
 def memory_run(ep: str, frames: int, *extra: str) -> dict:
@@ -584,6 +597,114 @@ def forged_table(args: argparse.Namespace) -> None:
                       f"{r['after']:.0f}{target} | {r['secs']:.1f} |")
     print()
     print("Peak: the victim's high-water mark above idle (the messages in flight and their decoding).")
+
+
+# ------------------------------------------------------------------ decompression bomb
+
+
+def _mcap_record(op: int, body: bytes) -> bytes:
+    import struct
+
+    return struct.pack("<BQ", op, len(body)) + body
+
+
+def _mcap_str(text: str) -> bytes:
+    import struct
+
+    return struct.pack("<I", len(text)) + text.encode()
+
+
+def write_mcap_bomb(path: Path, expands_to: int, declares: int | None = None) -> Path:
+    """An MCAP with one /tf channel and one zstd chunk whose single message record is ``expands_to`` bytes of
+    zeros (a few KB on disk for 1.5 GiB); the chunk declares ``declares`` bytes (default: the truth)."""
+    import struct
+
+    import zstandard
+
+    mib = 1 << 20
+    head = struct.pack("<BQ", 5, expands_to - 9) + struct.pack("<HIQQ", 1, 0, 10, 10)
+    comp = zstandard.ZstdCompressor(level=1, write_content_size=True).compressobj(size=expands_to)
+    parts = [comp.compress(head)]
+    left, zeros = expands_to - len(head), bytes(mib)
+    while left > 0:
+        parts.append(comp.compress(zeros[:min(mib, left)]))
+        left -= mib
+    parts.append(comp.flush())
+    data = b"".join(parts)
+    chunk = struct.pack("<QQQI", 10, 10, expands_to if declares is None else declares, 0) + _mcap_str("zstd") + struct.pack("<Q", len(data)) + data
+    path.write_bytes(b"\x89MCAP0\r\n" + _mcap_record(1, _mcap_str("ros2") + _mcap_str("bench"))
+                     + _mcap_record(3, struct.pack("<H", 1) + _mcap_str("tf2_msgs/msg/TFMessage")
+                                    + _mcap_str("ros2msg") + _mcap_str(""))
+                     + _mcap_record(4, struct.pack("<HH", 1, 1) + _mcap_str("/tf") + _mcap_str("cdr")
+                                    + struct.pack("<I", 0))
+                     + _mcap_record(6, chunk) + _mcap_record(0x0F, struct.pack("<I", 0))
+                     + _mcap_record(2, struct.pack("<QQI", 0, 0, 0)) + b"\x89MCAP0\r\n")
+    return path
+
+
+def bomb_run(tree: str, args: list[str]) -> dict:
+    """One ``zentf ARGS`` from ``tree`` to its end: peak RSS (its VmHWM, read every 10 ms: wait4's ru_maxrss
+    would count the forking parent's size, kept across exec) and the RSS last seen, in MB."""
+    env = {**os.environ, "PYTHONPATH": tree, "PYTHONUNBUFFERED": "1"}
+    t0 = time.monotonic()
+    p = subprocess.Popen([sys.executable, "-m", "zentf.cli", *args], env=env, cwd=tree, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, stdin=subprocess.DEVNULL)
+    last = peak = 0
+    out: list[bytes] = []
+    readers = [threading.Thread(target=lambda f=f: out.append(f.read()), daemon=True) for f in (p.stdout, p.stderr)]
+    for r in readers:
+        r.start()
+    while True:
+        try:
+            last, peak = rss_kb(p.pid)
+        except (OSError, KeyError):  # (gone, or a zombie without its memory lines)
+            pass
+        pid, status = os.waitpid(p.pid, os.WNOHANG)
+        if pid:
+            break
+        if time.monotonic() - t0 > 600:
+            p.kill()
+        time.sleep(0.01)
+    for r in readers:
+        r.join(5)
+    p.returncode = os.waitstatus_to_exitcode(status)
+    text = b"".join(out).decode("utf-8", "replace").strip().splitlines()
+    line = next((ln for ln in text if "warning" in ln or "error" in ln or "complete" in ln), text[-1] if text else "")
+    return {"peak": peak / 1024, "last": last / 1024, "secs": time.monotonic() - t0,
+            "rc": p.returncode, "line": line}
+
+
+def bomb_table(args: argparse.Namespace) -> None:
+    import tempfile
+
+    trees = [("this tree", str(Path(__file__).resolve().parent.parent))]
+    if args.reference_tree:
+        trees.append((f"reference: {args.reference_tree}", str(Path(args.reference_tree).resolve())))
+    with tempfile.TemporaryDirectory(prefix="zentf-bomb-") as tmp:
+        bomb = write_mcap_bomb(Path(tmp) / "bomb.mcap", args.bomb_size)
+        lying = write_mcap_bomb(Path(tmp) / "lying.mcap", args.bomb_size, declares=1 << 20)
+        valid = write_mcap_bomb(Path(tmp) / "valid.mcap", 1 << 20)
+        print()
+        print(f"MCAP bomb: {bomb.stat().st_size / 1024:.0f} KB on disk, one zstd chunk of "
+              f"{args.bomb_size / (1 << 30):.2f} GiB; lying bomb: the same chunk declaring 1 MiB; "
+              "valid: the same with a 1 MiB chunk")
+        print()
+        print("| command | file | tree | peak RSS (MB) | RSS last seen before exit (MB) | s | exit | what it said |")
+        print("|---|---|---|---|---|---|---|---|")
+        for label, cmd in (("`bag info`", ["bag", "info"]), ("`tf echo --bag`", ["tf", "echo", "world", "base"])):
+            for fname, path in (("valid", valid), ("bomb", bomb), ("lying bomb", lying)):
+                for tree_label, tree in trees:
+                    argv = [*cmd, str(path)] if cmd[0] == "bag" else [*cmd, "--bag", str(path)]
+                    try:
+                        r = bomb_run(tree, argv)
+                    except Exception as e:  # noqa: BLE001 - a reference that cannot run this case: say so
+                        print(f"| {label} | {fname} | {tree_label} | failed: {str(e)[:80]} | | | | |")
+                        continue
+                    said = r["line"].replace(str(path), "FILE").replace("|", "/")[:110]
+                    print(f"| {label} | {fname} | {tree_label} | {r['peak']:.0f} | {r['last']:.0f} | {r['secs']:.1f} | "
+                          f"{r['rc']} | {said} |")
+    print()
+    print("Target: this tree's peak on the bomb within +100 MB of its peak on the valid file.")
 
 
 if __name__ == "__main__":

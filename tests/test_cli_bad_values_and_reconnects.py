@@ -31,7 +31,7 @@ def offline_env() -> dict[str, str]:
     (["node", "list", "--wait", "1e300"], ["'--wait'", "1e+300 is too large (at most 1e+09)"]),
     (["topic", "hz", "x", "--period", "1e300"], ["'--period'", "1e+300 is too large"]),
     # a negative number is a number, not an unknown option
-    (["clock", "rate", "-1"], ["rate FACTOR must be a finite number > 0, got -1.0"]),
+    (["clock", "rate", "-1"], ["rate FACTOR must be between 1e-06 and 1e+06, got -1.0"]),
     (["tf", "echo", "a", "b", "-2"], ["Invalid value for '[RATE]': -2.0 is not in the range"]),
     # counts: 0 is refused (ROS 2's "0 = forever" for --times surprised users); omit the option for that
     (["topic", "pub", "x", "geometry_msgs/msg/Point", "--times", "0"], ["'--times'", "0 is not in the range x>=1"]),

@@ -28,7 +28,7 @@ def test_static_transform_publisher_same_frames_and_help(spawn):
 
 
 @pytest.mark.parametrize("args, error", [
-    (["nodes.frames_publisher", "-p", "rate:=-1"], "frames_publisher: error: parameter rate must be positive"),
+    (["nodes.frames_publisher", "-p", "rate:=-1"], "frames_publisher: error: parameter rate must be between 1e-06 and 1e+06 Hz, got -1.0"),
     (["nodes.turtle_teleop", "-p", "pattern:=zigzag"], "turtle_teleop: error: parameter pattern must be one of"),
     (["nodes.frame_listener", "--bogus"], "frame_listener: error: unrecognized arguments: --bogus"),
 ])

@@ -124,3 +124,71 @@ def test_a_garbage_request_is_answered_with_invalid_argument(spawn, zenoh_sessio
     assert err["error"] == 4 and err["error_string"].startswith("bad LookupTransform request")
     with pytest.raises(LookupException):  # the server still answers
         client.lookup_transform("a", "b", Time())
+
+
+def _pin_every_slot(session, key: str, selector_extra: str, gives_up: float) -> None:
+    """64 waiting lookups (timeout 1e9 s, for a frame nobody publishes) from callers that give up after
+    ``gives_up`` seconds: the attack that held every wait slot of the server."""
+    import msgpack
+    import zenoh
+
+    goal = msgpack.packb({"target_frame": "map", "source_frame": "pinned", "timeout": {"sec": 10**9, "nanosec": 0}})
+    done = threading.Semaphore(0)
+    for _ in range(64):
+        session.get(f"{key}{selector_extra}", zenoh.handlers.Callback(lambda reply: None, done.release),
+                    payload=goal, timeout=gives_up)
+    for _ in range(64):  # every caller has given up
+        assert done.acquire(timeout=30)
+
+
+def _slot_frees(client: BufferClient, within: float) -> bool:
+    """True once a waiting lookup is taken on (not refused as busy) within ``within`` seconds."""
+    t0 = time.monotonic()
+    while True:
+        try:
+            client.lookup_transform("map", "later", Time(), timeout=0.3)
+        except TimeoutException as e:
+            if "busy" not in str(e):
+                raise
+            if time.monotonic() - t0 > within:
+                return False
+        except LookupException:
+            return True  # it waited its 0.3 s on the server, then tf2's error: a slot was free
+
+
+def test_waits_of_callers_that_gave_up_free_their_slots(spawn, client_node, zenoh_session, test_namespace):
+    _server(spawn)
+    client = BufferClient(client_node)
+    assert client.wait_for_server(20)
+    # callers that say when they give up (``deadline_ms``, as every zentf client does)
+    _pin_every_slot(zenoh_session, f"{test_namespace}/tf2_buffer_server", "?deadline_ms=1000", 1.0)
+    assert _slot_frees(client, 3.0), "the waits of callers that gave up still hold every slot"
+
+
+def test_the_server_caps_every_wait(spawn, client_node, zenoh_session, test_namespace):
+    p = spawn.python("-m", "nodes.buffer_server", "-p", "max_wait:=1.0")
+    p.wait_for_line(r"serving /t_\w+/tf2_buffer_server", 30)
+    client = BufferClient(client_node)
+    assert client.wait_for_server(20)
+    # callers that do not say when they give up: held at most max_wait
+    _pin_every_slot(zenoh_session, f"{test_namespace}/tf2_buffer_server", "", 1.0)
+    assert _slot_frees(client, 3.0), "waits of 1e9 s outlived the server's max_wait"
+    bad = spawn.python("-m", "nodes.buffer_server", "--name", "b2", "-p", "max_wait:=1e300")
+    assert bad.wait(30) == 1 and "max_wait" in bad.output() and len(bad.lines) == 1, bad.output()
+
+
+def test_error_replies_are_cut_and_escaped(spawn, client_node, zenoh_session, test_namespace):
+    import msgpack
+
+    _server(spawn)
+    client = BufferClient(client_node)
+    assert client.wait_for_server(20)
+    frame = "\x1b[2J\r\n[ERROR] forged" + "x" * 100_000
+    replies = list(zenoh_session.get(f"{test_namespace}/tf2_buffer_server",
+                                     payload=msgpack.packb({"target_frame": frame, "source_frame": "map"}),
+                                     timeout=10))
+    text = msgpack.unpackb(replies[0].ok.payload.to_bytes())["error"]["error_string"]
+    assert len(text) <= 4000 and text.isprintable() and "\\x1b[2J\\r\\n[ERROR] forged" in text, text[:200]
+    with pytest.raises(LookupException) as info:  # the client keeps it as it came, one short line
+        client.lookup_transform(frame, "map", Time())
+    assert len(str(info.value)) <= 4000 and str(info.value).isprintable()

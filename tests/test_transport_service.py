@@ -197,3 +197,25 @@ def test_garbage_requests_get_an_error_reply_and_the_server_carries_on(server, z
     client = node.create_client("echo", SetBool)
     assert client.wait_for_service(20)
     assert client.call({"data": True}, timeout=10).success
+
+
+def test_an_error_reply_quoting_a_huge_request_is_cut_and_escaped(server, zenoh_session, test_namespace, node):
+    import msgpack
+
+    huge = msgpack.packb({"data": "\x1b[2J\r\n[ERROR] forged \u202e" * 10_000})  # ~250 KB once quoted
+    replies = list(zenoh_session.get(f"{test_namespace}/echo", payload=huge, timeout=10))
+    text = replies[0].err.payload.to_bytes().decode()
+    assert "bad request for std_srvs/srv/SetBool" in text and len(text) <= 4000 and text.isprintable(), len(text)
+    # a caller keeps what any server sends it to one short printable line too
+    from zentf.transport.service import ERROR_ENCODING
+
+    forger = zenoh_session.declare_queryable(
+        f"{test_namespace}/forged", lambda q: q.reply_err(("\x1b[2J" * 50_000).encode(), encoding=ERROR_ENCODING))
+    try:
+        client = node.create_client("forged", Trigger)
+        assert client.wait_for_service(20)
+        with pytest.raises(ServiceException) as info:
+            client.call(timeout=10)
+        assert len(str(info.value)) <= 16_000 and str(info.value).isprintable()
+    finally:
+        forger.undeclare()

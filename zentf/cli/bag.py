@@ -245,9 +245,9 @@ def _format_info(info: dict[str, Any]) -> str:
 @bag.command("play", context_settings=CONTEXT_SETTINGS)
 @click.argument("file", type=click.Path())
 @click.option("--clock", is_flag=True, help="Publish /clock with the bag time (for use_sim_time nodes).")
-@click.option("--hz", "clock_hz", type=finite_float(min=1.0), default=100.0, show_default=True,
+@click.option("--hz", "clock_hz", type=finite_float(min=1.0, max=1e6), default=100.0, show_default=True,
               help="/clock publish rate with --clock.")
-@click.option("--rate", "-r", type=finite_float(min=0.0, min_open=True), default=1.0, show_default=True,
+@click.option("--rate", "-r", type=finite_float(min=1e-6, max=1e6), default=1.0, show_default=True,
               help="Playback speed factor.")
 @click.option("--loop", "-l", is_flag=True, help="Start again at the end.")
 @click.option("--start", "-s", type=finite_float(min=0.0), default=0.0, show_default=True,

@@ -92,6 +92,7 @@ def _declared_defaults(type_name: str) -> dict[str, Any]:
 
     import yaml
 
+    from zentf.core.safe_yaml import YamlRefused, load
     from zentf.ros import definition_text
 
     out: dict[str, Any] = {}
@@ -99,8 +100,8 @@ def _declared_defaults(type_name: str) -> dict[str, Any]:
         m = re.match(r"^\s*\S+\s+([A-Za-z_]\w*)\s+([^=#\s][^#]*)$", _strip_comment(raw))
         if m:
             try:
-                out[m.group(1)] = yaml.safe_load(m.group(2).strip())
-            except yaml.YAMLError:
+                out[m.group(1)] = load(m.group(2).strip(), limit=4096)
+            except (yaml.YAMLError, YamlRefused):
                 pass
     return out
 

@@ -137,9 +137,12 @@ def param_get(node_name: str, name: str, hide_type: bool, timeout: float, *, opt
 @with_options
 def param_set(node_name: str, name: str, value: str, timeout: float, *, opts: CliOptions) -> None:
     """Set parameter NAME of NODE to VALUE (read as YAML: 20, 2.5, true, text, [1, 2])."""
-    from zentf.transport.options import parse_scalar
+    from zentf.transport.options import OptionsError, parse_scalar
 
-    parsed = parse_scalar(value)
+    try:
+        parsed = parse_scalar(value, "VALUE")
+    except OptionsError as exc:
+        raise CliError(str(exc), code=2) from None
     from zentf.core.parameters import type_of
 
     try:

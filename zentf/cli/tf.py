@@ -58,8 +58,8 @@ def _close(node: Any, listener: Any = None) -> None:
 @tf.command("echo", cls=TfToolCommand, context_settings=CONTEXT_SETTINGS)
 @click.argument("source")
 @click.argument("target")
-@click.argument("rate_arg", metavar="[RATE]", required=False, type=finite_float(min=0.001))
-@click.option("--rate", "-r", type=finite_float(min=0.001), default=1.0, show_default=True,
+@click.argument("rate_arg", metavar="[RATE]", required=False, type=finite_float(min=0.001, max=1e6))
+@click.option("--rate", "-r", type=finite_float(min=0.001, max=1e6), default=1.0, show_default=True,
               help="Prints per second (tf2_echo's optional third argument does the same).")
 @click.option("--precision", "-p", type=click.IntRange(0, 17), default=3, show_default=True,
               help="Digits after the decimal point.")
@@ -539,7 +539,7 @@ def _subscribe_tf(node: Any, stats: MonitorStats, topics: Optional[TfTopics] = N
 @click.argument("frame_b", required=False)
 @click.option("--duration", "-d", type=finite_float(min=0.0, min_open=True), default=None,
               help="Gather this many seconds, print one report and exit (default: run until Ctrl-C).")
-@click.option("--period", type=finite_float(min=0.1), default=2.0, show_default=True,
+@click.option("--period", type=finite_float(min=0.1, max=1e6), default=2.0, show_default=True,
               help="Seconds between reports when stdout is not a terminal.")
 @click.option("--window", type=finite_float(min=0.5), default=10.0, show_default=True,
               help="Seconds of arrivals used for the rates.")

@@ -298,7 +298,7 @@ def topic_echo(name: str, type_name: Optional[str], once: bool, count: Optional[
               help="Messages in the moving window.")
 @click.option("--duration", "-d", type=finite_float(min=0.0), default=None,
               help="Stop after this many seconds (default: until Ctrl-C).")
-@click.option("--period", type=finite_float(min=0.05), default=1.0, show_default=True,
+@click.option("--period", type=finite_float(min=0.05, max=1e6), default=1.0, show_default=True,
               help="Seconds between reports.")
 @with_options
 def topic_hz(name: str, window: int, duration: Optional[float], period: float, *, opts: CliOptions) -> None:
@@ -487,6 +487,10 @@ def resolve_type_name(text: str) -> str:
     raise CliError(f"unknown message type {text!r} (known: {known})", code=2)
 
 
+#: Longest DATA of `topic pub` / `service call` (characters).
+DATA_LIMIT = 1024 * 1024
+
+
 def parse_message(type_name: str, data: str) -> Any:
     """DATA (YAML or JSON) -> message of the type; one-line CliError naming the bad field."""
     from zentf.core.messages import message_type
@@ -498,9 +502,13 @@ def parse_message_as(cls: Any, data: str) -> Any:
     """DATA (YAML or JSON) -> a ``cls`` message; one-line CliError naming the bad field."""
     import yaml
 
+    from zentf.core.safe_yaml import YamlRefused, load
+
     type_name = cls.TYPE_NAME
     try:
-        plain = yaml.safe_load(data) if data.strip() else {}
+        plain = load(data, limit=DATA_LIMIT) if data.strip() else {}
+    except YamlRefused as exc:
+        raise CliError(f"DATA refused: {exc}", code=2) from None
     except yaml.YAMLError as exc:
         raise CliError(f"DATA is not valid YAML/JSON: {' '.join(str(exc).split())}", code=2) from exc
     if plain is None:
@@ -537,7 +545,7 @@ def _out_of_range(value: Any, path: str = "") -> Optional[tuple[str, int]]:
 @click.argument("name")
 @click.argument("type_name", metavar="TYPE")
 @click.argument("data", default="{}", required=False)
-@click.option("--rate", "-r", type=finite_float(min=0.001), default=1.0, show_default=True,
+@click.option("--rate", "-r", type=finite_float(min=0.001, max=1e6), default=1.0, show_default=True,
               help="Messages per second.")
 @click.option("--once", "-1", is_flag=True, help="Publish one message and exit.")
 @click.option("--times", "-t", type=click.IntRange(min=1), default=None,

@@ -78,9 +78,9 @@ class RateLimitedLogger:
             self._next.pop(k, None)
             self._suppressed.pop(k, None)
 
-    def log(self, level: int, key: Hashable, msg: str, *args: Any) -> bool:
+    def log(self, level: int, key: Hashable, msg: str, *args: Any, exc_info: Any = None) -> bool:
         """Log ``msg % args`` unless suppressed, every argument but numbers escaped (``printable``, cut at
-        ARG_LIMIT); True if a line was written."""
+        ARG_LIMIT), with ``exc_info``'s traceback if given; True if a line was written."""
         n = self.allow(key)
         if n < 0:
             return False
@@ -88,5 +88,5 @@ class RateLimitedLogger:
         if n:
             msg += " (%d similar suppressed)"
             args = (*args, n)
-        self.logger.log(level, msg, *args)
+        self.logger.log(level, msg, *args, exc_info=exc_info)
         return True

@@ -31,7 +31,7 @@ def _run(opts: NodeOptions) -> None:
     with program.make_node(opts, PROG) as node:
         target = str(program.param(node, "target_frame", "camera"))
         source = str(program.param(node, "source_frame", "laser"))
-        period = program.param_positive(node, "period", 1.0)
+        period = program.param_rate(node, "period", 1.0, period=True)
         buffer = Buffer()
         listener = TransformListener(  # noqa: F841  (kept alive by this frame)
             buffer, node, tf_topic=str(program.param(node, "tf_topic", "tf")),

@@ -60,7 +60,7 @@ def _run(opts: NodeOptions) -> None:
             program.say("published static poses of av1 and av2 (t = 0) on tf_static")
             node.spin()
             return
-        rate = program.param_positive(node, "rate", 50.0)
+        rate = program.param_rate(node, "rate", 50.0)
         broadcaster = TransformBroadcaster(node)
 
         def tick() -> None:

@@ -41,7 +41,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _run(opts: NodeOptions) -> None:
     with program.make_node(opts, PROG) as node:
-        rate = program.param_positive(node, "rate", 10.0)
+        rate = program.param_rate(node, "rate", 10.0)
         length = int(program.param_positive(node, "trail_length", 200))
         topic = str(program.param(node, "topic", "visual_markers"))
         prefix = str(program.param(node, "frame_prefix", "") or "")

@@ -32,7 +32,7 @@ def _run(opts: NodeOptions) -> None:
         topic = str(program.param(node, "topic", "laser_point"))
         target = str(program.param(node, "target_frame", "base_link"))
         queue_size = int(program.param_positive(node, "queue_size", 10))
-        timeout = program.param_positive(node, "timeout", 1.0)
+        timeout = program.param_rate(node, "timeout", 1.0, period=True)  # (a wait: bounded as a period)
         buffer = Buffer()
         listener = TransformListener(buffer, node)  # noqa: F841  (kept alive by this frame)
 

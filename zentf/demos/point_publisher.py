@@ -29,7 +29,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _run(opts: NodeOptions) -> None:
     with program.make_node(opts, PROG) as node:
-        period = program.param_positive(node, "period", 0.1)
+        period = program.param_rate(node, "period", 0.1, period=True)
         start_x = program.param_float(node, "start_x", 0.3)
         step = program.param_float(node, "step", 0.004)
         frame = str(program.param(node, "frame_id", "laser"))

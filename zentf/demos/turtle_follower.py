@@ -43,8 +43,8 @@ def _run(opts: NodeOptions) -> None:
     with program.make_node(opts, PROG) as node:
         me = str(program.param(node, "turtlename", "turtle2"))
         target = str(program.param(node, "target_frame", "turtle1"))
-        rate = program.param_positive(node, "rate", 10.0)
-        print_period = program.param_positive(node, "print_period", 1.0)
+        rate = program.param_rate(node, "rate", 10.0)
+        print_period = program.param_rate(node, "print_period", 1.0, period=True)
         spawn = Spawn.Request(x=program.param_float(node, "spawn_x", 4.0),
                              y=program.param_float(node, "spawn_y", 2.0),
                              theta=program.param_float(node, "spawn_theta", 0.0), name=me)

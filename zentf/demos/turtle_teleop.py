@@ -48,7 +48,7 @@ def _run(opts: NodeOptions) -> None:
         linear = program.param_float(node, "linear_speed", 1.0)
         angular = program.param_float(node, "angular_speed", 0.5)
         side = program.param_positive(node, "side", 2.0)
-        rate = program.param_positive(node, "rate", 10.0)
+        rate = program.param_rate(node, "rate", 10.0)
         if pattern not in PATTERNS:
             raise program.OptionsError(f"parameter pattern must be one of {', '.join(PATTERNS)}, "
                                        f"got {pattern!r}")

@@ -150,7 +150,7 @@ def _run(opts: NodeOptions) -> None:
     world = World()
     with program.make_node(opts, PROG) as node:
         clock = node.get_clock()
-        rate = program.param_positive(node, "rate", 62.5)
+        rate = program.param_rate(node, "rate", 62.5)
         pose_pubs: dict[str, object] = {}
         per_turtle: dict[str, list] = {}  # name -> its subscription and service, destroyed on kill
         walls: set[str] = set()

@@ -218,8 +218,10 @@ def clock(command: str, factor: Optional[float], timeout: float, as_json: bool, 
     if command == "rate":
         if factor is None:
             raise click.UsageError("rate needs a FACTOR, e.g. `zentf clock rate 2.0`")
-        if not factor > 0 or factor != factor or factor == float("inf"):
-            raise click.UsageError(f"rate FACTOR must be a finite number > 0, got {factor}")
+        from zentf.transport.clock import MAX_RATE, MIN_RATE
+
+        if not MIN_RATE <= factor <= MAX_RATE:
+            raise click.UsageError(f"rate FACTOR must be between {MIN_RATE:g} and {MAX_RATE:g}, got {factor}")
         payload = f"rate {factor!r}"
     else:
         if factor is not None:

@@ -15,7 +15,9 @@ from typing import Any, Mapping, Sequence
 
 import yaml
 
+from ..core import safe_yaml
 from ..core.text import parse_bool
+from ..transport.clock import MAX_RATE, MIN_RATE
 from ..transport.names import fully_qualified_node_name
 from ..transport.options import ParamsFileError, load_params_file
 from ..tools.programs import PROGRAMS, module_of
@@ -456,10 +458,14 @@ class _Loader:
                 spec.start = self._number(v["start"], scope, "start", minimum=0.0)
         if "rate" in v:
             spec.rate = self._number(v["rate"], scope, "rate", minimum=0.0, strict=True)
+            if not MIN_RATE <= spec.rate <= MAX_RATE:  # (a factor, kept in the range a timer's rate has)
+                raise v["rate"].error(f"clock rate must be between {MIN_RATE:g} and {MAX_RATE:g}, got {spec.rate!r}")
         if "frequency" in v:
             spec.frequency = self._number(v["frequency"], scope, "frequency", minimum=0.0, strict=True)
             if spec.frequency > 10000:
                 raise v["frequency"].error("clock frequency above 10000 Hz is not supported")
+            if spec.frequency < MIN_RATE:
+                raise v["frequency"].error(f"clock frequency below {MIN_RATE:g} Hz is not supported")
         if "paused" in v:
             spec.paused = self._bool(v["paused"], scope, "paused")
         return spec
@@ -485,8 +491,8 @@ class _Loader:
         text = self._sub_text(y, scope.ctx)
         if y.plain:
             try:
-                parsed = yaml.safe_load(text) if text.strip() else ""
-            except yaml.YAMLError:
+                parsed = safe_yaml.load(text) if text.strip() else ""
+            except (yaml.YAMLError, safe_yaml.YamlRefused):  # (refused: kept as the text it is)
                 return text
             if isinstance(parsed, (bool, int, float, str)) or parsed is None:
                 return parsed

@@ -15,6 +15,7 @@ import time
 from typing import Any
 
 from ..core.time import ns_from_sec
+from ..transport.clock import MAX_RATE, MIN_RATE
 from .description import ClockSpec
 
 __all__ = ["SimTime", "SimClockPublisher", "CONTROL_KEY", "CLOCK_NODE_PREFIX", "query_clock"]
@@ -59,8 +60,8 @@ class SimTime:
             self.paused = False
 
     def set_rate(self, rate: float) -> None:
-        if not (isinstance(rate, (int, float)) and math.isfinite(rate) and rate > 0):
-            raise ValueError(f"rate must be a number > 0, got {rate!r}")
+        if not (isinstance(rate, (int, float)) and MIN_RATE <= rate <= MAX_RATE):
+            raise ValueError(f"rate must be between {MIN_RATE:g} and {MAX_RATE:g}, got {rate!r}")
         with self._lock:
             self._reanchor()
             self.rate = float(rate)

@@ -6,6 +6,7 @@ from typing import Any, Union
 
 import yaml
 
+from ..core import safe_yaml
 from .errors import LaunchError
 
 __all__ = ["Y", "load_yaml_file", "load_yaml_text"]
@@ -85,18 +86,13 @@ def load_yaml_text(text: str, file: str) -> Y | None:
 
 
 def _refuse_aliases(text: str, file: str) -> None:
-    """Refuse `*alias` before composing: a few lines of nested aliases expand to billions of values
-    (the "billion laughs"), and a launch file gains nothing from them that repetition cannot give."""
-    loader = Loader(text)
+    """Refuse `*alias`, `&anchor` and tags before composing (``zentf.core.safe_yaml``): a few lines of
+    nested aliases expand to billions of values (the "billion laughs"), and a launch file gains nothing
+    from them that repetition cannot give."""
     try:
-        while loader.check_event():
-            event = loader.get_event()
-            if isinstance(event, yaml.AliasEvent):
-                raise LaunchError(f"YAML alias *{event.anchor} is not allowed in a launch file "
-                                  "(aliases can expand without bound; write the value out)",
-                                  file, event.start_mark.line + 1)
-    finally:
-        loader.dispose()
+        safe_yaml.check(text, context=" in a launch file")
+    except safe_yaml.YamlRefused as e:
+        raise LaunchError(e.problem, file, e.line) from None
 
 
 def _convert(node: yaml.Node, loader: Any, file: str) -> Y:

@@ -29,6 +29,7 @@ from collections.abc import Mapping
 from ..core.messages import Header, JointState
 from ..core.text import printable
 from ..transport.node import Node
+from ..transport.clock import rate_problem
 from ..urdf import Kinematics, Robot
 import argparse
 import os
@@ -47,8 +48,10 @@ class JointStatePublisher:
 
     def __init__(self, node: Node, robot: Robot, *, rate: float = 10.0, topic: str = "joint_states",
                  initial: Mapping[str, float] | None = None, sweep_period: float | None = None) -> None:
-        if not rate > 0:
-            raise ValueError(f"rate must be > 0, got {rate!r}")
+        problem = rate_problem("rate", rate) or (rate_problem("sweep_period", sweep_period, period=True)
+                                                 if sweep_period is not None else None)
+        if problem is not None:
+            raise ValueError(problem)
         self.node = node
         self.robot = robot
         self.kin = Kinematics(robot)
@@ -183,10 +186,10 @@ def parse_values(items: Sequence[str], prepared: Prepared) -> dict[str, float]:
 def check(p: Prepared) -> dict[str, float]:
     """The start-up checks (those of --set need the model: later when it comes from the topic)."""
     a = p.args
-    if a.rate is not None and not (a.rate > 0 and math.isfinite(a.rate)):
-        raise ArgError(f"--rate must be a positive number, got {a.rate}")
-    if not (a.sweep_period > 0 and math.isfinite(a.sweep_period)):
-        raise ArgError(f"--sweep-period must be a positive number, got {a.sweep_period}")
+    problem = ((rate_problem("--rate", a.rate) if a.rate is not None else None)
+               or rate_problem("--sweep-period", a.sweep_period, period=True))
+    if problem is not None:
+        raise ArgError(problem)
     if not 0 <= a.gui_port <= 65535:
         raise ArgError(f"--gui-port must be 0..65535, got {a.gui_port}")
     if a.sweep and a.gui:
@@ -219,7 +222,7 @@ def _run(p: Prepared, initial: dict[str, float]) -> None:
         if p.robot is None:
             p.robot = _model_from_topic(node, p)
             initial = parse_values(a.values, p)
-        rate = a.rate if a.rate is not None else program.param_positive(node, "rate", 10.0)
+        rate = a.rate if a.rate is not None else program.param_rate(node, "rate", 10.0)
         jsp = JointStatePublisher(node, p.robot, rate=rate, initial=initial,
                                   sweep_period=a.sweep_period if a.sweep else None)
         program.say(f"publishing joint_states of robot '{p.robot.name}': {len(jsp.published_names)} movable joints"

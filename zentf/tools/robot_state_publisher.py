@@ -44,6 +44,7 @@ from ..core.ratelimit import RateLimitedLogger
 from ..core.time import Time
 from ..transport import program
 from ..transport.broadcaster import StaticTransformBroadcaster
+from ..transport.clock import rate_problem
 from ..transport.node import Node, RawSample
 from ..transport.wire import codec as wire
 from ..urdf import Kinematics, Robot
@@ -132,18 +133,14 @@ class _Plan:
             np.asarray(sec_pos, dtype=ip), np.asarray(nsec_pos, dtype=ip), np.asarray(val_pos, dtype=ip))
 
 
-#: publish_frequency's range: its period in integer nanoseconds stays within int64 (1e-9 Hz: 31.7 years)
-MIN_FREQUENCY, MAX_FREQUENCY = 1e-9, 1e9
-FREQUENCY_RANGE = f"a number of Hz from {MIN_FREQUENCY:g} to {MAX_FREQUENCY:g}"
-
-
 class RobotStatePublisher:
     """Publishes a robot's frames from its model and its joint states (see the module doc)."""
 
     def __init__(self, node: Node, robot: Robot, *, frame_prefix: str = "", publish_frequency: float = 20.0,
                  ignore_timestamp: bool = False, joint_states_topic: str = "joint_states") -> None:
-        if not MIN_FREQUENCY <= publish_frequency <= MAX_FREQUENCY:
-            raise ValueError(f"publish_frequency must be {FREQUENCY_RANGE}, got {publish_frequency!r}")
+        problem = rate_problem("publish_frequency", publish_frequency)
+        if problem is not None:
+            raise ValueError(problem)
         self.node = node
         self.robot = robot
         self.frame_prefix = frame_prefix
@@ -411,12 +408,8 @@ def run(p: Prepared) -> int:
 def _run(opts, robot: Robot, args: argparse.Namespace) -> None:
     with program.make_node(opts, PROG) as node:
         prefix = args.frame_prefix if args.frame_prefix is not None else str(program.param(node, "frame_prefix", ""))
-        if args.publish_frequency is not None:
-            freq, what = args.publish_frequency, "--publish-frequency"
-        else:
-            freq, what = program.param_float(node, "publish_frequency", 20.0), "parameter publish_frequency"
-        if not MIN_FREQUENCY <= freq <= MAX_FREQUENCY:
-            raise program.OptionsError(f"{what} must be {FREQUENCY_RANGE}, got {freq:g}")
+        freq = (program.check_rate("--publish-frequency", args.publish_frequency)
+                if args.publish_frequency is not None else program.param_rate(node, "publish_frequency", 20.0))
         ignore = bool(args.ignore_timestamp) or program.param_bool(node, "ignore_timestamp", False)
         rsp = RobotStatePublisher(node, robot, frame_prefix=prefix, publish_frequency=freq, ignore_timestamp=ignore)
         movable = len(rsp._movable.names)

@@ -8,8 +8,11 @@ zentf as a service, one request and one reply, with no feedback or cancel), on t
 any service (zentf.transport.service; under ``--wire ros2`` zentf's clients and servers reach each
 other, ROS 2's action clients do not). The server answers at once from Zenoh's thread when it can; a
 lookup that must wait (``timeout`` > 0) waits on the buffer's insert events in a worker thread, never
-polling. Errors come back as tf2's exception classes with the server's text. A client whose server
-restarts simply reaches the new one.
+polling. A wait never outlives its caller: the call says when its caller gives up (``deadline_ms``,
+see ``zentf.transport.service``), a request that does not say is taken to give up after Zenoh's
+default query timeout, and the server caps every wait (``max_wait``), so a wait slot held by a client
+that left is free again by then. Errors come back as tf2's exception classes with the server's text
+(cut and escaped). A client whose server restarts simply reaches the new one.
 """
 from __future__ import annotations
 
@@ -24,7 +27,7 @@ from ..core.exceptions import (ConnectivityException, ExtrapolationException, In
 from ..core.messages import TransformStamped
 from ..core.services import TF2Error, LookupTransform
 from ..core.time import Duration, Time, to_duration
-from .service import ServiceCall, ServiceServer
+from .service import ERROR_TEXT_LIMIT, ServiceCall, ServiceServer, error_text
 
 __all__ = ["BufferServer", "BufferClient", "DEFAULT_NAME"]
 
@@ -32,6 +35,12 @@ log = logging.getLogger("zentf.transport.buffer_server")
 
 #: tf2_ros's default name of the buffer server.
 DEFAULT_NAME = "tf2_buffer_server"
+#: Longest wait the server grants a lookup by default (s); ``max_wait`` changes it.
+DEFAULT_MAX_WAIT = 60.0
+#: How long a caller that did not say when it gives up is taken to wait (s): Zenoh's default query timeout.
+UNSTATED_DEADLINE = 10.0
+#: A wait ends this much (s) before its caller's deadline, so the answer can still reach it.
+_REPLY_MARGIN = 0.02
 
 _CODES: list[tuple[type[Exception], int]] = [
     (LookupException, TF2Error.LOOKUP_ERROR), (ConnectivityException, TF2Error.CONNECTIVITY_ERROR),
@@ -52,16 +61,21 @@ class BufferServer:
     """Answers LookupTransform queries from ``buffer`` (a Buffer that a TransformListener fills).
 
     ``max_waiting`` bounds the lookups waiting for data at once (each holds a worker thread); one more
-    is answered with a TIMEOUT_ERROR saying the server is busy.
+    is answered with a TIMEOUT_ERROR saying the server is busy. A wait lasts the request's ``timeout``,
+    but never past its caller's deadline nor ``max_wait`` seconds, so abandoned waits free their slots.
     """
 
-    def __init__(self, buffer: Any, node: Any, ns: str = DEFAULT_NAME, *, max_waiting: int = 64) -> None:
+    def __init__(self, buffer: Any, node: Any, ns: str = DEFAULT_NAME, *, max_waiting: int = 64,
+                 max_wait: float = DEFAULT_MAX_WAIT) -> None:
+        if not 0.0 < max_wait <= 1e6:  # (a float: NaN is refused too)
+            raise ValueError(f"max_wait must be within (0, 1e6] seconds, got {max_wait!r}")
         self.buffer = buffer
         self.node = node
         self.name = node.resolve_topic_name(ns)
         self.requests = 0
         self.errors = 0
         self._max_waiting = max_waiting
+        self.max_wait = float(max_wait)
         self._waiting = 0
         self._lock = threading.Lock()
         self._pool = ThreadPoolExecutor(max_workers=max_waiting, thread_name_prefix="tf2-buffer-server")
@@ -84,6 +98,7 @@ class BufferServer:
             args = (req.target_frame, req.target_time.nanoseconds, req.source_frame, req.source_time.nanoseconds,
                     req.fixed_frame, req.advanced)
             timeout_ns = req.timeout.nanoseconds
+            deadline = call.deadline
         except Exception as e:
             self.errors += 1
             self._reply(call, None, TF2Error.INVALID_ARGUMENT_ERROR, f"bad LookupTransform request: {e}")
@@ -106,7 +121,9 @@ class BufferServer:
             self._reply(call, None, TF2Error.TIMEOUT_ERROR,
                         f"buffer server {self.name} is busy ({self._max_waiting} lookups waiting)")
             return
-        self._pool.submit(self._wait_and_reply, call, args, timeout_ns / 1e9)
+        left = UNSTATED_DEADLINE if deadline is None else deadline
+        self._pool.submit(self._wait_and_reply, call, args,
+                          max(0.0, min(timeout_ns / 1e9, left - _REPLY_MARGIN, self.max_wait)))
 
     def _lookup(self, target: str, tt: int, source: str, st: int, fixed: str, advanced: bool,
                 timeout: float) -> TransformStamped:
@@ -130,7 +147,7 @@ class BufferServer:
     def _reply(self, call: ServiceCall, ts: TransformStamped | None, code: int, text: str) -> None:
         resp = _Response(transform=ts) if ts is not None else _Response()
         if code:
-            resp.error = TF2Error(code, text)
+            resp.error = TF2Error(code, error_text(text))
         try:
             call.respond(resp)
         except Exception as e:  # a transform the wire cannot encode (say, a huge stamp): tf2's error instead
@@ -222,7 +239,7 @@ class BufferClient:
             raise TimeoutException(f"buffer server {self.name}: {e}") from None
         err = resp.error
         if err.error != TF2Error.NO_ERROR:
-            raise _EXCEPTIONS.get(err.error, TransformException)(err.error_string)
+            raise _EXCEPTIONS.get(err.error, TransformException)(error_text(err.error_string, 4 * ERROR_TEXT_LIMIT))
         return resp.transform
 
     def destroy(self) -> None:

@@ -9,11 +9,29 @@ from collections.abc import Callable
 
 from ..core.time import Duration, Time, to_duration
 
-__all__ = ["ClockType", "Clock", "Rate", "sleep", "JumpHandle"]
+__all__ = ["ClockType", "Clock", "Rate", "sleep", "JumpHandle", "MIN_RATE", "MAX_RATE", "MIN_PERIOD", "MAX_PERIOD",
+           "rate_problem", "MAX_TIMER_PERIOD_NS"]
 
 log = logging.getLogger("zentf.transport.clock")
 
 JumpCallback = Callable[[Time, Time], None]
+
+#: The rates (Hz) and periods (s) a program's option or parameter may ask of a timer: a tick per 11.6
+#: days to a million a second. Beyond them the period is no number a wait can take (``1e-300`` Hz is
+#: 1e300 s) or the timer only spins.
+MIN_RATE, MAX_RATE = 1e-6, 1e6
+MIN_PERIOD, MAX_PERIOD = 1.0 / MAX_RATE, 1.0 / MIN_RATE
+#: Longest period ``Node.create_timer`` takes: what a thread can wait for at once.
+MAX_TIMER_PERIOD_NS = int(threading.TIMEOUT_MAX) * 1_000_000_000
+
+
+def rate_problem(what: str, value: object, *, period: bool = False) -> str | None:
+    """Why ``value`` cannot be the rate in Hz (a period in s with ``period``) called ``what``; None if it can."""
+    lo, hi, unit = (MIN_PERIOD, MAX_PERIOD, "s") if period else (MIN_RATE, MAX_RATE, "Hz")
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not lo <= value <= hi:
+        shown = repr(value) if not isinstance(value, str) else repr(value[:40])
+        return f"{what} must be between {lo:g} and {hi:g} {unit}, got {shown}"
+    return None
 
 
 class ClockType(enum.Enum):
@@ -152,8 +170,9 @@ class Rate:
     """Loop at a fixed frequency on a clock without drift (``while ...: work(); rate.sleep()``)."""
 
     def __init__(self, frequency: float, clock: Clock | None = None) -> None:
-        if not frequency > 0:
-            raise ValueError(f"Rate frequency must be > 0, got {frequency!r}")
+        problem = rate_problem("Rate frequency", frequency)
+        if problem is not None:
+            raise ValueError(problem)
         self._clock = clock or _WALL
         self._period = round(1e9 / frequency)
         self._next = self._clock.now_ns() + self._period

@@ -19,7 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
-from .clock import Clock, ClockType, Rate
+from .clock import MAX_TIMER_PERIOD_NS, Clock, ClockType, Rate
 from ..core.messages import Clock as ClockMsg
 from ..core.messages import Message
 from .names import (fully_qualified_node_name, is_concrete_key, normalize_namespace, resolve_topic,
@@ -308,8 +308,9 @@ class Timer:
     """Calls ``callback()`` every ``period`` of the node's clock (sim time when active)."""
 
     def __init__(self, node: "Node", period: Duration, callback: Callable[[], None]) -> None:
-        if period.nanoseconds <= 0:
-            raise ValueError(f"timer period must be > 0, got {period}")
+        if not 0 < period.nanoseconds <= MAX_TIMER_PERIOD_NS:
+            raise ValueError(f"timer period must be > 0 and at most {MAX_TIMER_PERIOD_NS // 1_000_000_000} s, "
+                             f"got {period.nanoseconds / 1e9:g} s")
         self.node = node
         self.timer_period_ns = period.nanoseconds
         self.callback = callback
@@ -333,6 +334,8 @@ class Timer:
 
 
 _STOP = object()
+#: Longest single wait of the executor (s): a thread's limit, well above any timer's period.
+_MAX_WAIT = float(int(threading.TIMEOUT_MAX) // 2)
 
 # Signal handling: like rclpy.init(), the first node created in the main thread owns SIGINT/SIGTERM.
 # The first signal shuts every node down (spin() returns, ok() turns False, exit code stays 0); a
@@ -746,9 +749,15 @@ class Node:
         self._queue.put(fn)
 
     def _run_executor(self) -> None:
+        """The executor thread: nothing a callback or timer does ends it (it is the node's only server of
+        services and parameters); each failure is logged, rate-limited per callback."""
         q = self._queue
         while True:
-            timeout = self._due_timers()
+            try:
+                timeout = self._due_timers()
+            except Exception as e:  # the timer bookkeeping itself: say so and keep serving
+                self._callback_failed("timers", e)
+                timeout = 0.1
             try:
                 item = q.get(timeout=timeout)
             except queue.Empty:
@@ -758,8 +767,15 @@ class Node:
             if item is not None:
                 try:
                     item()
-                except Exception:
-                    self._logger.exception("callback raised")
+                except Exception as e:
+                    self._callback_failed(item, e)
+
+    def _callback_failed(self, callback: Any, e: BaseException) -> None:
+        """One log line with the traceback per callback and exception type and period; then a count."""
+        name = callback if isinstance(callback, str) else (getattr(callback, "__qualname__", None)
+                                                            or type(callback).__name__)
+        self._bad_input.log(logging.ERROR, ("raised", name, type(e).__name__), "%s raised %s: %s", name,
+                            type(e).__name__, e, exc_info=e)
 
     def _due_timers(self) -> float | None:
         """Run due timers; return seconds to the next one (None: wait for an event)."""
@@ -772,15 +788,15 @@ class Node:
             if not live:
                 return None
             t = min(live, key=lambda x: x._next)
-            if t._next > now:
-                return None if sim else (t._next - now) / 1e9
+            if t._next > now:  # (Timer bounds its period: the wait is one a thread can take)
+                return None if sim else min((t._next - now) / 1e9, _MAX_WAIT)
             t._next += t.timer_period_ns
             if t._next <= now:
                 t._next = now + t.timer_period_ns
             try:
                 t.callback()
-            except Exception:
-                self._logger.exception("timer callback raised")
+            except Exception as e:
+                self._callback_failed(t.callback, e)
             if self._shutdown.is_set():
                 return None
 

@@ -399,12 +399,21 @@ def _config_error(text: str) -> str:
     return text.splitlines()[0] if text else "unreadable"
 
 
-def parse_scalar(text: str) -> Any:
-    """A parameter value as a YAML scalar ('1' -> 1, 'true' -> True, '[1, 2]' -> list)."""
+#: Longest parameter value read from a command line (characters).
+MAX_VALUE_CHARS = 1024 * 1024
+
+
+def parse_scalar(text: str, what: str = "parameter value") -> Any:
+    """A parameter value as a YAML scalar ('1' -> 1, 'true' -> True, '[1, 2]' -> list); text that is not
+    YAML stays text. OptionsError naming ``what`` for YAML zentf refuses (aliases, anchors, tags, size)."""
     import yaml
 
+    from ..core.safe_yaml import YamlRefused, load
+
     try:
-        return yaml.safe_load(text) if text.strip() else ""
+        return load(text, limit=MAX_VALUE_CHARS) if text.strip() else ""
+    except YamlRefused as e:
+        raise OptionsError(f"{what}: {e}") from None
     except yaml.YAMLError:
         return text
 
@@ -414,7 +423,7 @@ def parse_param_assignment(text: str) -> tuple[str, Any]:
     name, sep, value = text.partition(":=")
     if not sep or not name.strip():
         raise OptionsError(f"bad parameter {text!r}: expected name:=value")
-    return name.strip(), parse_scalar(value)
+    return name.strip(), parse_scalar(value, f"parameter {name.strip()}")
 
 
 def parse_remap(text: str) -> tuple[str, str]:
@@ -446,31 +455,23 @@ def load_params_file(path: str, node_fqn: str) -> dict[str, Any]:
     ``/**/talker`` every talker), and every section whose key matches the whole ``node_fqn`` applies, in
     file order (a later one wins), as rclcpp's parameter_map_from does. Any other mapping is a flat
     ``{name: value}`` file for every node. A nested mapping of values is a parameter namespace
-    (``gains: {p: 1}`` is ``gains.p``, as in ROS 2). YAML aliases are refused (they expand without bound).
+    (``gains: {p: 1}`` is ``gains.p``, as in ROS 2). YAML aliases, anchors and tags are refused (aliases
+expand without bound), as a file over 16 MiB (``zentf.core.safe_yaml``).
     """
     import yaml
 
+    from ..core.safe_yaml import YamlRefused, load_file
+
     try:
-        with open(path, encoding="utf-8") as f:
-            text = f.read()
+        data = load_file(path)
     except FileNotFoundError:
         raise ParamsFileError(path, "not found") from None
     except OSError as e:
         raise ParamsFileError(path, f"cannot read: {e.strerror}") from None
     except UnicodeDecodeError:
         raise ParamsFileError(path, "not UTF-8 text") from None
-    loader_class = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
-    try:
-        loader = loader_class(text)
-        try:
-            while loader.check_event():
-                event = loader.get_event()
-                if isinstance(event, yaml.AliasEvent):
-                    raise ParamsFileError(path, f"YAML alias *{event.anchor} is not allowed (aliases can expand "
-                                                "without bound; write the value out)", event.start_mark.line + 1)
-        finally:
-            loader.dispose()
-        data = yaml.load(text, Loader=loader_class)  # noqa: S506 - a safe loader
+    except YamlRefused as e:
+        raise ParamsFileError(path, e.problem, e.line) from None
     except yaml.MarkedYAMLError as e:
         mark = e.problem_mark or e.context_mark
         what = " ".join(p for p in (e.context, e.problem) if p) or "invalid YAML"

@@ -13,7 +13,7 @@ from ..core.text import parse_bool, printable
 from .options import NodeOptions, OptionsError, add_node_arguments, env_flag
 
 __all__ = ["OptionsError", "main", "run", "split_node_options", "make_node", "say", "error_line", "param",
-           "param_float", "param_positive", "param_bool"]
+           "param_float", "param_positive", "param_bool", "param_rate", "check_rate"]
 
 log = logging.getLogger("zentf.program")
 _started = False  # a Node exists: it owns SIGINT/SIGTERM until it shuts down
@@ -175,6 +175,38 @@ def param_positive(node: Any, name: str, default: float) -> float:
     value = param_float(node, name, default)
     if value <= 0:
         raise OptionsError(f"parameter {name} must be positive, got {value!r}")
+    return value
+
+
+def check_rate(what: str, value: Any, *, period: bool = False) -> float:
+    """``value`` as a rate in Hz (a period in s with ``period``) a timer can serve; OptionsError naming
+    ``what`` (an option such as ``--rate``, or ``parameter rate``) otherwise."""
+    from .clock import rate_problem
+
+    problem = rate_problem(what, value, period=period)
+    if problem is not None:
+        raise OptionsError(problem)
+    return float(value)
+
+
+def param_rate(node: Any, name: str, default: float, *, period: bool = False) -> float:
+    """A rate (Hz) or, with ``period``, a period (s) parameter within what a timer serves: out of it,
+    OptionsError names it at start, and a set at run time (``zentf param set``) is refused with the same line."""
+    from .clock import rate_problem
+
+    value = check_rate(f"parameter {name}", param_float(node, name, default), period=period)
+
+    def refuse_out_of_range(params: list[Any]) -> Any:
+        from ..core.parameters import SetParametersResult
+
+        for p in params:
+            if p.name == name:
+                problem = rate_problem(f"parameter {name}", p.value, period=period)
+                if problem is not None:
+                    return SetParametersResult(False, problem)
+        return SetParametersResult(True, "")
+
+    node.add_on_set_parameters_callback(refuse_out_of_range)
     return value
 
 

@@ -2,13 +2,16 @@
 
 A server is a *complete* queryable on the service's key; a call is one Zenoh ``get`` carrying the
 request; the server answers with one ok reply (the response) or one error reply (UTF-8 text, encoding
-``ERROR_ENCODING``: why the request failed). Keys, payloads and attachments are the node's wire
-profile's (zentf.transport.wire): on zentf's wire the key is the resolved service name (``spawn`` in
-namespace ``sim`` is ``sim/spawn``), payloads msgpack labelled ``<type>_Request`` / ``_Response``, the
-request's attachment the caller's node name (docs/protocol.md); under ``--wire ros2`` they are
-rmw_zenoh's, so ROS 2 nodes call zentf's services and the other way round (docs/ros2.md). Graph
-tokens (``srv``, ``cli``) let tools list them. A service type the wire cannot carry (no ROS 2 .srv
-definition) is skipped with one warning; the node runs.
+``ERROR_ENCODING``: why the request failed, escaped and cut to ERROR_TEXT_LIMIT characters on both sides:
+it may quote a payload). Keys, payloads and attachments are the node's wire profile's
+(zentf.transport.wire): on zentf's wire the key is the resolved service name (``spawn`` in namespace
+``sim`` is ``sim/spawn``), payloads msgpack labelled ``<type>_Request`` / ``_Response``, the request's
+attachment the caller's node name (docs/protocol.md); under ``--wire ros2`` they are rmw_zenoh's, so
+ROS 2 nodes call zentf's services and the other way round (docs/ros2.md). Where the wire's queries carry
+selector parameters (zentf's), ``deadline_ms`` says how many milliseconds the caller waits, so a server
+that would wait for something (the buffer server) stops when its caller has given up. Graph tokens
+(``srv``, ``cli``) let tools list them. A service type the wire cannot carry (no ROS 2 .srv definition)
+is skipped with one warning; the node runs.
 
 ``Service`` runs its handler on the node's executor, one call at a time, like rclpy's single-threaded
 executor. ``ServiceServer`` is the layer below: its ``on_call`` gets each ``ServiceCall`` on Zenoh's
@@ -27,11 +30,13 @@ from typing import Any
 
 from ..core.messages import Message
 from ..core.services import ServiceType
+from ..core.text import printable
 from .entities import undeclare_all
 from ..ros import UnknownTypeError
 
 __all__ = ["Service", "ServiceServer", "ServiceCall", "Client", "ServiceException", "ServiceTimeoutError",
-           "ServiceUnavailableError", "ERROR_ENCODING"]
+           "ServiceUnavailableError", "ERROR_ENCODING", "DEADLINE_PARAMETER", "ERROR_TEXT_LIMIT", "error_text",
+           "received_error_text"]
 
 log = logging.getLogger("zentf.transport.service")
 
@@ -39,8 +44,26 @@ log = logging.getLogger("zentf.transport.service")
 ERROR_ENCODING = "text/plain;zentf/service_error"
 #: Zenoh needs a finite query timeout; "wait forever" is this many seconds (about 11.5 days).
 _FOREVER = 1_000_000.0
+#: The selector parameter of a call saying in how many milliseconds its caller gives up.
+DEADLINE_PARAMETER = "deadline_ms"
+#: Most characters of an error reply's text (before escaping): a reason, not a copy of the payload.
+ERROR_TEXT_LIMIT = 1000
 #: rclpy's default service QoS depth (rmw_qos_profile_services_default), shown in ROS 2 tokens.
 DEFAULT_DEPTH = 10
+
+
+def error_text(text: str, limit: int = ERROR_TEXT_LIMIT) -> str:
+    """An error reply's text as it may travel and be shown: control characters escaped, at most ``limit``
+    characters of the original (a handler's exception may quote a 100 KB payload), 4 x ``limit`` once
+    escaped."""
+    out = printable(text, limit)
+    return out if len(out) <= 4 * limit else out[:4 * limit - 3] + "..."
+
+
+def received_error_text(raw: bytes) -> str:
+    """The text of an error reply from anyone, as it may be shown (``error_text`` with room for what a
+    zentf server already cut and escaped)."""
+    return error_text(raw[:16 * ERROR_TEXT_LIMIT].decode("utf-8", "replace"), 4 * ERROR_TEXT_LIMIT)
 
 
 def _service_key(node: Any, name: str, srv_type: type[ServiceType], role: str) -> str | None:
@@ -106,6 +129,18 @@ class ServiceCall:
     def carried_type(self) -> str | None:
         """The request type the request says it is (where the wire labels payloads), else None."""
         return self.server.node.wire.encoded_type(self.encoding)
+
+    @property
+    def deadline(self) -> float | None:
+        """Seconds from the request's arrival until its caller gives up (its ``deadline_ms`` parameter), or
+        None when it did not say (or said something that is not a count of milliseconds)."""
+        try:
+            text = self._query.parameters.get(DEADLINE_PARAMETER) if self._query is not None else None
+        except Exception:  # noqa: BLE001 - a query without readable parameters says nothing
+            return None
+        if text is None or not text.isdigit() or len(text) > 12:
+            return None
+        return int(text) / 1000.0
 
     def decode(self) -> Message:
         """The request message; ValueError says what was wrong."""
@@ -225,7 +260,7 @@ class Service(ServiceServer):
 
 def _reply_err(query: Any, text: str) -> None:
     try:
-        query.reply_err(text.encode("utf-8"), encoding=ERROR_ENCODING)
+        query.reply_err(error_text(text).encode("utf-8"), encoding=ERROR_ENCODING)
     except Exception as e:
         log.debug("error reply failed: %s", e)
     finally:
@@ -328,7 +363,7 @@ class Client:
                 ok = reply.ok
                 if ok is None:
                     err = reply.err
-                    text = err.payload.to_bytes().decode("utf-8", "replace") if err is not None else ""
+                    text = received_error_text(err.payload.to_bytes()) if err is not None else ""
                     if err is not None and str(err.encoding) == ERROR_ENCODING:
                         fut.set_exception(ServiceException(text or f"service {name}: error reply"))
                     elif text.strip().lower() == "timeout":  # Zenoh's own reply when the query times out
@@ -354,7 +389,11 @@ class Client:
 
         try:
             handler = zenoh.handlers.Callback(on_reply, on_done, indirect=False)
-            self.node.session.get(self.key, handler, timeout=limit, payload=payload, attachment=attachment,
+            # the selector says when this caller gives up (a server may stop waiting for it then), where
+            # the wire's queries carry parameters
+            selector = (f"{self.key}?{DEADLINE_PARAMETER}={int(limit * 1000)}"
+                        if self.node.wire.query_parameters else self.key)
+            self.node.session.get(selector, handler, timeout=limit, payload=payload, attachment=attachment,
                                   **self._get_options)
         except Exception as e:
             fut.set_exception(ServiceException(f"service {name}: query failed: {e}"))

@@ -91,10 +91,14 @@ def detect_format(path: str | os.PathLike) -> tuple[BagFormat, Path]:
         if (p / "metadata.yaml").is_file():
             import yaml
 
+            from ...core import safe_yaml
+
             try:
-                meta = yaml.safe_load((p / "metadata.yaml").read_text()) or {}
+                meta = safe_yaml.load_file(p / "metadata.yaml") or {}
                 storage = str(meta["rosbag2_bagfile_information"].get("storage_identifier", ""))
-            except (OSError, yaml.YAMLError, KeyError, TypeError, AttributeError) as e:
+            except safe_yaml.YamlRefused as e:
+                raise BagError(f"{p}/metadata.yaml: {e}") from None
+            except (OSError, UnicodeDecodeError, yaml.YAMLError, KeyError, TypeError, AttributeError) as e:
                 raise BagError(f"{p}: unreadable metadata.yaml ({type(e).__name__})") from None
             return (BagFormat.ROS2_MCAP if storage == "mcap" else BagFormat.ROS2_SQLITE), p
         one = storage_file(p)

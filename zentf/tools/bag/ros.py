@@ -126,9 +126,9 @@ class RosBag:
     def _mcap_files(self) -> list[Path]:
         if not self.path.is_dir():
             return [self.path]
-        import yaml
+        from ...core import safe_yaml
 
-        meta = yaml.safe_load((self.path / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+        meta = safe_yaml.load_file(self.path / "metadata.yaml")["rosbag2_bagfile_information"]
         return [self.path / p for p in meta.get("relative_file_paths", [])] or sorted(self.path.glob("*.mcap"))
 
     def _mcap(self, want: set[str] | None) -> Iterator[tuple[RosConnection, int, bytes]]:

@@ -31,10 +31,11 @@ class SqliteTopic:
 
 
 def _metadata(path: Path) -> dict[str, Any]:
-    import yaml
+    from ...core import safe_yaml
 
     if path.is_dir():
-        text = (path / "metadata.yaml").read_text()
+        with open(path / "metadata.yaml", encoding="utf-8") as f:
+            text = f.read(safe_yaml.MAX_CHARS + 1)
     else:
         try:
             con = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
@@ -45,7 +46,10 @@ def _metadata(path: Path) -> dict[str, Any]:
         except sqlite3.Error:
             return {}
         text = row[0] if row else ""
-    meta = yaml.safe_load(text) if text else {}
+    try:
+        meta = safe_yaml.load(text) if text else {}
+    except safe_yaml.YamlRefused as e:
+        raise BagError(f"{path}: metadata refused: {e}") from None
     return (meta or {}).get("rosbag2_bagfile_information", {}) if isinstance(meta, dict) else {}
 
 
@@ -56,6 +60,8 @@ class SqliteBag:
         self.path = path
         try:
             meta = _metadata(path)
+        except BagError:
+            raise
         except Exception as e:  # noqa: BLE001 - unreadable metadata: one line
             raise BagError(f"{path}: unreadable metadata ({type(e).__name__})") from None
         mode = str(meta.get("compression_mode", "") or "").upper()

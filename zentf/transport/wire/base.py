@@ -65,6 +65,9 @@ class WireProfile(ABC):
     #: attachment bytes -> the sending publisher's identity (for per-sender queues); None when the bytes
     #: are the identity themselves (saves a call per message on the listener's thread)
     sender_of: Callable[[bytes], bytes] | None = None
+    #: whether a service call's selector may carry parameters (``deadline_ms``: when its caller gives up);
+    #: False where the other side's servers are not zentf's (rmw_zenoh's)
+    query_parameters: bool = False
     #: ``check_tf_encoding(encoding)`` raises ValueError when a sample's encoding names another type than
     #: TFMessage; None when the wire carries the type in the key (the listener then never reads it)
     check_tf_encoding: Callable[[Any], None] | None = None

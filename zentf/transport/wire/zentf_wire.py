@@ -77,6 +77,7 @@ class ZentfProfile(WireProfile):
 
     name = "zentf"
     payload_format = "msgpack"
+    query_parameters = True
 
     # ---- keys
     def data_key(self, fq_topic: str, type_name: str | None) -> str:
