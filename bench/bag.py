@@ -140,6 +140,14 @@ def _pump_main(endpoint: str, key: str, n: int) -> None:
     s.close()
 
 
+def _node(session, name: str):
+    """A hidden zentf node on an open session (the recorder and player work through a node's wire)."""
+    from zentf.transport.node import Node
+    from zentf.transport.options import NodeOptions
+
+    return Node(name, options=NodeOptions(), session=session, check_unique=False)
+
+
 def bench_record(msgs: list[bytes], d: Path) -> tuple[float, float]:
     from zentf.transport.options import ZenohOptions
 
@@ -148,7 +156,8 @@ def bench_record(msgs: list[bytes], d: Path) -> tuple[float, float]:
     n = len(msgs)
     try:
         w = BagWriter(d / "rec.mcap")
-        rec = Recorder(b, w, ["bench/rec"])
+        node = _node(b, "_bench_recorder")
+        rec = Recorder(node, w, ["/bench/rec"])
         child = pump_process(ep, "bench/rec", n)
         child.stdout.readline()
         t = time.perf_counter()
@@ -156,6 +165,7 @@ def bench_record(msgs: list[bytes], d: Path) -> tuple[float, float]:
         ours = w.messages / elapsed
         child.wait(30)
         rec.close()
+        node.shutdown()
         w.close()
         count = [0]
 
@@ -186,7 +196,8 @@ def bench_play(msgs: list[bytes], d: Path) -> tuple[float, float, int]:
 
         sub = b.declare_subscriber("tf", on)
         # The player declares its publisher on the first message: warm the route with a probe bag.
-        player = Player(a, d / "w.mcap", rate=1e9)
+        node = _node(a, "_bench_player")
+        player = Player(node, d / "w.mcap", rate=1e9)
         probe = a.declare_publisher("tf")
         wait_matching(probe)
         probe.undeclare()
@@ -196,6 +207,7 @@ def bench_play(msgs: list[bytes], d: Path) -> tuple[float, float, int]:
         ours = stats.messages / (time.perf_counter() - t)
         got = count[0]
         player.close()
+        node.shutdown()
         sub.undeclare()
         count[0] = 0
         sub = b.declare_subscriber("bench/raw", on)

@@ -92,18 +92,17 @@ class Rig:
         """CPU µs per message of zentf's tf thread (serve) into a Buffer."""
         from zentf.core.messages import TFMessage
         from zentf.transport.buffer import Buffer
-        from zentf.transport.ingest.handler import IngestEvents, Senders, TfHandler, TfIngest
+        from zentf.transport.ingest.handler import IngestEvents, Senders, TfHandler
         from zentf.transport.ingest.thread import serve
         from zentf.transport.listener import _limits
 
         prof = self.profile
         buf = Buffer()
         sub = self.ring("bench/zentf")
-        ingest = TfIngest(self.wire == "ros2", prof.ingest_tf, buf, buf, time.time_ns, 5 * NS, False)
-        senders = Senders(prof.authority, prof.authority(None, "") if self.wire == "ros2" else None,
-                          prof.sender_of, 1024)
-        handler = TfHandler(ingest, senders, IngestEvents(), "bench/zentf",
-                            None if self.wire == "ros2" else prof.check_tf_encoding, prof.encoding(TFMessage.TYPE_NAME))
+        ingest = prof.tf_ingest(buf, buf, time.time_ns, 5 * NS, False)  # what a listener asks the profile for
+        senders = Senders(prof.authority, prof.fixed_authority, prof.sender_of, 1024)
+        handler = TfHandler(ingest, senders, IngestEvents(), "bench/zentf", prof.check_tf_encoding,
+                            prof.encoding(TFMessage.TYPE_NAME))
         t = threading.Thread(target=serve, args=(sub.handler, handler, _limits()), daemon=True)
         t.start()
         while handler.messages < self.n:

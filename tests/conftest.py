@@ -193,10 +193,10 @@ def matched_tf_publisher(session: object, node: object, type_name: str) -> objec
     listener is matched (event-driven)."""
     import zenoh
 
+    from zentf.core.messages import TFMessage
     from zentf.transport.wire import codec as wire
-    from zentf.transport.listener import wire_key
 
-    pub = session.declare_publisher(wire_key(node, "tf"), encoding=wire.encoding_for(type_name),
+    pub = session.declare_publisher(node.topic_key("tf", TFMessage.TYPE_NAME), encoding=wire.encoding_for(type_name),
                                     congestion_control=zenoh.CongestionControl.BLOCK)
     matched = threading.Event()
     listener = pub.declare_matching_listener(lambda status: status.matching and matched.set())

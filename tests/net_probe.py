@@ -24,7 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from zentf.demos.frames_publisher import av2_in_av1  # noqa: E402
 from zentf.transport.buffer import Buffer  # noqa: E402
 from zentf.core.exceptions import TransformException  # noqa: E402
-from zentf.transport.listener import TransformListener, wire_key  # noqa: E402
+from zentf.transport.listener import TransformListener  # noqa: E402
 from zentf.transport.node import Node  # noqa: E402
 from zentf.transport.options import NodeOptions, add_node_arguments  # noqa: E402
 from zentf.core.time import Time  # noqa: E402
@@ -51,14 +51,14 @@ def main() -> int:
         import msgpack
 
         try:
-            msg = msgpack.unpackb(sample.payload.to_bytes(), raw=False)  # type: ignore[attr-defined]
+            msg = msgpack.unpackb(sample.payload, raw=False)  # type: ignore[attr-defined]
             children = [t["child_frame_id"] for t in msg["transforms"]]
         except Exception:
             return
         with lock:
             counts.update(children)
 
-    node.session.declare_subscriber(wire_key(node, args.tf_topic), on_raw)
+    node.create_raw_subscription(args.tf_topic, on_raw)
     seen: collections.deque[int] = collections.deque(maxlen=200)
     av1, av2 = args.prefix + "av1", args.prefix + "av2"
     stop = threading.Event()

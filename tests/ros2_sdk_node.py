@@ -2,10 +2,12 @@
 
     python tests/ros2_sdk_node.py pub ROUTER_HOST:PORT [--node NAME]   # /tf and /tf_static as a ROS 2 node
     python tests/ros2_sdk_node.py sub ROUTER_HOST:PORT                 # prints what arrives on /tf, /tf_static
+    python tests/ros2_sdk_node.py joints ROUTER_HOST:PORT --joint head_swivel=0.5 ...   # /joint_states
 
 ``pub`` publishes, every 0.1 s until stopped: /tf_static map -> odom (1, 2, 3) (transient local, depth 1)
 and /tf odom -> base_link with x = 0.5 and the current time; it prints ``publishing`` once the first
-pair is out. ``sub`` prints one JSON line per received transform: topic, parent, child, stamp (ns),
+pair is out. ``joints`` publishes sensor_msgs/JointState on /joint_states every 0.1 s (the given joints
+and positions, stamped now) and prints ``publishing`` after the first. ``sub`` prints one JSON line per received transform: topic, parent, child, stamp (ns),
 translation, rotation. ROS_DOMAIN_ID picks the domain. The SDK reads its .msg definitions from
 tests/data/ros2_msgs (its own git download cannot work offline).
 """
@@ -24,9 +26,10 @@ MSGS = Path(__file__).resolve().parent / "data" / "ros2_msgs"
 
 def main() -> int:
     ap = argparse.ArgumentParser()
-    ap.add_argument("mode", choices=("pub", "sub"))
+    ap.add_argument("mode", choices=("pub", "sub", "joints"))
     ap.add_argument("router")
     ap.add_argument("--node", default="sdk_tf_node")
+    ap.add_argument("--joint", action="append", default=[], metavar="NAME=POSITION")
     args = ap.parse_args()
     host, _, port = args.router.rpartition(":")
 
@@ -53,6 +56,26 @@ def main() -> int:
                       child_frame_id=child,
                       transform=tr_cls(translation=v_cls(x=xyz[0], y=xyz[1], z=xyz[2]),
                                        rotation=q_cls(x=0.0, y=0.0, z=0.0, w=1.0)))
+
+    if args.mode == "joints":
+        import numpy as np  # the SDK's serializer (rosbags) takes float64[] fields as numpy arrays
+
+        names = [j.split("=")[0] for j in args.joint]
+        positions = np.array([float(j.split("=")[1]) for j in args.joint], dtype=np.float64)
+        none = np.zeros(0, dtype=np.float64)
+        js = ROS2Publisher("/joint_states", "sensor_msgs/msg/JointState", node_name=args.node, router_ip=host,
+                           router_port=int(port), qos=QosProfile(history_depth=10))
+        first = True
+        while not stop.is_set():
+            ns = time.time_ns()
+            js.publish(header=hdr_cls(stamp=time_cls(sec=ns // 10**9, nanosec=ns % 10**9), frame_id=""),
+                       name=names, position=positions, velocity=none, effort=none)
+            if first:
+                print("publishing", flush=True)
+                first = False
+            stop.wait(0.1)
+        js.close()
+        return 0
 
     if args.mode == "pub":
         static = ROS2Publisher("/tf_static", "tf2_msgs/msg/TFMessage", node_name=args.node, router_ip=host,

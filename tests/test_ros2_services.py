@@ -15,12 +15,15 @@ import logging
 import sys
 import time
 import uuid
+from dataclasses import dataclass
+from typing import ClassVar
 
 import pytest
 from cli_helpers import assert_one_line_error, zentf
 
 from conftest import REPO, router_address
-from zentf.core.services import LookupTransform, Trigger
+from zentf.core.messages import Message
+from zentf.core.services import ServiceType, Trigger
 from zentf.transport.node import Node
 from zentf.transport.options import NodeOptions, ZenohOptions
 from zentf.transport.service import ServiceUnavailableError
@@ -97,17 +100,36 @@ def test_zentf_client_calls_sdk_server(ros2_env, cli_env, spawn) -> None:
     assert "/sdk_echo [std_srvs/srv/SetBool]" in listed
 
 
+@dataclass(slots=True)
+class _NoDefinitionRequest(Message):
+    TYPE_NAME: ClassVar[str] = "zentf_test_msgs/srv/NoDefinition_Request"
+    x: int = 0
+
+
+@dataclass(slots=True)
+class _NoDefinitionResponse(Message):
+    TYPE_NAME: ClassVar[str] = "zentf_test_msgs/srv/NoDefinition_Response"
+
+
+class NoDefinition(ServiceType):
+    """A service type of the program's own, with no ROS 2 .srv definition zentf knows."""
+
+    TYPE_NAME = "zentf_test_msgs/srv/NoDefinition"
+    Request = _NoDefinitionRequest
+    Response = _NoDefinitionResponse
+
+
 def test_type_without_definition_is_skipped_with_one_warning(isolated_router, caplog) -> None:
     opts = NodeOptions(zenoh=ZenohOptions(connect=[isolated_router], no_multicast=True, mode="client"),
                        wire="ros2", domain_id=1 + uuid.uuid4().int % 200)
     caplog.set_level(logging.WARNING)
     with Node("skipper", options=opts) as node:
-        servers = [node.create_service(f"lookup{i}", LookupTransform, lambda req, resp: resp) for i in range(3)]
-        client = node.create_client("lookup0", LookupTransform)
+        servers = [node.create_service(f"lookup{i}", NoDefinition, lambda req, resp: resp) for i in range(3)]
+        client = node.create_client("lookup0", NoDefinition)
         assert not any(s.active for s in servers) and not client.active
         warnings = [r.getMessage() for r in caplog.records if "no ROS 2 definition" in r.getMessage()]
         assert len(warnings) == 1, warnings  # rate-limited: one line per type
-        assert "tf2_msgs/action/LookupTransform" in warnings[0] and "skipped" in warnings[0]
+        assert "zentf_test_msgs/srv/NoDefinition" in warnings[0] and "skipped" in warnings[0]
         assert client.wait_for_service(0.1) is False
         with pytest.raises(ServiceUnavailableError, match="no ROS 2 definition"):
             client.call(None, timeout=1.0)

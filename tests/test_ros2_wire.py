@@ -10,8 +10,8 @@ import uuid
 import pytest
 
 from zentf.transport.options import NodeOptions, OptionsError
-from zentf.transport.wire.profiles import (Ros2Profile, WireProfile, make_profile, parse_ros2_attachment,
-                           parse_ros2_token, qos_string, ros2_attachment)
+from zentf.transport.wire.profiles import (Ros2Profile, WireProfile, ZentfProfile, make_profile,
+                                          parse_ros2_attachment, parse_ros2_token, qos_string, ros2_attachment)
 
 TF = "tf2_msgs/msg/TFMessage"
 TF_KEY = ("0/tf/tf2_msgs::msg::dds_::TFMessage_/"
@@ -78,7 +78,7 @@ def test_tokens_of_rmw_zenoh_parse_into_the_graph() -> None:
 
 
 def test_profile_and_domain_options() -> None:
-    assert isinstance(make_profile(None), WireProfile) and make_profile("zentf").name == "zentf"
+    assert isinstance(make_profile(None), ZentfProfile) and isinstance(make_profile("ros2"), WireProfile)
     assert make_profile("ros2", "5").domain_id == 5
     for bad in ("dds", "ROS3"):
         with pytest.raises(ValueError, match="unknown wire profile"):
@@ -102,7 +102,7 @@ def test_ros2_machine_session_defaults_only_when_nothing_was_given() -> None:
     assert (z.connect, z.mode, z.no_multicast) == (["tcp/localhost:7447"], "peer", True)
     given = ZenohOptions(connect=["tcp/10.0.0.2:7447"], mode="client")
     assert p.session_defaults(given) is given
-    assert WireProfile().session_defaults(ZenohOptions()).connect == []
+    assert ZentfProfile().session_defaults(ZenohOptions()).connect == []
 
 
 # ---- live: zentf nodes with --wire ros2 through a router
@@ -254,7 +254,7 @@ def test_a_ros2_sender_is_its_publisher_gid_for_the_listener_queues() -> None:
     assert Ros2Profile.sender_of(first) == Ros2Profile.sender_of(second) == gid_a
     assert Ros2Profile.sender_of(ros2_attachment(1, 10, gid_b)) == gid_b
     assert Ros2Profile.sender_of(b"other layout") == b"other layout"
-    assert WireProfile.sender_of is None  # zentf's attachment is the node name itself
+    assert ZentfProfile.sender_of is None  # zentf's attachment is the node name itself
 
 
 def test_a_ros2_backlog_is_queued_as_cdr_bytes_and_inserted_in_order(ros2_options) -> None:

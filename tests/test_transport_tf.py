@@ -164,7 +164,6 @@ def test_compiled_send_transform_sends_what_the_python_path_sends(node_options, 
     """send_transform(one TransformStamped) runs compiled (tf_encoder.OneTransformSender) to Zenoh's put:
     a raw subscriber on the tf key gets the payload and attachment the Python path sends for the same
     transform given as a list; a subclass overriding send_transform keeps its override."""
-    from zentf.transport.listener import wire_key
     from zentf.transport.ingest.tf_encoder import OneTransformSender
 
     got: list[tuple[bytes, bytes]] = []
@@ -176,7 +175,7 @@ def test_compiled_send_transform_sends_what_the_python_path_sends(node_options, 
             arrived.notify_all()
 
     with Node("compiled_sender", options=node_options) as node:
-        sub = zenoh_session.declare_subscriber(wire_key(node, "tf"), on_sample)
+        sub = zenoh_session.declare_subscriber(node.topic_key("tf"), on_sample)
         try:
             br = TransformBroadcaster(node)
             assert isinstance(br.send_transform, OneTransformSender)

@@ -24,6 +24,7 @@ from hypothesis import strategies as st
 from zentf.transport.ingest import decoders
 from zentf.transport.wire import codec as wire
 from zentf.transport.wire import profiles as profile
+from zentf.transport.wire import ros2 as ros2_wire
 from zentf.transport.clock import Clock
 from zentf.core.buffer_core import BufferCore
 from zentf.core.ratelimit import RateLimitedLogger
@@ -32,7 +33,6 @@ from zentf.core.time import Time
 from zentf.transport.listener import _FutureGuard
 from zentf.ros import CdrError, encode_tf as cdr_encode_tf, tf_samples
 from zentf.ros.tf import _FRAMES  # the one interned-name cache every decoder shares
-from zentf.transport.ingest.handler import TfIngest
 
 NS = 1_000_000_000
 MAX_SEC = (2**63 - 1) // NS
@@ -58,7 +58,7 @@ class Recorder:
 
 def test_the_compiled_decoders_are_built_and_used() -> None:
     """pip install builds zentf/transport/ingest/decoders.pyx; both wires' ingest use it (else these tests prove nothing)."""
-    assert wire.msgpack_tf is decoders.msgpack_tf and profile.cdr_tf is decoders.cdr_tf
+    assert wire.msgpack_tf is decoders.msgpack_tf and ros2_wire.cdr_tf is decoders.cdr_tf
     assert decoders.__file__.endswith(".so")
 
 
@@ -274,9 +274,9 @@ def listener_ingest(wire_name: str, compiled: bool, clock: Clock, is_static: boo
     guard = _FutureGuard(buffer, clock, 5 * NS, RateLimitedLogger(logging.getLogger("zentf.transport.listener")))
     prof = profile.make_profile(wire_name)
     target = buffer if is_static else guard
-    if compiled:
-        return TfIngest(wire_name == "ros2", prof.ingest_tf, target, buffer,
-                        None if is_static else guard.now_ns, guard.tolerance_ns, is_static), buffer, guard
+    if compiled:  # what the listener asks the profile for
+        return prof.tf_ingest(target, buffer, None if is_static else guard.now_ns, guard.tolerance_ns,
+                              is_static), buffer, guard
     return (lambda p, a: prof.ingest_tf(p, target, a, is_static)), buffer, guard
 
 

@@ -191,16 +191,25 @@ def test_urdf_check_and_graph(tmp_path) -> None:
         assert "dot" in proc.stderr
 
 
-def test_rsp_plans_mimics_throttle_and_bad_values(node_options) -> None:
-    """In process (the payloads captured before they leave): what one JointState turns into."""
+@pytest.mark.parametrize("wire_name", ["zentf", "ros2"])
+def test_rsp_plans_mimics_throttle_and_bad_values(node_options, wire_name) -> None:
+    """In process (the payloads captured before they leave): what one JointState turns into, through the
+    compiled path of zentf's wire (zentf/tools/jointtf.pyx) and through numpy and the ros2 wire's CDR encoder."""
+    from zentf.ros import codec as cdr_codec
     from zentf.transport.wire import codec as wire
     from zentf.transport.node import Node
     from zentf.tools.robot_state_publisher import RobotStatePublisher
 
-    with Node("rsp_unit", options=node_options) as node:
+    def read(payload: bytes) -> dict:
+        if wire_name == "zentf":
+            return wire.unpack(payload)
+        return cdr_codec.decode(payload, "tf2_msgs/msg/TFMessage").to_dict()
+
+    with Node("rsp_unit", options=node_options.with_(wire=wire_name)) as node:
         rsp = RobotStatePublisher(node, load_urdf(MY_ROBOT), publish_frequency=10.0)
+        assert rsp._msgpack == (wire_name == "zentf")
         sent: list[dict] = []
-        rsp._tf.publish_bytes = lambda p: sent.append(wire.unpack(p))
+        rsp._tf.publish_bytes = lambda p: sent.append(read(p))
 
         def children(i: int = -1) -> dict[str, dict]:
             return {t["child_frame_id"]: t for t in sent[i]["transforms"]}
@@ -391,7 +400,7 @@ def test_rsp_reads_repeated_joint_states_in_c_as_the_general_path_would(node_opt
         def _on_sample(self, sample) -> None:
             super()._on_sample(sample)
             with self.cond:
-                self.handled.append((sample.payload.to_bytes(), self.ignored, self.fast_reads, len(self.out)))
+                self.handled.append((sample.payload, self.ignored, self.fast_reads, len(self.out)))
                 self.cond.notify_all()
 
         def outcome(self, payload: bytes) -> tuple[int, int, bytes | None]:

@@ -101,23 +101,24 @@ def _stop_on_signals() -> Iterator[threading.Event]:
                 pass
 
 
-def _resolve_keys(opts: CliOptions, topics: tuple[str, ...], all_topics: bool) -> tuple[list[str], str]:
-    from zentf.transport.names import resolve_topic, topic_to_key
+def _resolve_topics(opts: CliOptions, topics: tuple[str, ...], all_topics: bool) -> tuple[list[str], str]:
+    """(fully qualified topics, or the namespace's pattern with --all; the namespace)."""
+    from zentf.transport.names import resolve_topic
 
     ns = (node_options(opts, "_zentf_bag").namespace or "").strip("/")
     if all_topics:
         if topics:
             raise CliError("give topics or --all, not both", code=2)
-        return [f"{ns}/**" if ns else "**"], ns
+        return [f"/{ns}/**" if ns else "/**"], ns
     if not topics:
         raise CliError("nothing to record: give topic names or --all", code=2)
-    keys = []
+    names = []
     for name in topics:
         try:
-            keys.append(topic_to_key(resolve_topic(name, ns)))
+            names.append(resolve_topic(name, ns))
         except ValueError as exc:
             raise CliError(str(exc), code=2) from exc
-    return keys, ns
+    return names, ns
 
 
 @bag.command("record", context_settings=CONTEXT_SETTINGS)
@@ -138,16 +139,14 @@ def bag_record(topics: tuple[str, ...], all_topics: bool, output: Optional[str],
     """Record TOPICS (relative to --namespace) or --all into a bag; Ctrl-C stops and closes it."""
     from zentf.tools.bag import BagError, BagWriter, Recorder
 
-    keys, ns = _resolve_keys(opts, topics, all_topics)
+    names, ns = _resolve_topics(opts, topics, all_topics)
     writer: Any
     profile = wire_profile(opts)
     try:
-        if profile.name == "ros2":  # a ROS 2 graph: CDR as it came, in a rosbag2-style MCAP (docs/ros2.md)
+        if profile.payload_format == "cdr":  # a ROS 2 graph: CDR as it came, in a rosbag2-style MCAP (docs/ros2.md)
             from zentf.tools.bag import Ros2BagWriter
 
             path = output or time.strftime("zentf_%Y%m%d_%H%M%S.mcap")
-            keys = [f"{profile.domain_id}/{k}" if k.endswith("**") else profile.data_key("/" + k, None)
-                    for k in keys]
             writer = Ros2BagWriter(path, profile, compression=compression)
         elif fmt == "ros2":
             from zentf.tools.bag import Ros2Writer
@@ -167,11 +166,10 @@ def bag_record(topics: tuple[str, ...], all_topics: bool, output: Optional[str],
         raise
     try:
         with _stop_on_signals() as stop:
-            recorder = Recorder(node.session, writer, keys,
-                                declare_token=lambda k: node._declare_entity("sub", "", k))
+            recorder = Recorder(node, writer, names)
             progress = _Progress()
             started = time.monotonic()
-            shown = "all topics" if all_topics else ", ".join(keys)
+            shown = "all topics" if all_topics else ", ".join(names)
             _err(f"recording {shown} to {path} (Ctrl-C to stop)")
             last_flush = started
             try:
@@ -273,9 +271,8 @@ def bag_play(file: str, clock: bool, clock_hz: float, rate: float, loop: bool, s
     try:
         with _stop_on_signals() as stop:
             try:
-                player = Player(node.session, file, namespace=ns, rate=rate, clock_hz=clock_hz if clock else 0.0,
-                                loop=loop, start=start, stop=stop, topics=_topic_list(topics), on_skip=_skip_line,
-                                declare_token=lambda tn, k: node._declare_entity("pub", tn, k))
+                player = Player(node, file, namespace=ns, rate=rate, clock_hz=clock_hz if clock else 0.0,
+                                loop=loop, start=start, stop=stop, topics=_topic_list(topics), on_skip=_skip_line)
             except BagError as exc:
                 raise CliError(str(exc)) from exc
             progress = _Progress()

@@ -505,16 +505,16 @@ def _monitor_table(stats: MonitorStats, title: str, chain: Optional[list[str]],
 
 
 def _subscribe_tf(node: Any, stats: MonitorStats, topics: Optional[TfTopics] = None) -> list:
-    """Subscribe tf (plain) and tf_static (latched history) and feed wire.ingest_tf into `stats`."""
-    import zenoh.ext as zx
-
-    from zentf.transport.listener import wire_key
+    """Subscribe the tf topics and tf_static ones (latched history) through the node's wire; each message
+    into `stats`."""
+    from zentf.core.messages import TFMessage
 
     profile = node.wire  # zentf's format or ROS 2's (--wire ros2)
     topics = topics or TfTopics()
     subs = []
     authority = profile.authority
-    if profile.name == "ros2":  # name each publisher by its node: the GID in the attachment, through the tokens
+    if profile.fixed_authority is not None:
+        # the wire's authorities name no sender (ROS 2): name each publisher by its node, through the tokens
         import threading
 
         from zentf.tools.doctor import GraphTap
@@ -524,19 +524,13 @@ def _subscribe_tf(node: Any, stats: MonitorStats, topics: Optional[TfTopics] = N
         subs.append(names)
         authority = lambda att, key: names.publisher(att)  # noqa: E731
     for topic, is_static in [*((t, True) for t in topics.static), *((t, False) for t in topics.dynamic)]:
-        key = wire_key(node, topic)
-
-        def on_sample(sample: Any, is_static: bool = is_static, key: str = key) -> None:
+        def on_sample(sample: Any, is_static: bool = is_static) -> None:
             try:
-                profile.ingest_tf(sample.payload.to_bytes(), stats, authority(sample.attachment, key), is_static)
-            except Exception:  # noqa: BLE001 - bad payloads are the publisher's problem, never ours
+                profile.ingest_tf(sample.payload, stats, authority(sample.attachment, sample.key), is_static)
+            except ValueError:  # not a TFMessage: the publisher's problem, never ours
                 pass
 
-        if is_static:
-            subs.append(zx.declare_advanced_subscriber(node.session, key, on_sample,
-                                                       history=zx.HistoryConfig(detect_late_publishers=True)))
-        else:
-            subs.append(node.session.declare_subscriber(key, on_sample))
+        subs.append(node.create_raw_subscription(topic, on_sample, type_name=TFMessage, latched=is_static))
     return subs
 
 
@@ -583,10 +577,7 @@ def monitor(frame_a: Optional[str], frame_b: Optional[str], duration: Optional[f
         _run_monitor(stats, buffer, pair, duration, period, node.ok, clock)
     finally:
         for s in subs:
-            try:
-                (s.close if hasattr(s, "publisher") else s.undeclare)()  # a GraphTap, or a subscriber
-            except Exception:  # noqa: BLE001
-                pass
+            (s.close if hasattr(s, "publisher") else s.destroy)()  # a GraphTap, or a raw subscription
         if clock is not None:
             clock.close()
         _close(node)

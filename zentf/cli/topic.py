@@ -10,7 +10,7 @@ from typing import Any, Optional
 import click
 
 from .common import (CONTEXT_SETTINGS, liveliness_wait_option, CliError, CliOptions, finite_float, node_options,
-                     open_session, status, wire_profile, with_options)
+                     status, with_options)
 from .toolclock import use_sim_time_option
 
 __all__ = ["topic", "resolve_type_name", "render_sample", "message_type_arg"]
@@ -21,16 +21,15 @@ def topic() -> None:
     """Topics: list, info, type, find, echo, hz, bw, delay, pub."""
 
 
-def _resolve(opts: CliOptions, name: str) -> tuple[str, str]:
-    """(fully qualified topic, key expression of any type on it) of a topic name in the command's namespace."""
+def _resolve(opts: CliOptions, name: str) -> str:
+    """The fully qualified topic of a topic name in the command's namespace (CliError if not a name)."""
     from zentf.transport.names import resolve_topic
 
     ns = node_options(opts, "_zentf_cli").namespace or ""
     try:
-        fq = resolve_topic(name, ns)
+        return resolve_topic(name, ns)
     except ValueError as exc:
         raise CliError(str(exc), code=2) from exc
-    return fq, wire_profile(opts).data_key(fq, None)
 
 
 @topic.command("list", context_settings=CONTEXT_SETTINGS)
@@ -65,7 +64,7 @@ def topic_info(name: str, wait: float, *, opts: CliOptions) -> None:
     """Type, publishers and subscribers of one topic."""
     from .introspect import graph_snapshot
 
-    fq, _ = _resolve(opts, name)
+    fq = _resolve(opts, name)
     _, topics = graph_snapshot(opts, wait, None)
     t = topics.get(fq)
     if t is None:
@@ -91,7 +90,7 @@ def topic_type(name: str, wait: float, *, opts: CliOptions) -> None:
     from .format import printable
     from .introspect import graph_snapshot
 
-    fq, _ = _resolve(opts, name)
+    fq = _resolve(opts, name)
     t = graph_snapshot(opts, wait, None)[1].get(fq)
     if t is None:
         raise CliError(f"unknown topic {fq}: no live node publishes or subscribes it")
@@ -120,7 +119,7 @@ def render_sample(payload: bytes, encoding: str, as_json: bool, key: str = "", p
     """One received sample as YAML (ros2 topic echo style), CSV or one JSON line; raw bytes if unknown.
     The wire ``profile`` (zentf's by default) decodes it: by the carried encoding, or (ros2) the key's type;
     ``view`` (zentf.cli.msgview.View) carries echo's --field/--csv/--no-arr/... choices."""
-    from zentf.transport.wire.profiles import WireProfile
+    from zentf.transport.wire.profiles import ZentfProfile
 
     from .msgview import FieldError, View
 
@@ -128,7 +127,7 @@ def render_sample(payload: bytes, encoding: str, as_json: bool, key: str = "", p
     data: Any
     type_name = None
     try:
-        type_name, value, known = (profile or WireProfile()).decode_any(payload, encoding, key)
+        type_name, value, known = (profile or ZentfProfile()).decode_any(payload, encoding, key)
         data = value.to_dict() if hasattr(value, "to_dict") else value
     except ValueError:
         known = False
@@ -195,27 +194,21 @@ def _check_type_in_graph(opts: CliOptions, fq: str, type_name: str) -> None:
                        code=2)
 
 
-def _subscribe(session: Any, key: str, history: bool,
-               stamp: Any = None) -> tuple[Any, "queue.Queue[tuple[bytes, str, float, str]]"]:
-    """Subscriber whose Zenoh-thread callback only copies the sample into a queue (with ``stamp()``'s value,
-    time.monotonic() by default, taken on arrival)."""
-    inbox: "queue.Queue[tuple[bytes, str, float, str]]" = queue.Queue(maxsize=100_000)
+def _subscribe(node: Any, fq: str, history: bool, type_name: Optional[str] = None,
+               stamp: Any = None) -> tuple[Any, "queue.Queue[tuple[bytes, str, Any, str]]"]:
+    """A raw subscription on the node's wire (of ``type_name``, any type with None) whose callback (Zenoh's
+    thread) only queues (payload, encoding, ``stamp()``'s value on arrival (time.monotonic() by default),
+    key); it shows in the graph, so `topic pub` and `graph` see the command."""
+    inbox: "queue.Queue[tuple[bytes, str, Any, str]]" = queue.Queue(maxsize=100_000)
     when = stamp or time.monotonic
 
     def on_sample(sample: Any) -> None:
         try:
-            inbox.put_nowait((sample.payload.to_bytes(), str(sample.encoding), when(), str(sample.key_expr)))
-        except Exception:  # noqa: BLE001 - full queue or odd sample: drop, never raise in Zenoh's thread
+            inbox.put_nowait((sample.payload, sample.encoding, when(), sample.key))
+        except queue.Full:  # the printer is behind: drop
             pass
 
-    if history:
-        import zenoh.ext as zx
-
-        sub = zx.declare_advanced_subscriber(session, key, on_sample,
-                                             history=zx.HistoryConfig(detect_late_publishers=True))
-    else:
-        sub = session.declare_subscriber(key, on_sample)
-    return sub, inbox
+    return node.create_raw_subscription(fq, on_sample, type_name=type_name, latched=history), inbox
 
 
 @topic.command("echo", context_settings=CONTEXT_SETTINGS)
@@ -252,7 +245,7 @@ def topic_echo(name: str, type_name: Optional[str], once: bool, count: Optional[
         path = parse_field(field)
     except FieldError as exc:
         raise CliError(str(exc), code=2) from exc
-    fq, key = _resolve(opts, name)
+    fq = _resolve(opts, name)
     want = message_type_arg(type_name) if type_name else None
     if want is not None:
         if path:
@@ -261,20 +254,15 @@ def topic_echo(name: str, type_name: Optional[str], once: bool, count: Optional[
             except FieldError as exc:
                 raise CliError(str(exc), code=2) from exc
         _check_type_in_graph(opts, fq, want)
-        try:
-            key = wire_profile(opts).data_key(fq, want)  # ros2: the type is in the key; zentf: the same key
-        except ValueError:
-            pass  # no ROS 2 definition: every type's key, filtered below
     view = View(csv=as_csv, as_json=as_json, no_arr=no_arr, no_str=no_str,
                 truncate=None if full_length or as_json else truncate_length, field=path)
     limit = 1 if once else count
     node = open_node(opts, "topic_echo")
-    token = None
     try:
-        sub, inbox = _subscribe(node.session, key, history=not no_history)
-        declare = getattr(node, "_declare_entity", None)
-        if declare is not None:  # show up as a subscriber, so `topic pub` and `graph` see us
-            token = declare("sub", want or "", key)
+        try:  # ros2: the type is in the key; zentf: the same key
+            _, inbox = _subscribe(node, fq, history=not no_history, type_name=want)
+        except ValueError:  # no ROS 2 definition of TYPE: every type's key, filtered below
+            _, inbox = _subscribe(node, fq, history=not no_history)
         started = time.monotonic()
         shown = 0
         while (not limit or shown < limit) and node.ok():
@@ -291,7 +279,7 @@ def topic_echo(name: str, type_name: Optional[str], once: bool, count: Optional[
                     payload, enc, _, got = inbox.get(timeout=wait)
             except queue.Empty:
                 continue
-            if want is not None and _sample_type(node.wire, enc, got) not in (None, want):
+            if want is not None and node.wire.sample_type(got, enc) not in (None, want):
                 continue  # another type on the same name: TYPE picks
             try:
                 text = render_sample(payload, enc, as_json, got, node.wire, view)
@@ -300,22 +288,8 @@ def topic_echo(name: str, type_name: Optional[str], once: bool, count: Optional[
             sys.stdout.write(text + "\n")
             sys.stdout.flush()
             shown += 1
-        sub.undeclare()
     finally:
-        for obj in (token,):
-            if obj is not None:
-                try:
-                    obj.undeclare()
-                except Exception:  # noqa: BLE001
-                    pass
-        node.shutdown()
-
-
-def _sample_type(profile: Any, encoding: str, key: str) -> Optional[str]:
-    """The type a sample carries (zentf: in its encoding; ros2: in its key), None when it says none."""
-    from zentf.transport.wire.codec import type_name_from_encoding
-
-    return profile.topic_of_key(key)[1] or type_name_from_encoding(encoding)
+        node.shutdown()  # the subscription with it
 
 
 @topic.command("hz", context_settings=CONTEXT_SETTINGS)
@@ -333,16 +307,18 @@ def topic_hz(name: str, window: int, duration: Optional[float], period: float, *
 
     from .format import format_hz
 
-    fq, key = _resolve(opts, name)
-    session = open_session(opts)
+    from .common import open_node
+
+    fq = _resolve(opts, name)
+    node = open_node(opts, "topic_hz")
     try:
-        sub, inbox = _subscribe(session, key, history=False)
+        _, inbox = _subscribe(node, fq, history=False)
         arrivals: deque[float] = deque(maxlen=window)
         started = time.monotonic()
         end = None if duration is None else started + duration
         next_report = started + period
         with status(f"Measuring the rate of {fq}") as st:
-            while True:
+            while node.ok():  # Ctrl-C ends it
                 now = time.monotonic()
                 stop_at = next_report if end is None else min(next_report, end)
                 try:
@@ -362,12 +338,11 @@ def topic_hz(name: str, window: int, duration: Optional[float], period: float, *
                     next_report += period
                 if end is not None and now >= end:
                     break
-        sub.undeclare()
-        if len(arrivals) < 2:
+        if duration is not None and len(arrivals) < 2:
             raise CliError(f"nothing published on {fq} in {duration:g} s" if not arrivals else
                            f"only one message on {fq} in {duration:g} s: no rate")
     finally:
-        session.close()
+        node.shutdown()
 
 
 @topic.command("bw", context_settings=CONTEXT_SETTINGS)
@@ -381,22 +356,22 @@ def topic_hz(name: str, window: int, duration: Optional[float], period: float, *
 @with_options
 def topic_bw(name: str, window: int, duration: Optional[float], period: float, *, opts: CliOptions) -> None:
     """Print the bandwidth a topic uses (ros2 topic bw): bytes per second as received, message sizes."""
+    from .common import open_node
     from .topic_stats import BandwidthWindow
 
-    fq, key = _resolve(opts, name)
-    session = open_session(opts)
+    fq = _resolve(opts, name)
+    node = open_node(opts, "topic_bw")
     try:
-        sub, inbox = _subscribe(session, key, history=False)
+        _, inbox = _subscribe(node, fq, history=False)
         print(f"Subscribed to [{fq}]", flush=True)
         stats = BandwidthWindow(window)
         _report_loop(inbox, lambda item: stats.add(item[2], len(item[0])), lambda: stats.report(time.monotonic()),
-                     duration, period, f"Measuring the bandwidth of {fq}")
-        sub.undeclare()
+                     duration, period, f"Measuring the bandwidth of {fq}", node.ok)
         if duration is not None and len(stats.times) < 2:
             raise CliError(f"nothing published on {fq} in {duration:g} s" if not stats.times else
                            f"only one message on {fq} in {duration:g} s: no bandwidth")
     finally:
-        session.close()
+        node.shutdown()
 
 
 def _report_loop(inbox: "queue.Queue", take: Any, report: Any, duration: Optional[float], period: float,
@@ -447,13 +422,13 @@ def topic_delay(name: str, window: int, duration: Optional[float], period: float
     from .toolclock import ToolClock
     from .topic_stats import DelayWindow, header_stamp_ns
 
-    fq, key = _resolve(opts, name)
+    fq = _resolve(opts, name)
     node = open_node(opts, "topic_delay")
     clock = None
     try:
         stats = DelayWindow(window)
         clock = ToolClock(node, use_sim_time)
-        sub, inbox = _subscribe(node.session, key, history=False, stamp=lambda: (clock.is_sim, clock.now_ns()))
+        _, inbox = _subscribe(node, fq, history=False, stamp=lambda: (clock.is_sim, clock.now_ns()))
         seen = {"sim": clock.is_sim, "last": None, "count": 0}
 
         def take(item: tuple) -> None:
@@ -484,7 +459,6 @@ def topic_delay(name: str, window: int, duration: Optional[float], period: float
             stats.add(now - stamp)
 
         _report_loop(inbox, take, stats.report, duration, period, f"Measuring the delay of {fq}", node.ok)
-        sub.undeclare()
         if duration is not None and not stats.delays:
             why = " (no /clock yet: sim time)" if seen["count"] == 0 and clock.is_sim and clock.now_ns() is None else ""
             raise CliError(f"nothing published on {fq} in {duration:g} s{why}")

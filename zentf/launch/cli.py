@@ -147,7 +147,7 @@ def _launch(file: str, args: tuple[str, ...], print_only: bool, show_args: bool,
         click.echo(_show_args(file), nl=False)
         return 0
     _setup_logging(opts.debug)
-    zopts = node_options(opts, "launch").zenoh  # flags > ZENTF_* env > defaults; CliError on bad values
+    nopts = node_options(opts, "launch")  # flags > ZENTF_* env > defaults; CliError on bad values
     namespace = opts.namespace if opts.namespace is not None else os.environ.get("ZENTF_NAMESPACE", "")
     desc = load_launch(file, list(args), namespace=namespace)
     if print_only:
@@ -155,7 +155,7 @@ def _launch(file: str, args: tuple[str, ...], print_only: bool, show_args: bool,
         return 0
     if not desc.nodes and desc.clock is None:
         log.warning("%s starts no nodes (all conditions false?)", desc.file)
-    return _run(desc, zopts, log_dir, _use_color(color), stop_timeout)
+    return _run(desc, nopts, log_dir, _use_color(color), stop_timeout)
 
 
 def _default_log_dir(desc: Any) -> Path:
@@ -168,19 +168,22 @@ def _default_log_dir(desc: Any) -> Path:
     return Path.home() / ".zentf" / "log" / f"{Path(desc.file).stem}-{stamp}-{os.getpid()}"
 
 
-def _run(desc: Any, zopts: Any, log_dir: Optional[Path], color: bool, stop_timeout: float) -> int:
+def _run(desc: Any, nopts: Any, log_dir: Optional[Path], color: bool, stop_timeout: float) -> int:
+    """Start the clock and the nodes; ``nopts``: the launcher's node options (Zenoh, wire, domain)."""
     from .supervisor import StopTimes, Supervisor
 
+    zopts = nopts.zenoh
     clock = None
     if desc.clock is not None:
         from .sim_clock import SimClockPublisher
 
         try:
-            clock = SimClockPublisher(desc.clock, zopts)
+            clock = SimClockPublisher(desc.clock, zopts, wire=nopts.wire, domain_id=nopts.domain_id)
         except Exception as exc:
             raise CliError(f"cannot start the sim clock: {clean_error(exc)}") from exc
     env = dict(os.environ)
     env.update(zopts.to_env())
+    env.update(ZENTF_WIRE=nopts.wire, ROS_DOMAIN_ID=str(nopts.domain_id))  # every node on the launcher's wire
     if env.pop("ZENTF_LISTEN", None):  # N nodes cannot all listen on one endpoint
         log.info("--listen/ZENTF_LISTEN is for the launcher's own session only; nodes do not get it")
     times = StopTimes(sigint=stop_timeout, sigterm=stop_timeout, sigkill=0.8)

@@ -73,9 +73,10 @@ class SimTime:
 
 
 class SimClockPublisher:
-    """Owns a hidden node that publishes `/clock` at `frequency` Hz and serves CONTROL_KEY."""
+    """Owns a hidden node that publishes `/clock` at `frequency` Hz on the launch's wire (``wire``,
+    ``domain_id``: zentf's or ROS 2's) and serves CONTROL_KEY (the launcher's own protocol, on any wire)."""
 
-    def __init__(self, spec: ClockSpec, zenoh_options: Any) -> None:
+    def __init__(self, spec: ClockSpec, zenoh_options: Any, *, wire: str = "zentf", domain_id: int = 0) -> None:
         from zentf.core.messages import Clock as ClockMsg
         from zentf.transport.node import Node
         from zentf.transport.options import NodeOptions
@@ -84,7 +85,8 @@ class SimClockPublisher:
         self.sim = SimTime(start_ns, spec.rate, spec.paused)
         self.period = 1.0 / spec.frequency
         self._msg_type = ClockMsg
-        opts = NodeOptions(name=f"{CLOCK_NODE_PREFIX}{os.getpid()}", namespace="", zenoh=zenoh_options)
+        opts = NodeOptions(name=f"{CLOCK_NODE_PREFIX}{os.getpid()}", namespace="", zenoh=zenoh_options, wire=wire,
+                           domain_id=domain_id)
         self.node = Node(options=opts, check_unique=False)
         self._pub = self.node.create_publisher("/clock", ClockMsg)
         self._queryable = self.node.session.declare_queryable(CONTROL_KEY, self._on_query)

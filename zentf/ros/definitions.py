@@ -317,6 +317,21 @@ string[] names
 ---
 uint8[] types
 """,
+    # tf2_ros runs LookupTransform as an action; zentf serves it as one request (the goal) and one
+    # reply (the result), so under --wire ros2 it is a service of this shape between zentf's own
+    # BufferServer and BufferClient (ROS 2's action clients use other keys and do not reach it)
+    "tf2_msgs/action/LookupTransform": """
+string target_frame
+string source_frame
+builtin_interfaces/Time source_time
+builtin_interfaces/Duration timeout
+builtin_interfaces/Time target_time
+string fixed_frame
+bool advanced
+---
+geometry_msgs/TransformStamped transform
+tf2_msgs/TF2Error error
+""",
     "tf2_msgs/srv/FrameGraph": """
 ---
 string frame_yaml

@@ -62,8 +62,9 @@ def _service_defs(type_name: str, text: str) -> dict[str, str]:
 
 
 def register_service_definition(type_name: str, text: str) -> MsgDef:
-    """Add (or replace) a service from its .srv text ('pkg/srv/Name'); its hash needs the types it uses."""
-    if type_name.count("/") != 2 or type_name.split("/")[1] != "srv":
+    """Add (or replace) a service from its .srv text ('pkg/srv/Name', or 'pkg/action/Name' for an action
+    zentf serves as one request and one reply); its hash needs the types it uses."""
+    if type_name.count("/") != 2 or type_name.split("/")[1] not in ("srv", "action"):
         raise DefinitionError(f"a service type is named pkg/srv/Name, got {type_name!r}")
     parsed = {n: parse_msg(n, t) for n, t in _service_defs(type_name, text).items()}
     for n, t in _service_defs(type_name, text).items():
@@ -75,7 +76,7 @@ def register_service_definition(type_name: str, text: str) -> MsgDef:
 
 
 def service_types() -> list[str]:
-    """The service types with a definition ('pkg/srv/Name')."""
+    """The service types with a definition ('pkg/srv/Name', 'pkg/action/Name')."""
     return sorted(_SERVICES)
 
 

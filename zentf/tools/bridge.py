@@ -21,15 +21,12 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..core.constants import DEFAULT_MAX_FRAME_ID_LENGTH, DEFAULT_MAX_FRAMES
-from ..core.messages import TFMessage, message_type
+from ..core.messages import Clock, TFMessage, message_type
 from ..core.ratelimit import RateLimitedLogger
 from ..ros.tf import MAX_PAYLOAD
 from ..transport.broadcaster import StaticTransformBroadcaster
 from ..transport.heap import BurstRelease
-from ..transport.names import is_concrete_key
-from ..transport.node import Node
-from ..transport.wire.profiles import parse_ros2_attachment
-from ..transport.entities import undeclare_all
+from ..transport.node import Node, RawSample
 
 __all__ = ["Ros2Bridge", "BridgeStats"]
 
@@ -57,9 +54,8 @@ class _Side:
         self.node = node
         self.pubs: dict[tuple[str, str], Any] = {}
         self.statics: dict[str, StaticTransformBroadcaster] = {}
-        self.gids: set[bytes] = set()
+        self.own: set[bytes] = set()  # the sender ids of the bridge's publishers on this side
         self.lock = threading.Lock()
-        self._self_name = node.get_fully_qualified_name().encode()
 
     def publisher(self, topic: str, type_name: str, *, latched: bool = False) -> Any:
         with self.lock:
@@ -81,61 +77,39 @@ class _Side:
             return b
 
     def _remember(self, pub: Any) -> None:
-        gid = getattr(pub._attach, "gid", None)
-        if gid is not None:
-            self.gids.add(gid)
+        self.own.add(pub.sender_id)
 
-    def is_own(self, sample: Any) -> bool:
-        """Whether a sample is one this side's node published (its name on zentf's wire, one of its
-        publisher GIDs on ROS 2's)."""
-        att = sample.attachment
-        if att is None:
-            return False
-        raw = att.to_bytes()
-        if self.node.wire.name == "zentf":
-            return raw == self._self_name
-        try:
-            return parse_ros2_attachment(raw)[2] in self.gids
-        except ValueError:
-            return False
+    def is_own(self, sample: RawSample) -> bool:
+        """Whether a sample is one this side's bridge publishers sent (its sender id in their attachments:
+        the node's name on zentf's wire, a publisher GID on ROS 2's)."""
+        return sample.attachment is not None and self.node.wire.sender_id(sample.attachment) in self.own
 
 
 class Ros2Bridge:
-    """Relays ``topics`` (tf, tf_static and /clock by default, plus ``extra_topics``) between a zentf node
-    and a ROS 2 node (``ros2_node.wire.name == 'ros2'``); ``close()`` stops it (the nodes stay yours)."""
+    """Relays ``topics`` (tf, tf_static and /clock by default, plus ``extra_topics``) between a node on zentf's
+    wire and a node on ROS 2's (``--wire ros2``), or any two nodes on different wires (``BridgeStats``'
+    ``to_ros2`` counts what goes from the first to the second); ``close()`` stops it (the nodes stay yours)."""
 
     def __init__(self, zentf_node: Node, ros2_node: Node, extra_topics: tuple[str, ...] = (), *,
                  tf: bool = True, clock: bool = True) -> None:
-        import zenoh.ext as zx
-
-        if zentf_node.wire.name != "zentf" or ros2_node.wire.name != "ros2":
-            raise ValueError("the bridge needs a zentf node and a ros2 node (--wire ros2)")
+        if zentf_node.wire == ros2_node.wire:  # one wire: each side would hear the other's relays, forever
+            raise ValueError(f"the bridge needs nodes on two different wires (e.g. zentf and --wire ros2), "
+                             f"both are on {zentf_node.wire.name} (domain {zentf_node.wire.domain_id})")
         self.stats = BridgeStats()
         self._z = _Side(zentf_node)
         self._r = _Side(ros2_node)
         self._complain = RateLimitedLogger(log)
         self._release = BurstRelease()
         self._subs: list[Any] = []
-        self._tokens: list[Any] = []
         topics = [t for t in DEFAULT_TOPICS if (tf or not t[0].startswith("tf")) and (clock or t[0] != "/clock")]
         topics += [(t, False) for t in extra_topics]
         for topic, latched in topics:
+            type_name = TFMessage.TYPE_NAME if topic.startswith("tf") else (
+                Clock.TYPE_NAME if topic == "/clock" else None)
             for src, dst in ((self._z, self._r), (self._r, self._z)):
-                node = src.node
-                fq = node.resolve_topic_name(topic)
-                key = node.wire.data_key(fq, None)
-                cb = self._relay_factory(src, dst, topic, fq, latched)
-                if latched:
-                    sub = zx.declare_advanced_subscriber(node.session, key, cb,
-                                                         history=zx.HistoryConfig(detect_late_publishers=True))
-                else:
-                    sub = node.session.declare_subscriber(key, cb)
-                self._subs.append(sub)
-                type_name = TFMessage.TYPE_NAME if topic.startswith("tf") else (
-                    "rosgraph_msgs/msg/Clock" if topic == "/clock" else "")
-                if type_name:
-                    self._tokens.append(node._declare_entity("sub", type_name, key, topic=fq, depth=100,
-                                                             latched=latched))
+                fq = src.node.resolve_topic_name(topic)
+                self._subs.append(src.node.create_raw_subscription(
+                    fq, self._relay_factory(src, dst, topic, fq, latched), type_name=type_name, latched=latched))
 
     # ---- relaying
     def _relay_factory(self, src: _Side, dst: _Side, topic: str, fq: str, latched: bool) -> Any:
@@ -144,26 +118,24 @@ class Ros2Bridge:
 
         profile = src.node.wire
 
-        def relay(sample: Any) -> None:  # Zenoh thread: decode, re-encode, publish; never raises
+        def relay(sample: RawSample) -> None:  # Zenoh thread: decode, re-encode, publish; never raises
             try:
                 if src.is_own(sample):
                     self.stats.echoes += 1
                     return
-                key = str(sample.key_expr)
-                if not is_concrete_key(key):
-                    raise ValueError("sent on a key expression with wildcards, not on the topic")
-                size = len(sample.payload)
+                payload = sample.payload
+                size = len(payload)
                 self._release.note(size)
                 if size > MAX_PAYLOAD:
                     raise ValueError(f"payload of {size} bytes exceeds the {MAX_PAYLOAD} byte limit")
-                payload = sample.payload.to_bytes()
-                if topic.startswith("tf") and profile.topic_of_key(key)[1] in (None, TFMessage.TYPE_NAME):
-                    profile.check_tf_encoding(str(sample.encoding))  # zentf: another type on tf is named as such
+                if topic.startswith("tf"):
+                    if sample.type_name not in (None, TFMessage.TYPE_NAME):  # another type on tf is named as such
+                        raise ValueError(f"wrong type {sample.type_name}, expected {TFMessage.TYPE_NAME}")
                     if not self._relay_tf(src, dst, topic, fq, latched, payload):
                         self.stats.dropped += 1
                         return
                 else:
-                    type_name, msg, known = profile.decode_any(payload, str(sample.encoding), key)
+                    type_name, msg, known = profile.decode_any(payload, sample.encoding, sample.key)
                     if not known or type_name is None or isinstance(msg, (bytes, dict)):
                         raise ValueError(f"cannot convert a message of type {type_name or 'unknown'}")
                     dst.publisher(topic, type_name).publish(msg)
@@ -212,9 +184,9 @@ class Ros2Bridge:
 
     def close(self) -> None:
         self._release.close()
-        undeclare_all([*self._subs, *self._tokens])
+        for sub in self._subs:
+            sub.destroy()
         self._subs.clear()
-        self._tokens.clear()
 
 
 class _Samples:

@@ -7,12 +7,13 @@ JointState's own stamp, unless every joint in it was published less than ``1/pub
 Mimic joints follow their master. ``frame_prefix`` is prepended to every frame id as is (ROS 2;
 ROS 1 used tf_prefix with a '/'). The URDF text is published latched on ``robot_description``
 (std_msgs/String). Joint states are decoded and turned into one TFMessage in Zenoh's callback
-thread (no executor hop): throttle, finite check, kinematics and the message bytes in one compiled
-call (zentf/tools/jointtf.pyx: at 100 Hz the process wakes with cold caches, where numpy's per-call
-cost would dominate). A JointState whose name list
-is byte for byte the one last seen (publishers resend the same list) is read in C without decoding a
-name (``JointTfFiller.read``); anything else, or anything odd, takes the general decoder, which names
-what is wrong.
+thread (no executor hop; a raw subscription through the node's wire profile). On zentf's msgpack wire:
+throttle, finite check, kinematics and the message bytes in one compiled call (zentf/tools/jointtf.pyx:
+at 100 Hz the process wakes with cold caches, where numpy's per-call cost would dominate), and a
+JointState whose name list is byte for byte the one last seen (publishers resend the same list) is
+read in C without decoding a name (``JointTfFiller.read``); anything else, or anything odd, takes the
+general decoder, which names what is wrong. On a wire of other payloads (``--wire ros2``: CDR) the
+profile decodes the JointState, numpy computes the joints and the profile writes the TFMessage.
 
 The program (``zentf run robot_state_publisher``):
 
@@ -27,33 +28,29 @@ override them. A malformed URDF is refused before anything starts (one line, exi
 """
 from __future__ import annotations
 
+import argparse
 import logging
 import struct
+import sys
 import threading
-from typing import Any
+from typing import Any, Sequence
 
 import msgpack
 import numpy as np
 
-from ..transport.wire import codec as wire
-from ..transport.broadcaster import StaticTransformBroadcaster
 from ..core.messages import (Header, JointState, Quaternion, String, TFMessage, Transform, TransformStamped,
                              Vector3)
 from ..core.ratelimit import RateLimitedLogger
 from ..core.time import Time
-from ..transport.names import is_concrete_key, topic_to_key
-from ..transport.node import Node
+from ..transport import program
+from ..transport.broadcaster import StaticTransformBroadcaster
 from ..transport.clock import rate_problem
+from ..transport.node import Node, RawSample
+from ..transport.wire import codec as wire
 from ..urdf import Kinematics, Robot
 from ..urdf.kinematics import JointTransforms
-from ..transport.entities import undeclare_all
-import argparse
-import sys
-from typing import Sequence
+from .jointtf import JointTfFiller  # zentf's wire: decode, kinematics and the TFMessage bytes in C
 from .robot_model import START_ERRORS, Prepared, own_arguments, prepare
-from ..transport import program
-
-from .jointtf import JointTfFiller
 
 __all__ = ["RobotStatePublisher"]
 
@@ -150,6 +147,8 @@ class RobotStatePublisher:
         self.publish_interval_ns = int(round(1e9 / publish_frequency))
         self.ignore_timestamp = ignore_timestamp
         self.kin = Kinematics(robot)
+        #: zentf's msgpack payloads: the compiled reader and writer apply (else the profile decodes and encodes)
+        self._msgpack = node.wire.payload_format == "msgpack"
         self._log = RateLimitedLogger(log)
         self._lock = threading.Lock()
         self.received = 0     # joint state messages
@@ -183,9 +182,7 @@ class RobotStatePublisher:
         self._static = StaticTransformBroadcaster(node)
         self.publish_fixed_transforms()
         self._tf = node.create_publisher("tf", TFMessage)
-        key = topic_to_key(node.resolve_topic_name(joint_states_topic))
-        self._sub = node.session.declare_subscriber(key, self._on_sample)
-        self._token = node._declare_entity("sub", JointState.TYPE_NAME, key)
+        self._sub = node.create_raw_subscription(joint_states_topic, self._on_sample, type_name=JointState)
         node.add_on_shutdown(self.close)
 
     # ------------------------------------------------------------------ fixed joints
@@ -207,20 +204,23 @@ class RobotStatePublisher:
             self._static.send_transform(fixed)
 
     # ------------------------------------------------------------------ joint states
-    def _on_sample(self, sample: Any) -> None:
+    def _on_sample(self, sample: RawSample) -> None:
         """Zenoh thread: decode, compute, publish; never raises."""
         try:
-            if not is_concrete_key(str(sample.key_expr)):
-                raise ValueError("sent on a key expression with wildcards, not on the topic")
-            self.on_payload(sample.payload.to_bytes())
+            if self._msgpack:
+                self.on_payload(sample.payload)
+            else:
+                js = self.node.wire.decode(sample.payload, sample.encoding, sample.key, JointState)
+                self.process(js.name, js.position, js.header.stamp.sec, js.header.stamp.nanosec)
         except Exception as e:  # noqa: BLE001 - one bad message must not stop the publisher
             with self._lock:
                 self.ignored += 1
-            sender = wire.authority_of(getattr(sample, "attachment", None), "unknown sender")
+            sender = self.node.wire.authority(sample.attachment, "unknown sender")
             self._log.log(logging.WARNING, ("bad", sender), "ignored a bad JointState from %s: %s", sender, e)
 
     def on_payload(self, payload: bytes) -> None:
-        """One JointState as received (its msgpack bytes): publish its transforms; raises on a bad one."""
+        """One JointState as zentf's wire carries it (msgpack bytes): publish its transforms; raises on a
+        bad one."""
         plan = self._last_plan
         if plan is not None and plan.filler is not None:
             # the same names as last time, sent the same way: positions and stamp read in C, no name decoded
@@ -262,12 +262,12 @@ class RobotStatePublisher:
             filler = plan.filler
             if filler is None:  # no movable joint named: nothing to publish
                 return False
-            # throttle, finite check, kinematics and bytes in one compiled call
             if not self.ignore_timestamp and not filler.fresh(stamp, self.publish_interval_ns):
                 self.ignored += 1
                 return False
-            payload = filler.payload(position, sec, nsec)
-            if payload is None:  # a value or a translation is not finite: those joints are left out
+            # zentf's wire: finite check, kinematics and bytes in one compiled call
+            payload = filler.payload(position, sec, nsec) if self._msgpack else None
+            if payload is None:  # another wire's format, or a joint not finite (then left out)
                 payload = self._finite_part(plan, position, sec, nsec, stamp)
                 if payload is None:
                     return False
@@ -319,9 +319,10 @@ class RobotStatePublisher:
         return values, t, q
 
     def _finite_part(self, plan: _Plan, position: list[float], sec: int, nsec: int, stamp: int) -> bytes | None:
-        """The TFMessage of the joints whose value and transform are finite; each joint left out is named in a
-        rate-limited line (a mimic of a huge master, a NaN position), the others are published as usual.
-        None when no joint is left (the caller holds the lock)."""
+        """The TFMessage, in the wire's format, of the joints whose value and transform are finite; each joint
+        left out is named in a rate-limited line (a mimic of a huge master, a NaN position) and the message
+        counted as ignored, the others are published as usual. None when no joint is left (the caller holds
+        the lock)."""
         values, t, q = self._compute(plan, position)
         ok = np.isfinite(values) & np.isfinite(t).all(axis=1) & np.isfinite(q).all(axis=1)
         n_sel = len(plan.sel)
@@ -337,7 +338,8 @@ class RobotStatePublisher:
                        if not np.isfinite(values[k]) else f"its transform at {values[k]!r} is not finite")
             self._log.log(logging.WARNING, ("dropped", name), "left joint '%s' out of a JointState's transforms: %s",
                           name, why)
-        self.ignored += 1
+        if not ok.all():
+            self.ignored += 1
         if not ok.any():
             return None
         self._last_publish[plan.known[ok[:n_sel]]] = stamp
@@ -352,7 +354,7 @@ class RobotStatePublisher:
                                         Transform(Vector3(float(tk[0]), float(tk[1]), float(tk[2])),
                                                   Quaternion(float(qk[0]), float(qk[1]), float(qk[2]),
                                                              float(qk[3])))))
-        return wire.encode_tf(out)
+        return self.node.wire.encode_tf(out)
 
     def _plan(self, names: list[str]) -> _Plan:
         """The cached plan of a joint-name list (the same list as last time: one list comparison)."""
@@ -368,7 +370,7 @@ class RobotStatePublisher:
         return plan
 
     def close(self) -> None:
-        undeclare_all((self._sub, self._token))
+        self._sub.destroy()
 
 
 # ---- the program (zentf run robot_state_publisher)

@@ -19,12 +19,10 @@ import threading
 import time
 from typing import Any, Sequence
 
-from ..transport.wire import codec as wire
 from ..core.messages import Marker, MarkerArray, PointStamped, PoseStamped
 from ..core.ratelimit import RateLimitedLogger
 from ..core.text import printable
-from ..transport.entities import undeclare_all
-from ..transport.names import is_concrete_key
+from ..transport.node import RawSample
 
 __all__ = ["Viewer", "frame_path", "VIEW_TYPES", "require_rerun", "view_blueprint", "pick_fixed_frame",
            "LABELS_UP_TO"]
@@ -128,7 +126,6 @@ class Viewer:
 
         from ..transport.buffer import Buffer
         from ..transport.listener import TransformListener
-        from ..transport.names import topic_to_key
 
         self.rr = rr
         self.node = node
@@ -147,13 +144,11 @@ class Viewer:
                                             static_only=dyn is None) for dyn, st in tf_topics]
         self.listener = self.listeners[0]
         self._inbox: "queue.Queue[tuple[str, str, bytes]]" = queue.Queue(maxsize=10_000)
-        ns_key = topic_to_key(node.resolve_topic_name("tf")).rpartition("/")[0]
-        self._key = f"{ns_key}/**" if ns_key else "**"
-        self._profile = node.wire  # zentf's format, or ROS 2's (the type is then in the key)
-        if self._profile.name == "ros2":
-            self._key = f"{self._profile.domain_id}/{self._key}"
-        self._sub = node.session.declare_subscriber(self._key, self._on_sample)
-        self._token = node._declare_entity("sub", "", self._key)
+        self._profile = node.wire  # zentf's format, or ROS 2's: it reads the type each sample carries
+        #: the viewed namespace, as topic names start ('/robot1/'), for the points' entity paths
+        self._prefix = node.get_namespace().rstrip("/") + "/"
+        # every topic of the node's namespace, filtered by the type a sample carries
+        self._sub = node.create_raw_subscription("**", self._on_sample)
         self._marker_paths: dict[tuple[str, int], str] = {}
         self._shown_frames: set[str] = set()
         self.ticks = 0
@@ -170,19 +165,12 @@ class Viewer:
             node.create_subscription(robot_description, String, lambda m: robot.set_description(m.data),
                                      latched=True)
 
-    def _on_sample(self, sample: Any) -> None:  # Zenoh thread: filter by carried type, copy, hand over
-        try:
-            if not is_concrete_key(str(sample.key_expr)):  # a put on `**` is no topic's message
-                return
-            if self._profile.name == "ros2":
-                type_name = self._profile.topic_of_key(str(sample.key_expr))[1]
-            else:
-                type_name = wire.type_name_from_encoding(str(sample.encoding))
-            if type_name not in VIEW_TYPES:
-                return
-            self._inbox.put_nowait((str(sample.key_expr), type_name, sample.payload.to_bytes()))
-        except Exception:  # noqa: BLE001 - full queue or odd sample: drop
-            pass
+    def _on_sample(self, sample: RawSample) -> None:  # Zenoh thread: filter by carried type, hand over
+        if sample.type_name in VIEW_TYPES:
+            try:
+                self._inbox.put_nowait((sample.key, sample.type_name, sample.payload))
+            except queue.Full:  # the view is behind: drop
+                pass
 
     # ------------------------------------------------------------ one refresh
     def step(self) -> None:
@@ -300,9 +288,9 @@ class Viewer:
                          rr.TransformAxes3D(self.axis_length * 0.5))
 
     def _topic(self, key: str) -> str:
-        """A key expression shown relative to the viewed namespace ('ns/laser_point' -> 'laser_point')."""
-        prefix = self._key[:-2]
-        return key[len(prefix):] if prefix and key.startswith(prefix) else key
+        """A sample's topic shown relative to the viewed namespace ('/ns/laser_point' -> 'laser_point')."""
+        topic = self._profile.topic_of_key(key)[0]
+        return topic[len(self._prefix):] if topic.startswith(self._prefix) else topic.lstrip("/")
 
     def _log_marker(self, m: Marker) -> None:
         rr = self.rr
@@ -367,6 +355,6 @@ class Viewer:
             stop.wait(max(0.0, period - (time.monotonic() - started)))
 
     def close(self) -> None:
-        undeclare_all((self._sub, self._token))
+        self._sub.destroy()
         for lis in self.listeners:
             lis.unregister()

@@ -7,8 +7,6 @@ from typing import Any, Union
 
 from ..core.messages import TFMessage, TransformStamped
 from .node import Node
-from .wire.profiles import Ros2Profile
-from .ingest.tf_encoder import OneTransformSender, OneTransformSenderCdr
 
 __all__ = ["TransformBroadcaster", "StaticTransformBroadcaster"]
 
@@ -34,19 +32,12 @@ class TransformBroadcaster:
         self.node = node
         self._pub = node.create_publisher(topic, TFMessage, qos)
         self._encode_tf = node.wire.encode_tf  # msgpack (zentf) or CDR (ros2)
-        att = self._pub._const_attachment
-        if node.wire.name == "zentf" and att is not None and type(self).send_transform is _send_transform:
-            # the common call, one TransformStamped on zentf's wire, compiled from here to Zenoh's put
-            # (zentf/transport/ingest/tf_encoder.pyx); anything else reaches the method below
-            slow = self.send_transform
-            self.send_transform = self.sendTransform = OneTransformSender(  # type: ignore[method-assign]
-                self._pub._pub.put, att, slow)
-        elif isinstance(node.wire, Ros2Profile) and type(node.wire).encode_tf is Ros2Profile.encode_tf \
-                and type(self).send_transform is _send_transform and isinstance(getattr(self._pub._attach, "gid", None), bytes):
-            # ROS 2's wire: the CDR payload and rmw_zenoh's attachment (the publisher's own sequence) in C
-            slow = self.send_transform
-            self.send_transform = self.sendTransform = OneTransformSenderCdr(  # type: ignore[method-assign]
-                self._pub._pub.put, self._pub._attach.seq, self._pub._attach.gid, slow)
+        if type(self).send_transform is _send_transform:
+            # the common call, one TransformStamped, compiled from here to Zenoh's put where the wire has
+            # such a sender (zentf/transport/ingest/tf_encoder.pyx); anything else reaches the method below
+            fast = self._pub.compiled_tf_sender(self.send_transform)
+            if fast is not None:
+                self.send_transform = self.sendTransform = fast  # type: ignore[method-assign]
 
     def send_transform(self, transform: TransformsArg) -> None:
         self._pub.publish_bytes(self._encode_tf(_as_list(transform)))

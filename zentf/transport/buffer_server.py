@@ -3,14 +3,16 @@
 The answer to the field's usual complaint (every Python process deserializes all of ``tf``): a
 BufferClient has the Buffer API (``lookup_transform``, ``lookup_transform_full``, ``can_transform``,
 ``transform``) and subscribes to nothing; each call is one Zenoh query to the server's queryable
-``<ns>/tf2_buffer_server`` (type ``tf2_msgs/action/LookupTransform``; tf2_ros runs it as an action,
-zentf as one request and one reply, with no feedback or cancel). The server answers at once from
-Zenoh's thread when it can; a lookup that must wait (``timeout`` > 0) waits on the buffer's insert
-events in a worker thread, never polling. A wait never outlives its caller: the call says when its
-caller gives up (``deadline_ms``, see ``zentf.transport.service``), a request that does not say is
-taken to give up after Zenoh's default query timeout, and the server caps every wait (``max_wait``),
-so a wait slot held by a client that left is free again by then. Errors come back as tf2's exception
-classes with the server's text (cut and escaped). A client whose server restarts simply reaches the new one.
+``tf2_buffer_server`` (type ``tf2_msgs/action/LookupTransform``; tf2_ros runs it as an action,
+zentf as a service, one request and one reply, with no feedback or cancel), on the node's wire like
+any service (zentf.transport.service; under ``--wire ros2`` zentf's clients and servers reach each
+other, ROS 2's action clients do not). The server answers at once from Zenoh's thread when it can; a
+lookup that must wait (``timeout`` > 0) waits on the buffer's insert events in a worker thread, never
+polling. A wait never outlives its caller: the call says when its caller gives up (``deadline_ms``,
+see ``zentf.transport.service``), a request that does not say is taken to give up after Zenoh's
+default query timeout, and the server caps every wait (``max_wait``), so a wait slot held by a client
+that left is free again by then. Errors come back as tf2's exception classes with the server's text
+(cut and escaped). A client whose server restarts simply reaches the new one.
 """
 from __future__ import annotations
 
@@ -19,16 +21,13 @@ import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
-from .wire import codec as wire
 from ..core.buffer_core import _ns
 from ..core.exceptions import (ConnectivityException, ExtrapolationException, InvalidArgumentException,
                               LookupException, TimeoutException, TransformException)
 from ..core.messages import TransformStamped
 from ..core.services import TF2Error, LookupTransform
 from ..core.time import Duration, Time, to_duration
-from .entities import undeclare_all
-from .names import topic_to_key
-from .service import DEADLINE_PARAMETER, ERROR_TEXT_LIMIT, error_text
+from .service import ERROR_TEXT_LIMIT, ServiceCall, ServiceServer, error_text
 
 __all__ = ["BufferServer", "BufferClient", "DEFAULT_NAME"]
 
@@ -48,8 +47,7 @@ _CODES: list[tuple[type[Exception], int]] = [
     (ExtrapolationException, TF2Error.EXTRAPOLATION_ERROR), (InvalidArgumentException, TF2Error.INVALID_ARGUMENT_ERROR),
     (TimeoutException, TF2Error.TIMEOUT_ERROR), (TransformException, TF2Error.TRANSFORM_ERROR)]
 _EXCEPTIONS = {code: cls for cls, code in _CODES}
-_NO_ERROR = {"error": 0, "error_string": ""}
-_ZERO_TS = wire.tf_to_plain(TransformStamped())
+_Response = LookupTransform.Response
 
 
 def _code(e: BaseException) -> int:
@@ -57,27 +55,6 @@ def _code(e: BaseException) -> int:
         if isinstance(e, cls):
             return code
     return TF2Error.TRANSFORM_ERROR
-
-
-def caller_deadline(query: Any) -> float | None:
-    """Seconds from now until the caller of ``query`` gives up (its ``deadline_ms`` parameter), or None
-    when it did not say (or said something that is not a count of milliseconds)."""
-    try:
-        text = query.parameters.get(DEADLINE_PARAMETER)
-    except Exception:
-        return None
-    if text is None or not text.isdigit() or len(text) > 12:
-        return None
-    return int(text) / 1000.0
-
-
-def _stamp_ns(d: Any, what: str) -> int:
-    if not isinstance(d, dict):
-        raise ValueError(f"{what} must be {{sec, nanosec}}")
-    sec, nsec = d.get("sec", 0), d.get("nanosec", 0)
-    if type(sec) is not int or type(nsec) is not int or sec < 0 or not 0 <= nsec < 1_000_000_000:
-        raise ValueError(f"bad {what} {d!r}"[:120])
-    return sec * 1_000_000_000 + nsec
 
 
 class BufferServer:
@@ -95,63 +72,57 @@ class BufferServer:
         self.buffer = buffer
         self.node = node
         self.name = node.resolve_topic_name(ns)
-        self.key = topic_to_key(self.name)
         self.requests = 0
         self.errors = 0
-        self._resp_enc = wire.encoding_for(LookupTransform.Response.TYPE_NAME)
-        self._req_type = LookupTransform.Request.TYPE_NAME
         self._max_waiting = max_waiting
         self.max_wait = float(max_wait)
         self._waiting = 0
         self._lock = threading.Lock()
         self._pool = ThreadPoolExecutor(max_workers=max_waiting, thread_name_prefix="tf2-buffer-server")
         self._closed = False
-        self._queryable = node.session.declare_queryable(self.key, self._on_query, complete=True)
-        self._token = node._declare_entity("srv", LookupTransform.TYPE_NAME, self.key)
+        self._server = ServiceServer(node, self.name, LookupTransform, self._on_call)
+        #: the service's key on the node's wire ('' when the wire cannot carry it)
+        self.key = self._server.key
         node.add_on_shutdown(self.destroy)
 
-    def _on_query(self, query: Any) -> None:
+    def _on_call(self, call: ServiceCall) -> None:
         """Zenoh thread: decode, answer now if possible, else hand the wait to a worker."""
         self.requests += 1
         try:
-            type_name = wire.type_name_from_encoding(query.encoding)
-            if type_name is not None and type_name != self._req_type:
-                raise ValueError(f"{self.name} is {LookupTransform.TYPE_NAME}: refused a {type_name} request")
-            d = wire.unpack(query.payload.to_bytes() if query.payload is not None else b"\x80")
-            if not isinstance(d, dict):
-                raise ValueError("request is not a LookupTransform goal")
-            target, source = d.get("target_frame", ""), d.get("source_frame", "")
-            fixed = d.get("fixed_frame", "")
-            if not all(type(x) is str for x in (target, source, fixed)):
-                raise ValueError("frame names must be strings")
-            args = (target, _stamp_ns(d.get("target_time", {}), "target_time"), source,
-                    _stamp_ns(d.get("source_time", {}), "source_time"), fixed, bool(d.get("advanced", False)))
-            timeout_ns = _stamp_ns(d.get("timeout", {}), "timeout")
-            deadline = caller_deadline(query)
+            carried = call.carried_type
+            if carried is not None and carried != LookupTransform.Request.TYPE_NAME:
+                raise ValueError(f"{self.name} is {LookupTransform.TYPE_NAME}: refused a {carried} request")
+            req = call.decode()
+            if req.timeout.nanoseconds < 0:
+                raise ValueError(f"timeout must not be negative, got {req.timeout.nanoseconds / 1e9:g} s")
+            args = (req.target_frame, req.target_time.nanoseconds, req.source_frame, req.source_time.nanoseconds,
+                    req.fixed_frame, req.advanced)
+            timeout_ns = req.timeout.nanoseconds
+            deadline = call.deadline
         except Exception as e:
             self.errors += 1
-            self._reply(query, None, TF2Error.INVALID_ARGUMENT_ERROR, f"bad LookupTransform request: {e}")
+            self._reply(call, None, TF2Error.INVALID_ARGUMENT_ERROR, f"bad LookupTransform request: {e}")
             return
         try:
-            self._reply(query, self._lookup(*args, 0.0), 0, "")
+            self._reply(call, self._lookup(*args, 0.0), 0, "")
             return
         except TransformException as e:
             if timeout_ns <= 0:
-                self._reply(query, None, _code(e), str(e))
+                self._reply(call, None, _code(e), str(e))
                 return
         except Exception as e:  # the buffer refused the arguments (e.g. a type error)
-            self._reply(query, None, TF2Error.TRANSFORM_ERROR, f"{type(e).__name__}: {e}")
+            self._reply(call, None, TF2Error.TRANSFORM_ERROR, f"{type(e).__name__}: {e}")
             return
         with self._lock:
             busy = self._waiting >= self._max_waiting or self._closed
             if not busy:
                 self._waiting += 1
         if busy:
-            self._reply(query, None, TF2Error.TIMEOUT_ERROR,
+            self._reply(call, None, TF2Error.TIMEOUT_ERROR,
                         f"buffer server {self.name} is busy ({self._max_waiting} lookups waiting)")
             return
         left = UNSTATED_DEADLINE if deadline is None else deadline
-        self._pool.submit(self._wait_and_reply, query, args,
+        self._pool.submit(self._wait_and_reply, call, args,
                           max(0.0, min(timeout_ns / 1e9, left - _REPLY_MARGIN, self.max_wait)))
 
     def _lookup(self, target: str, tt: int, source: str, st: int, fixed: str, advanced: bool,
@@ -161,37 +132,33 @@ class BufferServer:
                                                      fixed, timeout)
         return self.buffer.lookup_transform(target, source, Time(nanoseconds=st), timeout)
 
-    def _wait_and_reply(self, query: Any, args: tuple, timeout: float) -> None:
+    def _wait_and_reply(self, call: ServiceCall, args: tuple, timeout: float) -> None:
         """Worker: the buffer's own event-driven wait (woken by each insert), then the answer."""
         try:
-            self._reply(query, self._lookup(*args, timeout), 0, "")
+            self._reply(call, self._lookup(*args, timeout), 0, "")
         except TransformException as e:
-            self._reply(query, None, _code(e), str(e))
+            self._reply(call, None, _code(e), str(e))
         except Exception as e:
-            self._reply(query, None, TF2Error.TRANSFORM_ERROR, f"{type(e).__name__}: {e}")
+            self._reply(call, None, TF2Error.TRANSFORM_ERROR, f"{type(e).__name__}: {e}")
         finally:
             with self._lock:
                 self._waiting -= 1
 
-    def _reply(self, query: Any, ts: TransformStamped | None, code: int, text: str) -> None:
-        body = {"transform": wire.tf_to_plain(ts) if ts is not None else _ZERO_TS,
-                "error": _NO_ERROR if code == 0 else {"error": code, "error_string": error_text(text)}}
+    def _reply(self, call: ServiceCall, ts: TransformStamped | None, code: int, text: str) -> None:
+        resp = _Response(transform=ts) if ts is not None else _Response()
+        if code:
+            resp.error = TF2Error(code, error_text(text))
         try:
-            query.reply(query.key_expr, wire.pack(body), encoding=self._resp_enc)
-        except Exception as e:
-            log.debug("buffer server reply failed: %s", e)
-        finally:
-            try:
-                query.drop()
-            except Exception:
-                pass
+            call.respond(resp)
+        except Exception as e:  # a transform the wire cannot encode (say, a huge stamp): tf2's error instead
+            call.respond(_Response(error=TF2Error(TF2Error.TRANSFORM_ERROR, f"cannot send the transform: {e}")))
 
     def destroy(self) -> None:
         with self._lock:
             if self._closed:
                 return
             self._closed = True
-        undeclare_all((self._queryable, self._token))
+        self._server.destroy()
         self._pool.shutdown(wait=False, cancel_futures=True)
 
 

@@ -1,17 +1,10 @@
 """Who is alive and what they publish/subscribe, from liveliness tokens (no central master).
 
-Token layout (see docs/protocol.md); ``<ns>`` is ``%`` for the root namespace, else ``%`` + the
-namespace with '/' replaced by '%' (``%robot1``, ``%a%b``); ``<type>`` is encoded the same way:
-
-    @zentf/node/<ns>/<name>
-    @zentf/pub/<ns>/<name>/<type>/<topic key...>
-    @zentf/sub/<ns>/<name>/<type>/<topic key...>
-    @zentf/srv/<ns>/<name>/<type>/<service key...>   (service server, zentf.transport.service)
-    @zentf/cli/<ns>/<name>/<type>/<service key...>   (service client)
-
-A killed process's session closes, so its tokens vanish and watchers see DELETE samples.
-Every function takes an optional wire ``profile`` (zentf.transport.wire.profiles): with the ``ros2`` one the graph is
-read from rmw_zenoh's ``@ros2_lv/<domain>/...`` tokens instead (docs/ros2.md).
+Each node announces itself and each of its publishers, subscribers, service servers and clients with a
+liveliness token in its wire profile's layout (zentf's ``@zentf/...``, docs/protocol.md; rmw_zenoh's
+``@ros2_lv/<domain>/...``, docs/ros2.md); the profile reads them back (``parse_token``). A killed
+process's session closes, so its tokens vanish and watchers see DELETE samples. Every function takes an
+optional wire ``profile`` (zentf.transport.wire): zentf's by default.
 """
 from __future__ import annotations
 
@@ -20,27 +13,12 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
-from .names import decode_chunk, fully_qualified_node_name, key_to_topic, normalize_namespace
+from .names import fully_qualified_node_name, normalize_namespace
+from .wire.base import GraphEntry
+from .wire.zentf_wire import ZentfProfile, parse_token
 
 __all__ = ["GraphEntry", "NodeInfo", "TopicInfo", "parse_token", "list_tokens", "list_nodes", "node_info",
            "list_topics", "list_services", "GraphWatcher", "build_graph"]
-
-PREFIX = "@zentf"
-
-
-@dataclass(frozen=True)
-class GraphEntry:
-    """One parsed token: kind is 'node', 'pub', 'sub', 'srv' (service server) or 'cli' (client)."""
-
-    kind: str
-    namespace: str
-    name: str
-    type_name: str = ""
-    topic: str = ""
-
-    @property
-    def node(self) -> str:
-        return fully_qualified_node_name(self.namespace, self.name)
 
 
 @dataclass
@@ -62,31 +40,13 @@ class TopicInfo:
     subscribers: list[str] = field(default_factory=list)
 
 
-def parse_token(key: str) -> GraphEntry | None:
-    """A token key -> GraphEntry; None for keys that are not zentf tokens."""
-    parts = str(key).split("/")
-    if len(parts) < 4 or parts[0] != PREFIX:
-        return None
-    kind = parts[1]
-    ns = decode_chunk(parts[2])
-    if kind == "node" and len(parts) == 4:
-        return GraphEntry("node", ns, parts[3])
-    if kind in ("pub", "sub", "srv", "cli") and len(parts) >= 6:
-        return GraphEntry(kind, ns, parts[3], decode_chunk(parts[4]), key_to_topic("/".join(parts[5:])))
-    return None
-
-
-def _selector(namespace: str | None) -> str:
-    if namespace is None:
-        return f"{PREFIX}/**"
-    ns = normalize_namespace(namespace)
-    return f"{PREFIX}/*/{'%' + ns.replace('/', '%') if ns else '%'}/**"
+_ZENTF = ZentfProfile()
 
 
 def _parser(profile: Any, namespace: str | None) -> tuple[str, Callable[[str], GraphEntry | None]]:
-    """(liveliness selector, token parser) of a wire profile (None: zentf's own tokens)."""
-    if profile is None or profile.name == "zentf":
-        return _selector(namespace), parse_token
+    """(liveliness selector, token parser) of a wire profile (None: zentf's), for one namespace or all."""
+    if profile is None:
+        profile = _ZENTF
     ns = normalize_namespace(namespace) if namespace is not None else None
     parse = profile.parse_token
 
@@ -173,35 +133,75 @@ def list_topics(session: Any, namespace: str | None = None, timeout: float = 2.0
 
 
 class GraphWatcher:
-    """Live view of the graph: ``on_change(entry, alive)`` per token event; ``snapshot()`` any time."""
+    """Live view of the graph: ``on_change(entry, alive)`` per token event; ``snapshot()`` any time.
+
+    ``wait`` > 0: the constructor also asks the network for the live tokens and returns once they are
+    known (at most ``wait`` seconds), so ``count`` and ``snapshot`` are right from the first call (those
+    tokens are not reported to ``on_change``; the changes after them are).
+    """
 
     def __init__(self, session: Any, on_change: Callable[[GraphEntry, bool], None] | None = None,
-                 namespace: str | None = None, profile: Any = None) -> None:
+                 namespace: str | None = None, profile: Any = None, *, wait: float = 0.0) -> None:
         import zenoh
 
-        self._entries: set[GraphEntry] = set()
+        self._by_key: dict[str, GraphEntry] = {}  # live token key -> what it says
+        self._entries: set[GraphEntry] = set()    # what the live tokens say (two tokens may say one thing)
         self._cond = threading.Condition()
         self._on_change = on_change
         self._put = zenoh.SampleKind.PUT
+        self._gone: set[str] | None = set() if wait > 0 else None  # tokens withdrawn while the query runs
         selector, self._parse = _parser(profile, namespace)
-        self._sub = session.liveliness().declare_subscriber(selector, self._on_sample, history=True)
+        # With wait: the changes from now on, then the live tokens asked of the network (a subscriber with
+        # history would have the session answer such a query itself, before it has heard everything)
+        self._sub = session.liveliness().declare_subscriber(selector, self._on_sample, history=wait <= 0)
+        if wait > 0:
+            try:
+                replies = [r.ok for r in session.liveliness().get(selector, timeout=wait) if r.ok is not None]
+            except Exception:  # noqa: BLE001 - the view then fills from the changes alone
+                replies = []
+            with self._cond:
+                gone, self._gone = self._gone or set(), None
+                for sample in replies:
+                    key = str(sample.key_expr)
+                    if key not in gone and key not in self._by_key:
+                        e = self._parse(key)
+                        if e is not None:
+                            self._add(key, e)
+                self._cond.notify_all()
+
+    def _add(self, key: str, e: GraphEntry) -> None:
+        """(lock held)"""
+        self._by_key[key] = e
+        self._entries.add(e)
 
     def _on_sample(self, sample: Any) -> None:
-        e = self._parse(str(sample.key_expr))
+        key = str(sample.key_expr)
+        e = self._parse(key)
         if e is None:
             return
         alive = sample.kind == self._put
         with self._cond:
             if alive:
-                self._entries.add(e)
+                self._add(key, e)
             else:
-                self._entries.discard(e)
+                if self._gone is not None:
+                    self._gone.add(key)
+                if self._by_key.pop(key, None) is not None and e not in self._by_key.values():
+                    self._entries.discard(e)
             self._cond.notify_all()
         if self._on_change is not None:
             try:
                 self._on_change(e, alive)
             except Exception:
                 pass
+
+    def count(self, kind: str, topic: str, type_name: str | None = None) -> int:
+        """Live tokens of ``kind`` ('pub', 'sub', 'srv', 'cli') on ``topic``, of ``type_name`` or of any
+        type (an any-type entity counts for every type)."""
+        with self._cond:
+            return sum(1 for e in self._by_key.values()
+                       if e.kind == kind and e.topic == topic
+                       and (type_name is None or not e.type_name or e.type_name == type_name))
 
     def snapshot(self) -> tuple[dict[str, NodeInfo], dict[str, TopicInfo]]:
         with self._cond:

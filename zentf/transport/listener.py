@@ -218,29 +218,27 @@ class TransformListener:
         self._tf_target = self._guard if self._guard is not None else buffer  # what tf samples go into
         self._subs: list[Any] = []
         self._tokens: list[Any] = []
-        profile = self.node.wire  # zentf or ros2 (zentf.transport.wire.profiles): key layout, payload format, authority
+        profile = self.node.wire  # zentf.transport.wire: key layout, payload format, authority
         self._tf_encoding = profile.encoding(TFMessage.TYPE_NAME)
-        #: ROS 2 carries the type in the key (the check is a no-op): the encoding is then not even read
-        self._check_encoding = None if profile.name == "ros2" else profile.check_tf_encoding
-        self._ingest = profile.ingest_tf
-        #: ROS 2 carries no sender name: tf2_ros records one fixed authority for every transform
-        self._senders = Senders(profile.authority, profile.authority(None, "") if profile.name == "ros2" else None,
-                                profile.sender_of, MAX_SENDER_KEY)
+        #: None where the wire carries the type in the key: the encoding is then not even read
+        self._check_encoding = profile.check_tf_encoding
+        #: where the wire carries no sender name (ROS 2): the one authority tf2_ros records for every transform
+        self._senders = Senders(profile.authority, profile.fixed_authority, profile.sender_of, MAX_SENDER_KEY)
         self._authorities = self._senders.cache  # attachment bytes -> authority, shared by both topics
         self._thread: threading.Thread | None = None
         session = self.node.session
-        static_key = wire_key(self.node, tf_static_topic)
+        static_key = self.node.topic_key(tf_static_topic, TFMessage.TYPE_NAME)
         self._subs.append(zx.declare_advanced_subscriber(
             session, static_key, self._handler(True, static_key),
             history=zx.HistoryConfig(detect_late_publishers=True)))
-        self._declare_token(static_key, is_static=True)
+        self._declare_token(tf_static_topic, static_key, is_static=True)
         if not static_only:
-            key = wire_key(self.node, tf_topic)
+            key = self.node.topic_key(tf_topic, TFMessage.TYPE_NAME)
             # Zenoh's thread fills a bounded ring; this listener's thread drains it into per-sender
             # queues and serves them in turn, so a flood delays only the flooder's own data
             sub = session.declare_subscriber(key, zenoh.handlers.RingChannel(RING_CAPACITY))
             self._subs.append(sub)
-            self._declare_token(key)
+            self._declare_token(tf_topic, key)
             # the thread reads the ring through its handler object: undeclaring the subscriber while
             # the thread waits in sub.recv() fails ("Already borrowed") and leaves it blocked
             handler = self._handler(False, key)
@@ -251,12 +249,12 @@ class TransformListener:
         self._jump = self.node.get_clock().add_jump_callback(self._on_jump)
         self.node.add_on_shutdown(self.unregister)
 
-    def _declare_token(self, key: str, is_static: bool = False) -> None:
-        if "*" not in key:  # a liveliness token cannot hold a wildcard; '*/tf' listeners stay unlisted
+    def _declare_token(self, topic: str, key: str, is_static: bool = False) -> None:
+        if "*" not in topic:  # a liveliness token cannot hold a wildcard; '*/tf' listeners stay unlisted
             # depth 100 on both, as tf2_ros's DynamicListenerQoS / StaticListenerQoS
-            self._tokens.append(self.node._declare_entity("sub", TFMessage.TYPE_NAME, key, depth=100,
-                                                          latched=is_static,
-                                                          topic=self.node.wire.topic_of_key(key)[0]))
+            self._tokens.append(self.node.declare_entity("sub", self.node.resolve_topic_name(topic),
+                                                         TFMessage.TYPE_NAME, key=key, depth=100,
+                                                         latched=is_static))
 
     def _release_later(self) -> None:
         """The ring ran empty in a flood's tail: release once no message came for TAIL_DELAY s."""
@@ -317,22 +315,13 @@ class TransformListener:
         return sum(h.malformed for h in self._handlers)
 
     def _ingest_of(self, target: Any, is_static: bool) -> Callable[[bytes, str], tuple]:
-        """``ingest(payload, authority)`` of a topic: compiled (zentf/transport/ingest/handler.pyx) for the
-        two wires, with the future guard's check folded in; else the profile's ``ingest_tf`` into ``target``."""
-        slow = self._ingest
-        wire_name = self.node.wire.name
-        if wire_name in ("zentf", "ros2"):
-            guard = None if is_static else self._guard
-            compiled = TfIngest(wire_name == "ros2", slow, target, self.buffer,
-                                guard.now_ns if guard is not None else None,
-                                guard.tolerance_ns if guard is not None else 0, is_static)
-            self._ingests.append(compiled)
-            return compiled
-
-        def ingest(payload: bytes, authority: str) -> tuple:
-            return slow(payload, target, authority, is_static)
-
-        return ingest
+        """``ingest(payload, authority)`` of a topic: the wire's compiled ingest (zentf/transport/ingest/handler.pyx)
+        into ``target``, with the future guard's check folded in."""
+        guard = None if is_static else self._guard
+        compiled = self.node.wire.tf_ingest(target, self.buffer, guard.now_ns if guard is not None else None,
+                                            guard.tolerance_ns if guard is not None else 0, is_static)
+        self._ingests.append(compiled)
+        return compiled
 
     @property
     def bad_messages(self) -> int:
@@ -389,26 +378,12 @@ class StaticTransformListener(TransformListener):
         super().__init__(buffer, node, static_only=True, **kw)
 
 
-def wire_key(node: Node, topic: str) -> str:
-    """Key of a tf topic; '*' / '**' parts make it a pattern ('*/tf' = the tf of every robot namespace)."""
-    from ..core.messages import TFMessage as _TF
-
-    if "*" not in topic:
-        return node.wire.data_key(node.resolve_topic_name(topic), _TF.TYPE_NAME)
-    marks = {"**": "zentf_wild2_", "*": "zentf_wild1_"}
-    parts = topic.split("/")
-    for part in parts:
-        if "*" in part and part not in marks:
-            raise ValueError(f"invalid tf topic {topic!r}: a wildcard must be a whole part ('*' or '**')")
-    key = node.wire.data_key(node.resolve_topic_name("/".join(marks.get(p, p) for p in parts)), _TF.TYPE_NAME)
-    return "/".join({v: k for k, v in marks.items()}.get(c, c) for c in key.split("/"))
-
-
 def _limits() -> ServeLimits:
     """The tf thread's bounds: this module's constants (read when a listener starts)."""
     return ServeLimits(drain_batch=DRAIN_BATCH, max_pending=MAX_PENDING, max_pending_bytes=MAX_PENDING_BYTES,
                        suspect_after=SUSPECT_AFTER, suspect_queue=SUSPECT_QUEUE, max_senders=MAX_SENDERS,
                        release_after=RELEASE_AFTER, release_bytes=RELEASE_BYTES, tail_window=TAIL_WINDOW)
+
 
 #: Listeners whose thread still runs. At exit they are stopped before the interpreter finalizes: a
 #: daemon thread woken inside Zenoh during finalization would be unwound through Rust frames and

@@ -1,8 +1,10 @@
 """Node: a named participant with a Zenoh session, publishers, subscriptions, timers and parameters.
 
 Callbacks (subscriptions and timers) run on the node's own executor thread, one at a time, so Zenoh's
-threads only copy bytes and return. Liveliness tokens announce the node and each of its topics
-(layout in docs/protocol.md and ``zentf.transport.graph``).
+threads only copy bytes and return; raw subscriptions (payloads as they travel) call back on Zenoh's
+thread. Everything goes through the node's wire profile (``node.wire``: keys, payloads, attachments);
+liveliness tokens announce the node and each of its topics in the profile's layout (docs/protocol.md,
+docs/ros2.md, ``zentf.transport.graph``).
 """
 from __future__ import annotations
 
@@ -15,26 +17,23 @@ import time as _time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
-from .wire import codec as wire
 from .clock import MAX_TIMER_PERIOD_NS, Clock, ClockType, Rate
 from ..core.messages import Clock as ClockMsg
 from ..core.messages import Message
-from .names import (fully_qualified_node_name, is_concrete_key, key_to_topic, normalize_namespace,
-                    resolve_topic, validate_node_name)
+from .names import (fully_qualified_node_name, is_concrete_key, normalize_namespace, resolve_topic,
+                    validate_node_name)
 from .options import NodeOptions
-from .wire.profiles import make_profile, zentf_entity_token, zentf_node_token
+from .wire.profiles import make_profile
 from ..core.ratelimit import RateLimitedLogger
 from ..core.text import parse_bool, stderr_log_handler
 from ..core.time import Duration, to_duration
 from .entities import undeclare_all
 
-__all__ = ["Node", "Publisher", "Subscription", "Timer", "Parameter", "NodeNameError",
-           "ParameterNotDeclaredException", "spin", "init_logging",
-           "node_token_key", "entity_token_key", "LIVELINESS_PREFIX"]
+__all__ = ["Node", "Publisher", "Subscription", "RawSubscription", "RawPublisher", "RawSample", "GraphToken",
+           "Timer", "Parameter", "NodeNameError", "ParameterNotDeclaredException", "spin", "init_logging"]
 
-LIVELINESS_PREFIX = "@zentf"
 log = logging.getLogger("zentf.transport.node")
 
 
@@ -45,15 +44,6 @@ class NodeNameError(ValueError):
 class ParameterNotDeclaredException(KeyError):
     def __str__(self) -> str:
         return str(self.args[0]) if self.args else "parameter not declared"
-
-
-def node_token_key(namespace: str, name: str) -> str:
-    """zentf's node token (the ``zentf`` wire profile)."""
-    return zentf_node_token(namespace, name)
-
-
-def entity_token_key(kind: str, namespace: str, name: str, type_name: str, key: str) -> str:
-    return zentf_entity_token(kind, namespace, name, type_name, key)
 
 
 #: ROS-like log lines: ``[WARNING] [zentf.transport.listener]: ...``
@@ -74,36 +64,48 @@ class Parameter:
     value: Any = None
 
 
-class Publisher:
-    """Publishes messages of one type on one topic; ``publish`` also takes a plain dict."""
+class GraphToken:
+    """The liveliness token announcing one graph entity (``Node.declare_entity``); ``key`` is '' when the
+    wire cannot announce it (a ROS 2 subscriber of any type, a pattern)."""
 
-    def __init__(self, node: "Node", topic: str, msg_type: type[Message], *, latched: bool = False,
-                 history: int = 1, depth: int = 10) -> None:
+    __slots__ = ("key", "_token")
+
+    def __init__(self, key: str, token: Any) -> None:
+        self.key = key
+        self._token = token
+
+    def undeclare(self) -> None:
+        token, self._token = self._token, None
+        if token is not None:
+            token.undeclare()
+
+
+class RawPublisher:
+    """Publishes payloads already encoded for the node's wire on one topic (a bag player's, a relay's):
+    the profile's key, encoding (or the given one), attachment and graph token."""
+
+    def __init__(self, node: "Node", topic: str, type_name: str, *, latched: bool = False, history: int = 1,
+                 depth: int = 10, encoding: Any = None) -> None:
         import zenoh
         import zenoh.ext as zx
 
         self.node = node
         self.topic_name = topic
-        self.msg_type = msg_type
+        self.type_name = type_name
         profile = node.wire
-        self.key = profile.data_key(topic, msg_type.TYPE_NAME)
+        self.key = profile.data_key(topic, type_name)
         self.latched = latched
-        self._encode = profile.encode
-        enc = profile.encoding(msg_type.TYPE_NAME)
+        enc = encoding if encoding is not None else profile.encoding(type_name)
         if latched:
-            extra = {}
-            if profile.name == "ros2":  # as rmw_zenoh's RELIABLE + TRANSIENT_LOCAL publishers
-                extra["sample_miss_detection"] = zx.MissDetectionConfig(sporadic_heartbeat=0.5)
             self._pub = zx.declare_advanced_publisher(
                 node.session, self.key, encoding=enc, cache=zx.CacheConfig(max_samples=max(1, history)),
-                publisher_detection=True, **extra)
+                publisher_detection=True, **profile.latched_publisher_options())
         else:
             self._pub = node.session.declare_publisher(self.key, encoding=enc,
                                                        congestion_control=zenoh.CongestionControl.BLOCK)
-        self._token, token_key = node._declare_entity("pub", msg_type.TYPE_NAME, self.key, topic=topic,
-                                                      depth=max(1, history) if latched else depth,
-                                                      latched=latched, with_key=True)
-        self._attach = profile.attacher(node, token_key)
+        self._token = node.declare_entity("pub", topic, type_name, key=self.key,
+                                          depth=max(1, history) if latched else depth, latched=latched)
+        self._attach = profile.attacher(node, self._token.key)
         #: the attachment as Zenoh bytes, made once, when it is the same on every sample (zentf's wire:
         #: the node name); None when the wire makes one per sample (ROS 2: sequence number, time)
         self._const_attachment = None if self._attach.constant is None else zenoh.ZBytes(self._attach.constant)
@@ -112,6 +114,11 @@ class Publisher:
             # override is kept)
             self.publish_bytes = functools.partial(  # type: ignore[method-assign]
                 self._pub.put, attachment=self._const_attachment)
+
+    @property
+    def sender_id(self) -> bytes:
+        """This publisher's identity in its samples' attachments (``node.wire.sender_id`` reads it back)."""
+        return self._attach.sender_id
 
     def wait_for_subscribers(self, timeout: float = 5.0) -> bool:
         """Block until at least one subscriber matches (event-driven); True at once for latched topics."""
@@ -129,25 +136,106 @@ class Publisher:
             except Exception:
                 pass
 
-    def publish(self, msg: Message | dict) -> None:
-        if isinstance(msg, Message) and not isinstance(msg, self.msg_type):
-            raise TypeError(f"publisher on {self.topic_name} takes {self.msg_type.__name__}, "
-                            f"got {type(msg).__name__}")
-        self.publish_bytes(self._encode(msg, self.msg_type.TYPE_NAME))
-
     def publish_bytes(self, payload: bytes) -> None:
         """Send an already encoded payload (e.g. from ``node.wire.encode_tf``)."""
         self._pub.put(payload, attachment=self._attach())
+
+    def publish_as(self, payload: bytes, authority: str) -> None:
+        """Send a payload on behalf of ``authority`` (a recorded sender) where the wire carries one."""
+        self._pub.put(payload, attachment=self.node.wire.attachment_for(self._attach, authority))
+
+    def compiled_tf_sender(self, fallback: Callable[[Any], None]) -> Callable[[Any], None] | None:
+        """The wire's compiled ``send_transform`` of one TransformStamped on this publisher (None: none)."""
+        return self.node.wire.one_transform_sender(self._pub.put, self._attach, fallback)
+
+    def get_subscription_count(self) -> int:
+        """Subscriptions of this topic and type (or of any type) in the graph, this node's included."""
+        return self.node._graph_view().count("sub", self.topic_name, self.type_name)
 
     def destroy(self) -> None:
         undeclare_all((self._pub, self._token))
         self.node._publishers.discard(self)
 
-    def get_subscription_count(self) -> int:
-        return 0  # Zenoh does not expose counts; kept for rclpy familiarity
+
+_publish_bytes = RawPublisher.publish_bytes
 
 
-_publish_bytes = Publisher.publish_bytes
+class Publisher(RawPublisher):
+    """Publishes messages of one type on one topic; ``publish`` also takes a plain dict."""
+
+    def __init__(self, node: "Node", topic: str, msg_type: type[Message], *, latched: bool = False,
+                 history: int = 1, depth: int = 10) -> None:
+        super().__init__(node, topic, msg_type.TYPE_NAME, latched=latched, history=history, depth=depth)
+        self.msg_type = msg_type
+        self._encode = node.wire.encode
+
+    def publish(self, msg: Message | dict) -> None:
+        if isinstance(msg, Message) and not isinstance(msg, self.msg_type):
+            raise TypeError(f"publisher on {self.topic_name} takes {self.msg_type.__name__}, "
+                            f"got {type(msg).__name__}")
+        self.publish_bytes(self._encode(msg, self.type_name))
+
+
+class RawSample(NamedTuple):
+    """One sample as it travelled (a raw subscription's callback gets it)."""
+
+    payload: bytes
+    #: the attachment's bytes (``node.wire.authority``/``sender_id`` read the sender from it), or None
+    attachment: bytes | None
+    #: the key expression it was published on
+    key: str
+    #: the type it carries (in its encoding or its key, as the wire does), None if it names none
+    type_name: str | None
+    #: its Zenoh encoding, as text
+    encoding: str
+
+
+class RawSubscription:
+    """Payloads of a topic as they travel on the node's wire, undecoded (bridges, recorders, viewers, programs
+    with their own decoders): ``callback(RawSample)`` runs on Zenoh's thread, so it must be short; one that
+    raises is counted in ``errors`` and logged (rate-limited). ``topic`` may hold '*' / '**' parts (no graph
+    token then); ``type_name`` narrows the key where the wire puts types in keys (ROS 2), None takes any
+    type; ``latched`` also fetches what latched publishers keep for late joiners."""
+
+    def __init__(self, node: "Node", topic: str, callback: Callable[[RawSample], Any], *,
+                 type_name: str | None = None, latched: bool = False, depth: int = 100) -> None:
+        import zenoh.ext as zx
+
+        self.node = node
+        self.topic_name = topic
+        self.callback = callback
+        self.type_name = type_name
+        # a pattern is resolved here (its parts kept); a plain topic comes resolved
+        self.key = node.topic_key(topic, type_name) if "*" in topic else node.wire.data_key(topic, type_name)
+        self.received = 0
+        self.errors = 0
+        self._type_of = node.wire.sample_type
+        if latched:
+            self._sub = zx.declare_advanced_subscriber(node.session, self.key, self._on_sample,
+                                                       history=zx.HistoryConfig(detect_late_publishers=True))
+        else:
+            self._sub = node.session.declare_subscriber(self.key, self._on_sample)
+        self._token = None if "*" in topic else node.declare_entity(
+            "sub", topic, type_name or "", key=self.key, depth=depth, latched=latched)
+
+    def _on_sample(self, sample: Any) -> None:  # Zenoh thread
+        try:
+            att = sample.attachment
+            key = str(sample.key_expr)
+            enc = str(sample.encoding)
+            self.received += 1
+            if not is_concrete_key(key):  # a put on `**` reaches every subscriber it intersects: no topic's message
+                raise ValueError("sent on a key expression with wildcards, not on the topic")
+            self.callback(RawSample(sample.payload.to_bytes(), att.to_bytes() if att is not None else None, key,
+                                    self._type_of(key, enc), enc))
+        except Exception as e:  # noqa: BLE001 - never raise into Zenoh's thread
+            self.errors += 1
+            self.node._bad_input.log(logging.WARNING, ("raw", self.key, type(e).__name__),
+                                     "raw subscription on '%s': %s: %s", self.key, type(e).__name__, e)
+
+    def destroy(self) -> None:
+        undeclare_all((self._sub, self._token))
+        self.node._subscriptions.discard(self)
 
 
 class Subscription:
@@ -174,8 +262,8 @@ class Subscription:
                 history=zx.HistoryConfig(detect_late_publishers=True))
         else:
             self._sub = node.session.declare_subscriber(self.key, self._on_sample)
-        type_name = msg_type.TYPE_NAME if msg_type is not None else ""  # '%' on the wire = any type
-        self._token = node._declare_entity("sub", type_name, self.key, topic=topic, depth=depth, latched=latched)
+        self._token = node.declare_entity("sub", topic, msg_type.TYPE_NAME if msg_type is not None else "",
+                                          key=self.key, depth=depth, latched=latched)
 
     def _on_sample(self, sample: Any) -> None:  # Zenoh thread: copy and hand over
         try:
@@ -243,13 +331,6 @@ class Timer:
     def destroy(self) -> None:
         self.cancel()
         self.node._timers.discard(self)
-
-
-class _NoToken:
-    """Stands for a token a profile does not declare (e.g. a ROS 2 subscriber of any type)."""
-
-    def undeclare(self) -> None:
-        return None
 
 
 _STOP = object()
@@ -351,11 +432,11 @@ class Node:
         self._lock = threading.Lock()
         #: the wire profile (zentf.transport.wire.profiles): keys, payloads, attachments and graph tokens of this node
         self.wire = make_profile(opts.wire, opts.domain_id)
-        self._ros2_id: int | None = None
+        self._graph: Any = None  # the graph as the wire's tokens show it, watched from the first count_*
         self._owns_session = session is None
         self.session = session if session is not None else self.wire.session_defaults(opts.zenoh).open_session()
         try:
-            if check_unique and self.wire.name == "zentf":  # ROS 2 allows (and warns about) duplicates
+            if check_unique:
                 self._check_unique()
             # SIGINT/SIGTERM are this node's before anything can see it: a Ctrl-C as soon as it shows up
             # in the graph stops it cleanly instead of interrupting the rest of this constructor
@@ -364,8 +445,7 @@ class Node:
             use_sim = parse_bool(self.declare_parameter("use_sim_time", False).value, "parameter use_sim_time")
             self._params["use_sim_time"].value = use_sim
             self._clock = Clock(ClockType.ROS_TIME if use_sim else ClockType.SYSTEM_TIME, sim=use_sim)
-            self._clock_sub = None
-            self._clock_token = None
+            self._clock_sub: RawSubscription | None = None
             self._clock_jump = None
             if use_sim:
                 self._start_sim_clock()
@@ -400,8 +480,27 @@ class Node:
     def resolve_topic_name(self, topic: str) -> str:
         return resolve_topic(topic, self._namespace, self._name, self._remappings)
 
+    def topic_key(self, topic: str, type_name: str | None = None) -> str:
+        """The key expression a topic's samples of a type (any with None) travel on with this node's wire;
+        a relative name is resolved, '*' / '**' parts stay patterns ('*/tf': the tf of every namespace)."""
+        if "*" not in topic:
+            return self.wire.data_key(self.resolve_topic_name(topic), type_name)
+        marks = {"**": "zentf_wild2_", "*": "zentf_wild1_"}
+        parts = topic.split("/")
+        for part in parts:
+            if "*" in part and part not in marks:
+                raise ValueError(f"invalid topic {topic!r}: a wildcard must be a whole part ('*' or '**')")
+        import zenoh
+
+        key = self.wire.data_key(self.resolve_topic_name("/".join(marks.get(p, p) for p in parts)), type_name)
+        # Zenoh takes a pattern in its canonical form only ('**/*' is written '*/**')
+        return str(zenoh.KeyExpr.autocanonize("/".join({v: k for k, v in marks.items()}.get(c, c)
+                                                         for c in key.split("/"))))
+
     def _check_unique(self) -> None:
-        key = node_token_key(self._namespace, self._name)
+        key = self.wire.unique_name_selector(self._namespace, self._name)
+        if key is None:  # the wire allows nodes sharing a name
+            return
         # A fresh peer session learns the network's declarations a few ms after open returns, so an
         # empty answer is asked again shortly (peer mode only; clients get them before open returns).
         delays = (0.0,) if self.options.zenoh.mode in ("client", "router") else (0.0, 0.02, 0.08)
@@ -418,14 +517,37 @@ class Node:
                 log.debug("liveliness query for %s failed: %s", key, e)
                 return
 
-    def _declare_entity(self, kind: str, type_name: str, key: str, *, topic: str | None = None, depth: int = 10,
-                        latched: bool = False, with_key: bool = False) -> Any:
-        """Announce a publisher ('pub') or subscriber ('sub') of ``key`` in the graph (the profile's
-        token layout); with_key: (token, token key)."""
-        token_key = self.wire.entity_token(self, kind, topic or key_to_topic(key), type_name, key,
-                                           depth=depth, latched=latched)
-        token = self.session.liveliness().declare_token(token_key) if token_key else _NoToken()
-        return (token, token_key) if with_key else token
+    def declare_entity(self, kind: str, topic: str, type_name: str = "", *, key: str | None = None,
+                       depth: int = 10, latched: bool = False) -> GraphToken:
+        """Announce a publisher ('pub'), subscriber ('sub'), service server ('srv') or client ('cli') of this
+        node in the graph, in the wire's token layout; ``topic`` is the fully qualified topic (or service)
+        name, ``key`` the key expression it uses (default: the wire's for the topic and type), ``depth`` and
+        ``latched`` the QoS that ROS 2 tokens show. ``undeclare()`` the returned token to withdraw it."""
+        if not topic.startswith("/"):
+            raise ValueError(f"declare_entity takes a fully qualified name, got {topic!r}")
+        if key is None:
+            key = (self.wire.service_key(topic, type_name) if kind in ("srv", "cli")
+                   else self.wire.data_key(topic, type_name or None))
+        token_key = self.wire.entity_token(self, kind, topic, type_name, key, depth=depth, latched=latched)
+        return GraphToken(token_key, self.session.liveliness().declare_token(token_key) if token_key else None)
+
+    def count_subscribers(self, topic: str) -> int:
+        """Subscriptions of a topic (any type) in the graph, as the wire's tokens announce them (rclpy's)."""
+        return self._graph_view().count("sub", self.resolve_topic_name(topic))
+
+    def count_publishers(self, topic: str) -> int:
+        """Publishers of a topic (any type) in the graph (rclpy's)."""
+        return self._graph_view().count("pub", self.resolve_topic_name(topic))
+
+    def _graph_view(self) -> Any:
+        """The graph of this node's wire, watched from the first call on (one liveliness subscriber)."""
+        with self._lock:
+            if self._graph is None:
+                self._check_open()
+                from .graph import GraphWatcher
+
+                self._graph = GraphWatcher(self.session, profile=self.wire, wait=2.0)
+            return self._graph
 
     # ---- pub/sub
     def create_publisher(self, topic: str | type[Message], msg_type: type[Message] | str,
@@ -436,8 +558,19 @@ class Node:
             topic, msg_type = msg_type, topic  # type: ignore[assignment]
         self._check_open()
         pub = Publisher(self, self.resolve_topic_name(topic), msg_type, latched=latched,  # type: ignore[arg-type]
-                        history=qos if latched and self.wire.name == "ros2" else 1, depth=qos)
+                        history=self.wire.latched_history(qos), depth=qos)
         self._publishers.add(pub)
+        return pub
+
+    def create_raw_publisher(self, topic: str, type_name: str | type[Message], qos: int = 10, *,
+                             latched: bool = False, encoding: Any = None) -> RawPublisher:
+        """A publisher of payloads already encoded for this node's wire (``node.wire.encode``), e.g. a bag's;
+        ``encoding`` overrides the wire's Zenoh encoding of the type (where the wire sets one)."""
+        self._check_open()
+        name = type_name if isinstance(type_name, str) else type_name.TYPE_NAME
+        pub = RawPublisher(self, self.resolve_topic_name(topic), name, latched=latched,
+                           history=self.wire.latched_history(qos), depth=qos, encoding=encoding)
+        self._publishers.add(pub)  # type: ignore[arg-type]
         return pub
 
     def create_subscription(self, topic: str | type[Message], msg_type: type[Message] | str | None,
@@ -451,6 +584,19 @@ class Node:
         sub = Subscription(self, self.resolve_topic_name(topic), msg_type, callback,  # type: ignore[arg-type]
                            depth=qos, latched=latched)
         self._subscriptions.add(sub)
+        return sub
+
+    def create_raw_subscription(self, topic: str, callback: Callable[[RawSample], Any], *,
+                                type_name: str | type[Message] | None = None, latched: bool = False,
+                                qos: int = 100) -> RawSubscription:
+        """Payloads as they travel on this node's wire, undecoded, on Zenoh's thread: ``callback(RawSample)``
+        with the payload, attachment, key, carried type and encoding (see RawSubscription). ``topic`` is
+        resolved like any topic and may hold '*' / '**' parts; ``node.wire.decode`` reads a payload."""
+        self._check_open()
+        name = type_name if type_name is None or isinstance(type_name, str) else type_name.TYPE_NAME
+        sub = RawSubscription(self, topic if "*" in topic else self.resolve_topic_name(topic), callback,
+                              type_name=name, latched=latched, depth=qos)
+        self._subscriptions.add(sub)  # type: ignore[arg-type]
         return sub
 
     # ---- services (zentf.transport.service)
@@ -500,28 +646,18 @@ class Node:
         return _time.monotonic_ns()
 
     def _start_sim_clock(self) -> None:
-        topic = self.resolve_topic_name("/clock")
-        key = self.wire.data_key(topic, ClockMsg.TYPE_NAME)
         clock = self._clock
         profile = self.wire
 
-        def on_clock(sample: Any) -> None:  # Zenoh thread: tiny and never raises
+        def on_clock(sample: RawSample) -> None:  # Zenoh thread: tiny and never raises
             try:
-                if not is_concrete_key(str(sample.key_expr)):
-                    raise ValueError("sent on a key expression with wildcards, not on the topic")
-                if profile.name == "zentf":
-                    d = wire.unpack(sample.payload.to_bytes())
-                    st = d["clock"]
-                    sec, nsec = st["sec"], st["nanosec"]
-                else:
-                    st = profile.decode(sample.payload.to_bytes(), "", str(sample.key_expr), ClockMsg).clock
-                    sec, nsec = st.sec, st.nanosec
+                sec, nsec = profile.decode_clock(sample.payload, sample.key)
                 if type(sec) is not int or type(nsec) is not int or sec < 0 or not 0 <= nsec < 1_000_000_000:
-                    raise ValueError(f"bad clock value {st!r}"[:100])
+                    raise ValueError(f"bad clock value {(sec, nsec)!r}"[:100])
             except Exception as e:
                 sender = profile.authority(sample.attachment, "unknown sender")
-                self._bad_input.log(logging.WARNING, ("bad", str(sample.key_expr), sender),
-                                    "dropped bad /clock message on '%s' from %s: %s", sample.key_expr, sender, e)
+                self._bad_input.log(logging.WARNING, ("bad", sample.key, sender),
+                                    "dropped bad /clock message on '%s' from %s: %s", sample.key, sender, e)
                 return
             clock.set_sim_time(sec * 1_000_000_000 + nsec)
             self._post(None)
@@ -532,8 +668,8 @@ class Node:
 
         if self._clock_jump is None:
             self._clock_jump = clock.add_jump_callback(on_jump)
-        self._clock_sub = self.session.declare_subscriber(key, on_clock)
-        self._clock_token = self._declare_entity("sub", ClockMsg.TYPE_NAME, key, topic=topic)
+        self._clock_sub = RawSubscription(self, self.resolve_topic_name("/clock"), on_clock,
+                                          type_name=ClockMsg.TYPE_NAME, depth=10)
 
     def _set_use_sim_time(self, active: bool) -> None:
         """``use_sim_time`` changed at run time: follow /clock (time 0 until the first) or the wall clock."""
@@ -541,9 +677,9 @@ class Node:
             return
         if active and self._clock_sub is None:
             self._start_sim_clock()
-        elif not active:
-            undeclare_all((self._clock_sub, self._clock_token))
-            self._clock_sub = self._clock_token = None
+        elif not active and self._clock_sub is not None:
+            self._clock_sub.destroy()
+            self._clock_sub = None
         self._clock._set_ros_time_is_active(active)  # jump callbacks run: listeners clear their buffers
         now = self._timer_now()
         for t in list(self._timers):
@@ -710,7 +846,11 @@ class Node:
         for obj in [*self._subscriptions, *self._publishers]:
             obj.destroy()
         self._timers.clear()
-        undeclare_all((self._clock_sub, self._clock_token, *self._tokens))
+        if self._clock_sub is not None:
+            self._clock_sub.destroy()
+        if self._graph is not None:
+            self._graph.close()
+        undeclare_all(self._tokens)
         self._tokens.clear()
         self._close_session()
 

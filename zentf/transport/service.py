@@ -1,22 +1,21 @@
 """Services over Zenoh queryables: ``node.create_service`` / ``node.create_client`` (rclpy's API).
 
-A server is a *complete* queryable on the service's key (the resolved service name, exactly as a
-topic: ``spawn`` in namespace ``sim`` is key ``sim/spawn``). A call is one Zenoh ``get`` carrying the
-request (msgpack, encoding ``application/msgpack;<type>_Request``, attachment = caller node); the
-server answers with one ok reply (the response, ``..._Response``) or one error reply (UTF-8 text:
-why the request failed, escaped and cut to ERROR_TEXT_LIMIT characters on both sides: it may quote a
-payload). The selector's ``deadline_ms`` parameter says how many milliseconds the caller waits, so a
-server that would wait for something (the buffer server) stops when its caller has given up. Handlers run on the server node's executor, one at a time, like rclpy's
-single-threaded executor. Graph tokens ``@zentf/srv/...`` and ``@zentf/cli/...`` let tools list them.
-Details in docs/protocol.md.
+A server is a *complete* queryable on the service's key; a call is one Zenoh ``get`` carrying the
+request; the server answers with one ok reply (the response) or one error reply (UTF-8 text, encoding
+``ERROR_ENCODING``: why the request failed, escaped and cut to ERROR_TEXT_LIMIT characters on both sides:
+it may quote a payload). Keys, payloads and attachments are the node's wire profile's
+(zentf.transport.wire): on zentf's wire the key is the resolved service name (``spawn`` in namespace
+``sim`` is ``sim/spawn``), payloads msgpack labelled ``<type>_Request`` / ``_Response``, the request's
+attachment the caller's node name (docs/protocol.md); under ``--wire ros2`` they are rmw_zenoh's, so
+ROS 2 nodes call zentf's services and the other way round (docs/ros2.md). Where the wire's queries carry
+selector parameters (zentf's), ``deadline_ms`` says how many milliseconds the caller waits, so a server
+that would wait for something (the buffer server) stops when its caller has given up. Graph tokens
+(``srv``, ``cli``) let tools list them. A service type the wire cannot carry (no ROS 2 .srv definition)
+is skipped with one warning; the node runs.
 
-Under the ``ros2`` wire profile (``--wire ros2``) services speak rmw_zenoh's service wire instead, so
-ROS 2 nodes call zentf's services and the other way round (docs/ros2.md): the key is
-``<domain>/<service>/<DDS service type>/<RIHS01 hash>``, payloads are CDR without encoding, the request
-carries rmw_zenoh's attachment (sequence number, time, client GID) and the reply the same sequence
-number and GID with the server's time; queries target all complete queryables, unconsolidated, and
-``SS``/``SC`` liveliness tokens announce servers and clients. A service type zentf has no .srv
-definition for cannot travel that way: the server or client is skipped with one warning, the node runs.
+``Service`` runs its handler on the node's executor, one call at a time, like rclpy's single-threaded
+executor. ``ServiceServer`` is the layer below: its ``on_call`` gets each ``ServiceCall`` on Zenoh's
+thread and answers when it can, from any thread (the buffer server answers at once or from a worker).
 """
 from __future__ import annotations
 
@@ -29,16 +28,14 @@ import time as _time
 from collections.abc import Callable
 from typing import Any
 
-from .wire import codec as wire
 from ..core.messages import Message
 from ..core.services import ServiceType
 from ..core.text import printable
 from .entities import undeclare_all
-from ..ros import CdrError, UnknownTypeError
-from ..ros import codec as cdr_codec
+from ..ros import UnknownTypeError
 
-__all__ = ["Service", "Client", "ServiceException", "ServiceTimeoutError", "ServiceUnavailableError",
-           "ERROR_ENCODING", "DEADLINE_PARAMETER", "ERROR_TEXT_LIMIT", "error_text",
+__all__ = ["Service", "ServiceServer", "ServiceCall", "Client", "ServiceException", "ServiceTimeoutError",
+           "ServiceUnavailableError", "ERROR_ENCODING", "DEADLINE_PARAMETER", "ERROR_TEXT_LIMIT", "error_text",
            "received_error_text"]
 
 log = logging.getLogger("zentf.transport.service")
@@ -113,19 +110,77 @@ def _takes_response(handler: Callable[..., Any]) -> bool:
     return len(positional) >= 2 or any(p.kind == p.VAR_POSITIONAL for p in params)
 
 
-class Service:
-    """A service server: answers each request with ``handler(request, response)``'s return value."""
+class ServiceCall:
+    """One request a server received, as it travelled: ``decode()`` reads it, ``respond(response)`` or
+    ``fail(reason)`` answers it, once, from any thread (through the node's wire profile)."""
+
+    __slots__ = ("server", "payload", "encoding", "caller", "_query", "_context")
+
+    def __init__(self, server: "ServiceServer", query: Any, payload: bytes, encoding: str, caller: str,
+                 context: Any) -> None:
+        self.server = server
+        self.payload = payload
+        self.encoding = encoding
+        self.caller = caller  # who sent it, for log lines
+        self._query = query
+        self._context = context
+
+    @property
+    def carried_type(self) -> str | None:
+        """The request type the request says it is (where the wire labels payloads), else None."""
+        return self.server.node.wire.encoded_type(self.encoding)
+
+    @property
+    def deadline(self) -> float | None:
+        """Seconds from the request's arrival until its caller gives up (its ``deadline_ms`` parameter), or
+        None when it did not say (or said something that is not a count of milliseconds)."""
+        try:
+            text = self._query.parameters.get(DEADLINE_PARAMETER) if self._query is not None else None
+        except Exception:  # noqa: BLE001 - a query without readable parameters says nothing
+            return None
+        if text is None or not text.isdigit() or len(text) > 12:
+            return None
+        return int(text) / 1000.0
+
+    def decode(self) -> Message:
+        """The request message; ValueError says what was wrong."""
+        srv = self.server
+        return srv.node.wire.decode_request(self.payload, self.encoding, srv.key, srv.srv_type.Request)
+
+    def respond(self, response: Message) -> None:
+        """Answer with a response; an error encoding it is raised and leaves the call open (for ``fail``)."""
+        srv = self.server
+        wire_profile = srv.node.wire
+        resp_type = srv.srv_type.Response.TYPE_NAME
+        payload = wire_profile.encode(response, resp_type)
+        query, self._query = self._query, None
+        if query is None:
+            return
+        try:
+            wire_profile.reply(query, payload, self._context, resp_type)
+        except Exception as e:
+            log.debug("service %s: reply failed: %s", srv.service_name, e)
+        finally:
+            _drop(query)
+
+    def fail(self, reason: str) -> None:
+        """Answer with an error reply saying why the request failed (the client raises ServiceException)."""
+        query, self._query = self._query, None
+        if query is not None:
+            _reply_err(query, reason)
+
+
+class ServiceServer:
+    """The queryable and graph token of a service under the node's wire profile; ``on_call(ServiceCall)``
+    runs on Zenoh's thread (a server that answers at once, or hands the call to a worker). ``active`` is
+    False when the wire cannot carry the type (logged once; the node runs)."""
 
     def __init__(self, node: Any, name: str, srv_type: type[ServiceType] | str,
-                 handler: Callable[..., Any], *, depth: int = DEFAULT_DEPTH) -> None:
+                 on_call: Callable[[ServiceCall], None], *, depth: int = DEFAULT_DEPTH) -> None:
         self.node = node
         self.srv_type = _check_srv_type(srv_type)
         self.service_name = name
-        self.handler = handler
-        self._two_args = _takes_response(handler)
-        self._req_type = self.srv_type.Request.TYPE_NAME
-        self._resp_enc = wire.encoding_for(self.srv_type.Response.TYPE_NAME)
-        self._ros2 = node.wire.name == "ros2"
+        self._on_call = on_call
         self._destroyed = False
         key = _service_key(node, name, self.srv_type, "service")
         #: False when the service could not be offered (no ROS 2 definition under --wire ros2)
@@ -135,54 +190,57 @@ class Service:
         if key is None:
             return
         self._queryable = node.session.declare_queryable(key, self._on_query, complete=True)
-        self._token = node._declare_entity("srv", self.srv_type.TYPE_NAME, key, topic=name, depth=depth)
+        self._token = node.declare_entity("srv", name, self.srv_type.TYPE_NAME, key=key, depth=depth)
         node.add_on_shutdown(self.destroy)
 
-    def _on_query(self, query: Any) -> None:  # Zenoh thread: copy, hand over to the executor
+    def _on_query(self, query: Any) -> None:  # Zenoh thread
         try:
             payload = query.payload.to_bytes() if query.payload is not None else b""
-            if self._ros2:
-                self._on_ros2_query(query, payload)
-                return
             enc = str(query.encoding) if query.encoding is not None else ""
-            caller = wire.authority_of(query.attachment, "unknown caller")
+            try:
+                caller, context = self.node.wire.request_caller(query.attachment)
+            except ValueError as e:
+                self.node._bad_input.log(logging.WARNING, ("srv", self.key), "refused request on service %s: %s",
+                                         self.service_name, e)
+                _reply_err(query, f"service {self.service_name}: {e}")
+                return
         except Exception as e:  # pragma: no cover - zenoh gave us something odd
-            self._reply_err(query, f"unreadable request: {e}")
+            _reply_err(query, f"unreadable request: {e}")
             return
-        self.node._post(lambda: self._serve(query, payload, enc, caller))
+        self._on_call(ServiceCall(self, query, payload, enc, caller, context))
 
-    def _on_ros2_query(self, query: Any, payload: bytes) -> None:
-        """rmw_zenoh's request: CDR payload, attachment (sequence number, time, client GID) required."""
-        from .wire.profiles import parse_ros2_attachment
+    def destroy(self) -> None:
+        if self._destroyed:
+            return
+        self._destroyed = True
+        undeclare_all((self._queryable, self._token))
 
+
+class Service(ServiceServer):
+    """A service server: answers each request with ``handler(request, response)``'s return value, on the
+    node's executor, one at a time."""
+
+    def __init__(self, node: Any, name: str, srv_type: type[ServiceType] | str,
+                 handler: Callable[..., Any], *, depth: int = DEFAULT_DEPTH) -> None:
+        self.handler = handler
+        self._two_args = _takes_response(handler)
+        super().__init__(node, name, srv_type, self._post, depth=depth)
+
+    def _post(self, call: ServiceCall) -> None:  # Zenoh thread: hand over to the executor
+        self.node._post(lambda: self._serve(call))
+
+    def _serve(self, call: ServiceCall) -> None:
         name = self.service_name
+        carried = call.carried_type
+        if carried is not None and carried != self.srv_type.Request.TYPE_NAME:
+            call.fail(f"service {name} is {self.srv_type.TYPE_NAME}: refused a {carried} request")
+            return
         try:
-            raw = query.attachment.to_bytes() if query.attachment is not None else b""
-            seq, _, gid = parse_ros2_attachment(raw)
+            request = call.decode()
         except ValueError as e:
             self.node._bad_input.log(logging.WARNING, ("srv", self.key),
-                                     "refused request on service %s: no rmw_zenoh attachment (%s)", name, e)
-            self._reply_err(query, f"service {name}: request without rmw_zenoh attachment")
-            return
-        self.node._post(lambda: self._serve(query, payload, "", f"client {gid.hex()}", (seq, gid)))
-
-    def _serve(self, query: Any, payload: bytes, enc: str, caller: str,
-               ros2_id: tuple[int, bytes] | None = None) -> None:
-        name = self.service_name
-        type_name = wire.type_name_from_encoding(enc)
-        if type_name is not None and type_name != self._req_type:
-            self._reply_err(query, f"service {name} is {self.srv_type.TYPE_NAME}: "
-                                   f"refused a {type_name} request")
-            return
-        try:
-            if ros2_id is not None:
-                request = _as_class(cdr_codec.decode(payload, self._req_type), self.srv_type.Request)
-            else:
-                request = wire.decode(payload, self.srv_type.Request) if payload else self.srv_type.Request()
-        except ValueError as e:
-            self.node._bad_input.log(logging.WARNING, ("srv", self.key),
-                                     "refused bad request on service %s from %s: %s", name, caller, e)
-            self._reply_err(query, f"bad request for {self.srv_type.TYPE_NAME}: {e}")
+                                     "refused bad request on service %s from %s: %s", name, call.caller, e)
+            call.fail(f"bad request for {self.srv_type.TYPE_NAME}: {e}")
             return
         try:
             response = (self.handler(request, self.srv_type.Response()) if self._two_args
@@ -192,38 +250,21 @@ class Service:
             if not isinstance(response, self.srv_type.Response):
                 raise TypeError(f"handler returned {type(response).__name__}, "
                                 f"expected {self.srv_type.Response.__name__}")
-            out = cdr_codec.encode(response) if ros2_id is not None else wire.encode(response)
+            call.respond(response)
         except Exception as e:
             reason = f"{type(e).__name__}: {e}" if str(e) else type(e).__name__
             self.node._bad_input.log(logging.WARNING, ("srv-handler", self.key),  # a flood of failing calls
-                                     "service %s: handler failed for %s: %s", name, caller, reason)
-            self._reply_err(query, f"service {name} failed: {reason}")
-            return
-        try:
-            if ros2_id is not None:  # rmw_zenoh's reply: no encoding; the request's sequence number and GID
-                from .wire.profiles import ros2_attachment
+                                     "service %s: handler failed for %s: %s", name, call.caller, reason)
+            call.fail(f"service {name} failed: {reason}")
 
-                query.reply(query.key_expr, out, attachment=ros2_attachment(ros2_id[0], _time.time_ns(), ros2_id[1]))
-            else:
-                query.reply(query.key_expr, out, encoding=self._resp_enc)
-        except Exception as e:
-            log.debug("service %s: reply failed: %s", name, e)
-        finally:
-            _drop(query)
 
-    def _reply_err(self, query: Any, text: str) -> None:
-        try:
-            query.reply_err(error_text(text).encode("utf-8"), encoding=ERROR_ENCODING)
-        except Exception as e:
-            log.debug("service %s: error reply failed: %s", self.service_name, e)
-        finally:
-            _drop(query)
-
-    def destroy(self) -> None:
-        if self._destroyed:
-            return
-        self._destroyed = True
-        undeclare_all((self._queryable, self._token))
+def _reply_err(query: Any, text: str) -> None:
+    try:
+        query.reply_err(error_text(text).encode("utf-8"), encoding=ERROR_ENCODING)
+    except Exception as e:
+        log.debug("error reply failed: %s", e)
+    finally:
+        _drop(query)
 
 
 def _drop(query: Any) -> None:
@@ -239,15 +280,13 @@ class Client:
 
     def __init__(self, node: Any, name: str, srv_type: type[ServiceType] | str, *,
                  depth: int = DEFAULT_DEPTH) -> None:
-        import zenoh
-
         self.node = node
         self.srv_type = _check_srv_type(srv_type)
         self.service_name = name
-        self._req_enc = wire.encoding_for(self.srv_type.Request.TYPE_NAME)
-        self._resp_type = self.srv_type.Response.TYPE_NAME
-        self._attachment = node.get_fully_qualified_name().encode()
-        self._ros2 = node.wire.name == "ros2"
+        profile = node.wire
+        enc = profile.encoding(self.srv_type.Request.TYPE_NAME)
+        #: the arguments of each query besides payload and attachment: the wire's target, consolidation, encoding
+        self._get_options = {**profile.service_query_options(), **({} if enc is None else {"encoding": enc})}
         self._destroyed = False
         self._querier = self._token = None
         self._attacher: Any = None
@@ -257,17 +296,9 @@ class Client:
         self.key = key or ""
         if key is None:
             return
-        if self._ros2:  # rmw_zenoh: every complete queryable, no consolidation, per-client GID and sequence
-            self._target = zenoh.QueryTarget.ALL_COMPLETE
-            self._consolidation = zenoh.ConsolidationMode.NONE
-            self._token, token_key = node._declare_entity("cli", self.srv_type.TYPE_NAME, key, topic=name,
-                                                          depth=depth, with_key=True)
-            self._attacher = node.wire.attacher(node, token_key)
-        else:
-            self._target = zenoh.QueryTarget.BEST_MATCHING
-            self._consolidation = None
-            self._token = node._declare_entity("cli", self.srv_type.TYPE_NAME, key)
-        self._querier = node.session.declare_querier(key, target=self._target, consolidation=self._consolidation)
+        self._token = node.declare_entity("cli", name, self.srv_type.TYPE_NAME, key=key, depth=depth)
+        self._attacher = profile.attacher(node, self._token.key)
+        self._querier = node.session.declare_querier(key, **profile.service_query_options())
         node.add_on_shutdown(self.destroy)
 
     def service_is_ready(self) -> bool:
@@ -315,22 +346,15 @@ class Client:
             fut.set_exception(ServiceUnavailableError(
                 f"service {name}: no ROS 2 definition for {self.srv_type.TYPE_NAME} (--wire ros2)"))
             return fut
-        ros2 = self._ros2
-        if ros2:
-            try:
-                payload = cdr_codec.encode(req)
-            except CdrError as e:
-                raise TypeError(f"service {name}: cannot encode the request: {e}") from None
-            attachment = self._attacher()
-            seq = int.from_bytes(attachment[:8], "little", signed=True)
-        else:
-            payload = wire.encode(req)
-            attachment = self._attachment
-            seq = 0
+        profile = self.node.wire
+        try:
+            payload = profile.encode(req, self.srv_type.Request.TYPE_NAME)
+        except (TypeError, ValueError, OverflowError) as e:
+            raise TypeError(f"service {name}: cannot encode the request: {e}") from None
+        attachment = self._attacher()
         limit = _FOREVER if timeout is None else float(timeout)
         started = _time.monotonic()
         resp_cls = self.srv_type.Response
-        resp_type = self._resp_type
 
         def on_reply(reply: Any) -> None:  # Zenoh thread
             if fut.done():
@@ -347,19 +371,8 @@ class Client:
                     else:
                         fut.set_exception(ServiceException(f"service {name}: {text or 'query failed'}"))
                     return
-                if ros2:
-                    if ok.attachment is not None:  # rmw_zenoh pairs reply and request by the sequence number
-                        from .wire.profiles import parse_ros2_attachment
-
-                        got = parse_ros2_attachment(ok.attachment.to_bytes())[0]
-                        if got != seq:
-                            raise ValueError(f"reply to request {got}, expected {seq}")
-                    fut.set_result(_as_class(cdr_codec.decode(ok.payload.to_bytes(), resp_type), resp_cls))
-                    return
-                enc_type = wire.type_name_from_encoding(str(ok.encoding))
-                if enc_type is not None and enc_type != resp_type:
-                    raise ValueError(f"response is a {enc_type}, expected {resp_type}")
-                fut.set_result(wire.decode(ok.payload.to_bytes(), resp_cls))
+                profile.check_reply(ok.attachment, attachment)
+                fut.set_result(profile.decode_response(ok.payload.to_bytes(), ok.encoding, resp_cls))
             except Exception as e:
                 if not fut.done():
                     fut.set_exception(ServiceException(f"service {name}: bad response: {e}"))
@@ -376,13 +389,12 @@ class Client:
 
         try:
             handler = zenoh.handlers.Callback(on_reply, on_done, indirect=False)
-            if ros2:
-                self.node.session.get(self.key, handler, target=self._target, consolidation=self._consolidation,
-                                      timeout=limit, payload=payload, attachment=attachment)
-            else:  # the selector says when this caller gives up (a server may stop waiting for it then)
-                selector = f"{self.key}?{DEADLINE_PARAMETER}={int(limit * 1000)}"
-                self.node.session.get(selector, handler, target=self._target, timeout=limit, payload=payload,
-                                      encoding=self._req_enc, attachment=attachment)
+            # the selector says when this caller gives up (a server may stop waiting for it then), where
+            # the wire's queries carry parameters
+            selector = (f"{self.key}?{DEADLINE_PARAMETER}={int(limit * 1000)}"
+                        if self.node.wire.query_parameters else self.key)
+            self.node.session.get(selector, handler, timeout=limit, payload=payload, attachment=attachment,
+                                  **self._get_options)
         except Exception as e:
             fut.set_exception(ServiceException(f"service {name}: query failed: {e}"))
         return fut
@@ -415,13 +427,3 @@ class Client:
         self._destroyed = True
         undeclare_all((self._querier, self._token))
 
-
-def _as_class(value: Any, cls: type[Message]) -> Any:
-    """A decoded CDR value as the service's own class: the codec returns a plain dict for a type that has no
-    registered class (one made from its definition, zentf.ros.classes), and handlers and callers get instances."""
-    if isinstance(value, dict):
-        try:
-            return cls.from_dict(cdr_codec.fit_plain(cls, value))
-        except (ValueError, TypeError) as e:
-            raise CdrError(f"{cls.TYPE_NAME}: {e}") from None
-    return value

@@ -1,12 +1,14 @@
-"""Recording Zenoh topics into a bag and playing any bag back over Zenoh with its timing.
+"""Recording a node's topics into a bag and playing any bag back through a node with its timing.
 
-``Player`` plays every format zentf reads (see ``source.open_bag``): ROS names become zentf topics
-(``/odom`` -> ``odom``), ROS payloads are re-encoded to zentf's msgpack wire form, latched
-topics (``/tf_static``, transient-local QoS, ROS 1 latching) go out through a cached advanced
-publisher. With ``clock_hz > 0`` it publishes ``/clock`` = the recorded (log) time, as
-``ros2 bag play --clock`` does, in the time base of the recording's tf stamps: a sim-time graph recorded
-by a wall-clock recorder (nav2 in Gazebo: stamps ~900 s, log times ~1.7e9 s) gets /clock in sim time,
-so nodes and tools on that clock see the data's time and delays are delays.
+Both go through the node's wire profile (raw subscriptions and publishers: zentf's wire, or ROS 2's
+with ``--wire ros2``). ``Player`` plays every format zentf reads (see ``source.open_bag``): ROS names
+become zentf topics (``/odom`` -> ``odom``), ROS payloads are re-encoded to zentf's msgpack wire form
+(and, on a wire of other payloads, from it to the wire's), latched topics (``/tf_static``,
+transient-local QoS, ROS 1 latching) go out through a cached advanced publisher. With ``clock_hz > 0``
+it publishes ``/clock`` = the recorded (log) time, as ``ros2 bag play --clock`` does, in the time base
+of the recording's tf stamps: a sim-time graph recorded by a wall-clock recorder (nav2 in Gazebo: stamps
+~900 s, log times ~1.7e9 s) gets /clock in sim time, so nodes and tools on that clock see the data's time
+and delays are delays.
 """
 from __future__ import annotations
 
@@ -18,10 +20,12 @@ from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from ...core.messages import Clock, message_type
 from ...core.text import printable
-from ...transport.entities import undeclare_all
+from ...transport.wire import codec as zentf_codec
+from ...transport.wire.zentf_wire import ZentfProfile
 from .errors import BagError
-from .native import BagMessage, BagWriter, rebase_key
+from .native import BagMessage, rebase_key
 from .source import open_bag
 
 __all__ = ["Recorder", "Player", "PlayStats"]
@@ -41,40 +45,27 @@ _CLOCK_BASE_SCAN = 5000
 
 
 class Recorder:
-    """Subscribes to key expressions (advanced subscribers: latched history included) into a BagWriter."""
+    """Records a node's topics (names, or patterns with '*' / '**' parts, of any type; latched history
+    included) into a writer (BagWriter, or Ros2BagWriter for a ROS 2 graph's CDR), as the samples came."""
 
-    def __init__(self, session: Any, writer: BagWriter, keys: Sequence[str],
-                 declare_token: Callable[[str], Any] | None = None) -> None:
-        import zenoh.ext as zx
-
+    def __init__(self, node: Any, writer: Any, topics: Sequence[str]) -> None:
         self.writer = writer
         self.errors = 0
-        self._subs: list[Any] = []
-        self._tokens: list[Any] = []
-        for key in keys:
-            self._subs.append(zx.declare_advanced_subscriber(
-                session, key, self._on_sample, history=zx.HistoryConfig(detect_late_publishers=True)))
-            if declare_token is not None:
-                self._tokens.append(declare_token(key))
+        self._authority = node.wire.authority
+        self._subs = [node.create_raw_subscription(t, self._on_sample, latched=True) for t in topics]
 
-    def _on_sample(self, sample: Any) -> None:  # Zenoh thread: copy and write, never raise
+    def _on_sample(self, sample: Any) -> None:  # Zenoh thread: write, never raise
         try:
-            key = str(sample.key_expr)
-            att = sample.attachment
-            sender = ""
-            if att is not None:
-                from zentf.transport.wire.codec import authority_of
-
-                sender = authority_of(att, "")
-            self.writer.write(key, sample.payload.to_bytes(), str(sample.encoding), sender)
+            sender = self._authority(sample.attachment, "") if sample.attachment is not None else ""
+            self.writer.write(sample.key, sample.payload, sample.encoding, sender)
         except Exception as e:  # noqa: BLE001
             self.errors += 1
             log.debug("could not record a sample: %s", e)
 
     def close(self) -> None:
-        undeclare_all([*self._subs, *self._tokens])
+        for sub in self._subs:
+            sub.destroy()
         self._subs.clear()
-        self._tokens.clear()
 
 
 @dataclass
@@ -94,28 +85,27 @@ class Player:
     cached advanced publisher and so still reach subscribers that join later.
     """
 
-    def __init__(self, session: Any, path: str | os.PathLike, *, namespace: str = "", rate: float = 1.0,
+    def __init__(self, node: Any, path: str | os.PathLike, *, namespace: str = "", rate: float = 1.0,
                  clock_hz: float = 0.0, loop: bool = False, start: float = 0.0,
                  topics: Collection[str] | None = None,
                  on_skip: Callable[[str, str], None] | None = None,
-                 declare_token: Callable[[str, str], Any] | None = None,
                  stop: threading.Event | None = None) -> None:
         if not rate > 0:
             raise ValueError(f"rate must be > 0, got {rate}")
         if start < 0:
             raise ValueError(f"start must be >= 0, got {start}")
-        self.session = session
+        self.node = node
+        #: the bag's payloads are zentf's msgpack: sent as they are on zentf's wire, re-encoded on another
+        self._as_recorded = node.wire.payload_format == ZentfProfile.payload_format
         self.path = os.fspath(path)
         self.namespace = namespace.strip("/")
         self.rate = float(rate)
         self.clock_hz = float(clock_hz)
         self.loop = loop
         self.start = float(start)
-        self._declare_token = declare_token
         self.stop_event = stop or threading.Event()
         self.stats = PlayStats()
-        self._pubs: dict[tuple[str, str], Any] = {}
-        self._tokens: list[Any] = []
+        self._pubs: dict[tuple[str, str], Any] = {}  # None: a channel the wire cannot carry (said once)
         self._clock_pub: Any = None
         self.topics = topics
         self._on_skip = on_skip
@@ -142,47 +132,51 @@ class Player:
         return 0
 
     def _publisher(self, key: str, enc: str, type_name: str, latched: bool) -> Any:
+        """The node's raw publisher of a channel (its topic is the key's, absolute); None when the wire
+        cannot carry it (one line through on_skip)."""
         pk = (key, enc)
-        pub = self._pubs.get(pk)
-        if pub is not None:
-            return pub
-        import zenoh
-        import zenoh.ext as zx
-
-        encoding = zenoh.Encoding(enc)
-        if latched:
-            pub = zx.declare_advanced_publisher(self.session, key, encoding=encoding,
-                                                cache=zx.CacheConfig(max_samples=1), publisher_detection=True)
-        else:
-            pub = self.session.declare_publisher(key, encoding=encoding,
-                                                 congestion_control=zenoh.CongestionControl.BLOCK)
+        if pk in self._pubs:
+            return self._pubs[pk]
+        try:
+            pub = self.node.create_raw_publisher("/" + key, type_name, 1 if latched else 10, latched=latched,
+                                                 encoding=enc if self._as_recorded else None)
+        except ValueError as e:  # a name or a type the wire cannot carry
+            pub = None
+            self._skip(key, str(e))
         self._pubs[pk] = pub
-        if self._declare_token is not None:
-            self._tokens.append(self._declare_token(type_name, key))
         return pub
 
+    def _skip(self, key: str, why: str) -> None:
+        if self._on_skip is not None:
+            self._on_skip("/" + key, why)
+        else:
+            log.warning("not played: /%s: %s", key, why)
+
     def _publish_clock(self, t_ns: int) -> None:
-        import zenoh
-
-        from zentf.transport.wire import codec as wire
-        from zentf.core.messages import Clock
-
         if self._clock_pub is None:
-            self._clock_pub = self.session.declare_publisher(
-                "clock", encoding=wire.encoding_for(Clock.TYPE_NAME), congestion_control=zenoh.CongestionControl.BLOCK)
-            if self._declare_token is not None:
-                self._tokens.append(self._declare_token(Clock.TYPE_NAME, "clock"))
+            self._clock_pub = self.node.create_raw_publisher("/clock", Clock)
         sec, nsec = divmod(max(0, t_ns + self.clock_offset), _NS)
-        self._clock_pub.put(wire.pack({"clock": {"sec": sec, "nanosec": nsec}}))
+        self._clock_pub.publish_bytes(self.node.wire.encode({"clock": {"sec": sec, "nanosec": nsec}}, Clock.TYPE_NAME))
         self.stats.bag_time = t_ns
 
     def _send(self, m: BagMessage) -> None:
         key = rebase_key(m.key, m.namespace, self.namespace)
         pub = self._publisher(key, m.encoding, m.type_name, m.latched)
+        if pub is None:
+            return
+        payload = m.payload
+        if not self._as_recorded:
+            try:
+                payload = self.node.wire.encode(zentf_codec.decode(payload, message_type(m.type_name)), m.type_name)
+            except (KeyError, ValueError, TypeError) as e:
+                self._pubs[(key, m.encoding)] = None
+                pub.destroy()
+                self._skip(key, f"cannot re-encode {m.type_name or 'an untyped message'} for this wire: {e}")
+                return
         if m.sender:
-            pub.put(m.payload, attachment=m.sender.encode())
+            pub.publish_as(payload, m.sender)
         else:
-            pub.put(m.payload)
+            pub.publish_bytes(payload)
         self.stats.messages += 1
 
     def _wait_until(self, deadline: float, clock_base: tuple[float, int]) -> bool:
@@ -256,7 +250,8 @@ class Player:
         return self.stats
 
     def close(self) -> None:
-        undeclare_all([*self._pubs.values(), *self._tokens, self._clock_pub])
+        for pub in [*self._pubs.values(), self._clock_pub]:
+            if pub is not None:
+                pub.destroy()
         self._pubs.clear()
-        self._tokens.clear()
         self._clock_pub = None

@@ -26,10 +26,10 @@ from typing import Any, Iterable, Sequence
 
 from ...core.messages import MESSAGE_TYPES, TFMessage
 from ...transport.entities import undeclare_all
-from ...transport.names import encode_chunk, is_concrete_key, normalize_namespace, validate_node_name
+from ...transport.names import encode_chunk, normalize_namespace, validate_node_name
 from ...core.ratelimit import RateLimitedLogger
-from ...transport.node import Node
-from ...transport.wire.profiles import zentf_entity_token
+from ...transport.node import Node, RawSample
+from ...transport.wire.profiles import ROS2_DEFAULT_DEPTH
 from ...ros import UnknownTypeError, encode_tf, ros_type_name, type_hash
 from ...ros.cdr import deserialize, serialize
 from ..bridge import _Side
@@ -118,8 +118,7 @@ class _Route:
         self.latched = qos.transient_local
         self.reader: RawReader | None = None
         self.writer: RawWriter | None = None
-        self.zsub: Any = None
-        self.ztoken: Any = None
+        self.zsub: Any = None  # the zentf side's raw subscription
         #: tf_static from zentf, by child frame: written whole to DDS (what a StaticTransformBroadcaster sends)
         self.statics: dict[str, Any] = {}
         #: tf_static from DDS, by child frame (published on the zentf side when this bridge takes over)
@@ -240,39 +239,27 @@ class DdsBridge:
         return r
 
     def _subscribe_zentf(self, r: _Route) -> None:
-        import zenoh.ext as zx
-
-        session = self.node.session
-        key = self.node.wire.data_key(r.zentf_topic, r.type_name)
-        cb = self._zentf_relay(r)
-        if r.latched:
-            r.zsub = zx.declare_advanced_subscriber(session, key, cb,
-                                                    history=zx.HistoryConfig(detect_late_publishers=True))
-        else:
-            r.zsub = session.declare_subscriber(key, cb)
-        r.ztoken = self.node._declare_entity("sub", r.type_name, key, topic=r.zentf_topic, depth=r.qos.depth,
-                                             latched=r.latched)
+        r.zsub = self.node.create_raw_subscription(r.zentf_topic, self._zentf_relay(r), type_name=r.type_name,
+                                                   latched=r.latched, qos=r.qos.depth)
 
     # ---- zentf -> DDS (Zenoh's threads)
     def _zentf_relay(self, r: _Route) -> Any:
         wire = self.node.wire
-        ros2 = wire.name == "ros2"
+        cdr_wire = wire.payload_format == "cdr"  # the wire's payloads are DDS's own: relayed as they are
         counts = self.stats.to_dds
 
-        def relay(sample: Any) -> None:  # never raises: one bad message must not stop the bridge
+        def relay(sample: RawSample) -> None:  # never raises: one bad message must not stop the bridge
             try:
                 if self._z.is_own(sample):
                     self.stats.echoes += 1
                     return
-                if not is_concrete_key(str(sample.key_expr)):
-                    raise ValueError("sent on a key expression with wildcards, not on the topic")
-                payload = sample.payload.to_bytes()
-                if ros2:
+                payload = sample.payload
+                if cdr_wire:
                     check_cdr(payload, r.type_name)
                     cdr = payload
                     msg = None
                 else:
-                    type_name, msg, known = wire.decode_any(payload, str(sample.encoding), str(sample.key_expr))
+                    type_name, msg, known = wire.decode_any(payload, sample.encoding, sample.key)
                     if type_name is not None and type_name != r.type_name:
                         raise ValueError(f"a {type_name} on a {r.type_name} topic")
                     if not known or isinstance(msg, (bytes, dict)) or type(msg) is not MESSAGE_TYPES[r.type_name]:
@@ -340,14 +327,14 @@ class DdsBridge:
             if r.latched:
                 msg = cdr_to_message(cdr, _TF)
                 self._z.static(r.zentf_topic).send_transform(list(msg.transforms))
-            elif wire.name == "ros2":
+            elif wire.payload_format == "cdr":
                 self._z.publisher(r.zentf_topic, _TF).publish_bytes(cdr)
             else:
                 payload, _bad = tf_cdr_to_msgpack(cdr)
                 self._z.publisher(r.zentf_topic, _TF).publish_bytes(payload)
             return
         pub = self._z.publisher(r.zentf_topic, r.type_name, latched=r.latched)
-        if wire.name == "ros2":
+        if wire.payload_format == "cdr":
             pub.publish_bytes(cdr)
         else:
             pub.publish(cdr_to_message(cdr, r.type_name))
@@ -495,7 +482,7 @@ class DdsBridge:
             rest = rest[len(self._dds_ns):].strip("/")
         try:
             validate_node_name(name)
-            zns = normalize_namespace("/".join(p for p in (self.node._namespace, rest) if p))
+            zns = normalize_namespace("/".join(p for p in (normalize_namespace(self.node.get_namespace()), rest) if p))
         except ValueError:  # not a ROS name: nothing to announce
             return []
         proxy = self._proxies.get((zns, name))
@@ -515,12 +502,9 @@ class DdsBridge:
                     continue
                 type_name = ros_type_name(e.type_name)
                 topic = self.node.resolve_topic_name(rel)
-                try:
-                    if wire.name == "ros2":
-                        key = wire.data_key(topic, type_name)
-                        keys.append(wire.entity_token(proxy, kind, topic, type_name, key))
-                    else:
-                        keys.append(zentf_entity_token(kind, zns, name, type_name, wire.data_key(topic, type_name)))
+                try:  # the endpoint's history depth is not discovered: rmw_zenoh's default
+                    keys.append(wire.entity_token(proxy, kind, topic, type_name, wire.data_key(topic, type_name),
+                                                  depth=ROS2_DEFAULT_DEPTH))
                 except Exception:  # noqa: BLE001 - ROS 2's wire names no type zentf has no definition of
                     continue
         return keys
@@ -528,7 +512,7 @@ class DdsBridge:
     # ---- one active bridge per DDS domain and zentf graph
     def _graph_key(self) -> str:
         wire = self.node.wire
-        return (f"{_TOKEN_ROOT}/{wire.name}/{wire.domain_id}/{encode_chunk(self.node._namespace)}/"
+        return (f"{_TOKEN_ROOT}/{wire.name}/{wire.domain_id}/{encode_chunk(self.node.get_namespace())}/"
                 f"{self.domain.domain_id}")
 
     def _declare_election(self) -> None:
@@ -635,7 +619,8 @@ class DdsBridge:
         self._closed = True
         objs: list[Any] = [getattr(self, "_peer_sub", None), getattr(self, "_token", None)]
         for r in self._routes.values():
-            objs += [r.zsub, r.ztoken]
+            if r.zsub is not None:
+                r.zsub.destroy()
         objs += list(self._proxy_tokens.values())
         self._proxy_tokens.clear()
         undeclare_all(objs)
@@ -649,7 +634,9 @@ class _ProxyNode:
         self._namespace = namespace
         self._name = name
         self.session = session
-        self._ros2_id: int | None = None
+
+    def get_namespace(self) -> str:
+        return "/" + self._namespace
 
     def get_name(self) -> str:
         return self._name

@@ -20,6 +20,8 @@ from .why import Explanation, explain_lookup
 
 __all__ = ["TapMessage", "TransformTap", "GraphTap", "TfDoctor"]
 
+TF = "tf2_msgs/msg/TFMessage"
+
 
 @dataclass
 class TapMessage:
@@ -58,8 +60,6 @@ class TransformTap:
                  bad: Optional[Callable[[str, str, str], None]] = None) -> None:
         import zenoh.ext as zx
 
-        from zentf.transport.listener import wire_key
-
         self.node = node
         self.profile = node.wire
         self.on_message = on_message
@@ -70,7 +70,7 @@ class TransformTap:
         try:
             for topics, is_static in ((tf_static_topics, True), (tf_topics, False)):
                 for topic in topics:
-                    key = wire_key(node, topic)
+                    key = node.topic_key(topic, TF)
                     self.keys.append(key)
                     cb = self._callback(is_static)
                     if is_static:
@@ -93,18 +93,10 @@ class TransformTap:
     def _sender(self, sample: Any) -> tuple[str, Optional[int], str]:
         """(sender, source ns, zid)."""
         source, zid = _source_of(sample)
-        att = sample.attachment
-        if self.profile.name == "ros2":
-            from zentf.transport.wire.profiles import parse_ros2_attachment
-
-            if att is None:
-                return "unknown sender", source, zid
-            try:
-                _, src, gid = parse_ros2_attachment(att.to_bytes())
-            except ValueError:
-                return "unknown sender", source, zid
-            return gid.hex(), (src or source), zid
-        return self.profile.authority(att, "unknown sender"), source, zid
+        origin = self.profile.publisher_of(sample.attachment)  # a node name, or a GID the graph resolves
+        if origin is None:
+            return "unknown sender", source, zid
+        return origin[0], (origin[1] or source), zid
 
     def _handle(self, sample: Any, is_static: bool) -> None:
         arrival, wall = time.monotonic_ns(), time.time_ns()
@@ -152,12 +144,12 @@ class GraphTap:
             alive = sample.kind == self._put
             now = time.monotonic_ns()
             g = self.graph
-            zid = key.split("/")[2] if self.profile.name == "ros2" else ""
+            zid = self.profile.token_session(key)
             with self.lock:
                 if e.kind == "node":
                     (g.node_seen(e.node, now, zid) if alive else g.node_gone(e.node, now))
-                elif e.kind == "pub" and self.profile.name == "ros2" and e.type_name == "tf2_msgs/msg/TFMessage":
-                    gid = _gid(key)
+                elif e.kind == "pub" and e.type_name == TF:
+                    gid = self.profile.token_publisher(key)  # None where publishers go by their node's name
                     if gid is None:
                         return
                     if alive:
@@ -169,30 +161,22 @@ class GraphTap:
             pass
 
     def publisher(self, attachment: Any) -> str:
-        """The node that sent a ROS 2 sample (its attachment's GID resolved through the tokens), else the GID."""
-        from zentf.transport.wire.profiles import parse_ros2_attachment
-
+        """The node that sent a sample (a ROS 2 attachment's GID resolved through the tokens), else the
+        publisher as the wire names it."""
         try:
-            gid = parse_ros2_attachment(attachment.to_bytes())[2].hex()
-        except Exception:  # noqa: BLE001 - no or foreign attachment
+            origin = self.profile.publisher_of(attachment)
+        except Exception:  # noqa: BLE001 - a foreign attachment
+            origin = None
+        if origin is None:
             return "unknown sender"
-        hit = self.graph.gids.get(gid)
-        return hit[0] if hit is not None else f"publisher gid {gid}"
+        hit = self.graph.gids.get(origin[0])
+        return hit[0] if hit is not None else self.profile.publisher_label(origin[0])
 
     def close(self) -> None:
         try:
             self._sub.undeclare()
         except Exception:  # noqa: BLE001
             pass
-
-
-def _gid(token_key: str) -> Optional[str]:
-    """rmw_zenoh's GID of an entity: XXH3-128 of its token key (None without the xxhash module)."""
-    try:
-        import xxhash
-    except ImportError:
-        return None
-    return xxhash.xxh3_128_digest(token_key.encode())[::-1].hex()
 
 
 class TfDoctor:

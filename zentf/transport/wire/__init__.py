@@ -1,2 +1,3 @@
-"""Wire profiles (``profiles``): how a node's topics, payloads, attachments and graph tokens look on Zenoh,
-zentf's own msgpack wire (``codec``) or rmw_zenoh's for ROS 2."""
+"""Wire profiles: how a node's topics, payloads, attachments, services and graph tokens look on Zenoh.
+``base`` is the interface, ``zentf_wire`` (zentf's own msgpack wire, ``codec``) and ``ros2`` (rmw_zenoh's)
+its two implementations, ``profiles.make_profile`` picks one by name."""
