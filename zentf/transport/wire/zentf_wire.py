@@ -159,6 +159,13 @@ class ZentfProfile(WireProfile):
     def latched_history(self, depth: int) -> int:
         return 1  # ROS 1 latching: the last message (a StaticTransformBroadcaster resends its whole set)
 
+    def latched_publisher_options(self) -> dict[str, Any]:
+        import zenoh.ext as zx
+
+        # sequence numbers let a late joiner's subscriber order the history reply against live samples: a
+        # reply that left the cache before a newer put never overwrites it (a re-sent static stays re-sent)
+        return {"sample_miss_detection": zx.MissDetectionConfig(sporadic_heartbeat=0.5)}
+
     # ---- services
     def service_query_options(self) -> dict[str, Any]:
         import zenoh
