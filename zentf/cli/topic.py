@@ -314,30 +314,8 @@ def topic_hz(name: str, window: int, duration: Optional[float], period: float, *
     try:
         _, inbox = _subscribe(node, fq, history=False)
         arrivals: deque[float] = deque(maxlen=window)
-        started = time.monotonic()
-        end = None if duration is None else started + duration
-        next_report = started + period
-        with status(f"Measuring the rate of {fq}") as st:
-            while node.ok():  # Ctrl-C ends it
-                now = time.monotonic()
-                stop_at = next_report if end is None else min(next_report, end)
-                try:
-                    _, _, t, _ = inbox.get(timeout=max(0.0, stop_at - now))
-                    arrivals.append(t)
-                    continue
-                except queue.Empty:
-                    pass
-                now = time.monotonic()
-                if now >= next_report:
-                    text = format_hz(list(arrivals))
-                    if text:
-                        sys.stdout.write(text + "\n")
-                        sys.stdout.flush()
-                    else:
-                        st.update(f"Measuring the rate of {fq}: no messages yet")
-                    next_report += period
-                if end is not None and now >= end:
-                    break
+        _report_loop(inbox, lambda item: arrivals.append(item[2]), lambda: format_hz(list(arrivals)),
+                     duration, period, f"Measuring the rate of {fq}", node.ok)
         if duration is not None and len(arrivals) < 2:
             raise CliError(f"nothing published on {fq} in {duration:g} s" if not arrivals else
                            f"only one message on {fq} in {duration:g} s: no rate")
