@@ -3,13 +3,23 @@ from __future__ import annotations
 
 import sys
 import time
-from typing import Optional
+from typing import Callable, Optional
 
 import click
 
 from .common import CONTEXT_SETTINGS, CliError, CliOptions, finite_float, node_options, with_options
 
 __all__ = ["bridge"]
+
+
+def _relay_until(duration: Optional[float], ok: Callable[[], bool]) -> None:
+    """Let a bridge relay until ``duration`` s have passed (forever if None) or ``ok()`` turns false (Ctrl-C)."""
+    deadline = None if duration is None else time.monotonic() + duration
+    while ok():
+        left = 0.2 if deadline is None else min(0.2, deadline - time.monotonic())
+        if left <= 0:
+            break
+        time.sleep(left)
 
 
 @click.group("bridge", context_settings=CONTEXT_SETTINGS)
@@ -60,12 +70,7 @@ def bridge_ros2(topics: tuple[str, ...], ros2_connect: tuple[str, ...], ros2_mod
         sys.stderr.write(f"bridging {relayed} between zentf ({znode.get_fully_qualified_name()}) and ROS 2 "
                          f"(domain {rnode.wire.domain_id}); Ctrl-C stops\n")
         sys.stderr.flush()
-        deadline = None if duration is None else time.monotonic() + duration
-        while znode.ok() and rnode.ok():
-            left = 0.2 if deadline is None else min(0.2, deadline - time.monotonic())
-            if left <= 0:
-                break
-            time.sleep(left)
+        _relay_until(duration, lambda: znode.ok() and rnode.ok())
         st = relay.stats
         sys.stderr.write(f"relayed to ROS 2: {sum(st.to_ros2.values())}, to zentf: {sum(st.to_zentf.values())}, "
                          f"echoes dropped: {st.echoes}, not relayable: {st.dropped}\n")
@@ -154,12 +159,7 @@ def bridge_dds(topics: tuple[str, ...], all_topics: bool, domain: Optional[int],
         relay = DdsBridge(node, domain_id=domain, topics=topics, all_topics=all_topics, clock=not no_clock,
                           dds_namespace=dds_namespace, lan=dds_lan, peers=dds_peers,
                           interfaces=dds_interfaces, on_state=on_state)
-        deadline = None if duration is None else time.monotonic() + duration
-        while node.ok():
-            left = 0.2 if deadline is None else min(0.2, deadline - time.monotonic())
-            if left <= 0:
-                break
-            time.sleep(left)
+        _relay_until(duration, node.ok)
         st = relay.stats
         sys.stderr.write(f"relayed to DDS: {sum(st.to_dds.values())}, to zentf: {sum(st.to_zentf.values())}, "
                          f"echoes dropped: {st.echoes}, not relayable: {st.dropped}\n")
