@@ -93,6 +93,33 @@ cdef object _ts_frames_of(object parent, object child):
     return frames
 
 
+
+cdef inline int64_t _stamp_ns(object stamp):
+    """A Time's nanoseconds; -1 when they are negative or do not fit int64 (the encoders' templates refuse it)."""
+    try:
+        return (<_Time>stamp)._ns
+    except (OverflowError, TypeError):
+        return -1
+
+
+cdef inline bint _ts_values(object tr, bint direct, double* v):
+    """A Transform's translation and rotation into v[0:7]; False if any field is not a float."""
+    try:
+        p = _field(tr, _W_TRANS, direct, "translation")
+        q = _field(tr, _W_ROT, direct, "rotation")
+        direct = direct and type(p) is _Vector3 and type(q) is _Quaternion
+        v[0] = PyFloat_AsDouble(_field(p, _W_X, direct, "x"))
+        v[1] = PyFloat_AsDouble(_field(p, _W_Y, direct, "y"))
+        v[2] = PyFloat_AsDouble(_field(p, _W_Z, direct, "z"))
+        v[3] = PyFloat_AsDouble(_field(q, _W_QX, direct, "x"))
+        v[4] = PyFloat_AsDouble(_field(q, _W_QY, direct, "y"))
+        v[5] = PyFloat_AsDouble(_field(q, _W_QZ, direct, "z"))
+        v[6] = PyFloat_AsDouble(_field(q, _W_QW, direct, "w"))
+    except Exception:
+        return False
+    return True
+
+
 cdef object _ts_write(object ts, bint whole):
     """The bytes of one TransformStamped (with the TFMessage head around it when ``whole``); None if
     it does not fit the template."""
@@ -120,28 +147,14 @@ cdef object _ts_write(object ts, bint whole):
         if frames is None:
             return None
         _ts_last = (parent, child, frames)
-    try:
-        ns = (<_Time>stamp)._ns  # (C arithmetic below; beyond int64: the dict path)
-    except (OverflowError, TypeError):
-        return None
+    ns = _stamp_ns(stamp)  # (C arithmetic below; beyond int64: the dict path)
     if ns < 0:
         return None
     sec = ns // _NS
     nsec = ns - sec * _NS
     if sec > 0xFFFFFFFF:
         return None
-    try:
-        p = _field(tr, _W_TRANS, direct, "translation")
-        q = _field(tr, _W_ROT, direct, "rotation")
-        direct = direct and type(p) is _Vector3 and type(q) is _Quaternion
-        v[0] = PyFloat_AsDouble(_field(p, _W_X, direct, "x"))
-        v[1] = PyFloat_AsDouble(_field(p, _W_Y, direct, "y"))
-        v[2] = PyFloat_AsDouble(_field(p, _W_Z, direct, "z"))
-        v[3] = PyFloat_AsDouble(_field(q, _W_QX, direct, "x"))
-        v[4] = PyFloat_AsDouble(_field(q, _W_QY, direct, "y"))
-        v[5] = PyFloat_AsDouble(_field(q, _W_QZ, direct, "z"))
-        v[6] = PyFloat_AsDouble(_field(q, _W_QW, direct, "w"))
-    except Exception:
+    if not _ts_values(tr, direct, v):
         return None
     size = ((PyBytes_GET_SIZE(_TF_HEAD) if whole else 0) + PyBytes_GET_SIZE(_TS_HEAD) + 4 + PyBytes_GET_SIZE(_TS_NSEC)
             + 4 + PyBytes_GET_SIZE(<bytes>frames) - 1 + PyBytes_GET_SIZE(_TS_ROT) - 1 + 7 * 9 + 5 * 2)
@@ -253,27 +266,13 @@ cdef object _cdr_write(object ts):
         except (_CdrError, UnicodeEncodeError):
             return None
         _cdr_last = (parent, child, mid)
-    try:
-        ns = (<_Time>stamp)._ns
-    except (OverflowError, TypeError):
-        return None
+    ns = _stamp_ns(stamp)
     if ns < 0:
         return None
     sec = ns // _NS
     if sec > 0x7FFFFFFF:  # int32 seconds
         return None
-    try:
-        p = _field(tr, _W_TRANS, direct, "translation")
-        q = _field(tr, _W_ROT, direct, "rotation")
-        direct = direct and type(p) is _Vector3 and type(q) is _Quaternion
-        v[0] = PyFloat_AsDouble(_field(p, _W_X, direct, "x"))
-        v[1] = PyFloat_AsDouble(_field(p, _W_Y, direct, "y"))
-        v[2] = PyFloat_AsDouble(_field(p, _W_Z, direct, "z"))
-        v[3] = PyFloat_AsDouble(_field(q, _W_QX, direct, "x"))
-        v[4] = PyFloat_AsDouble(_field(q, _W_QY, direct, "y"))
-        v[5] = PyFloat_AsDouble(_field(q, _W_QZ, direct, "z"))
-        v[6] = PyFloat_AsDouble(_field(q, _W_QW, direct, "w"))
-    except Exception:
+    if not _ts_values(tr, direct, v):
         return None
     size = 16 + PyBytes_GET_SIZE(<bytes>mid) + 56
     out = PyBytes_FromStringAndSize(NULL, size)
