@@ -30,21 +30,6 @@ TF_MD5 = "94810edda583a504dfda3829e70d7eec"
 _MAX_NS = (1 << 63) - 1
 
 
-class _Capture:
-    """What ``wire.ingest_tf`` would insert, kept as rows (its ``core`` argument)."""
-
-    def __init__(self) -> None:
-        self.rows: list = []
-
-    def set_transforms_raw(self, samples: Any, authority: str, is_static: bool = False) -> int:
-        self.rows.extend(samples)
-        return len(samples)
-
-    def set_transform_raw(self, *row: Any) -> bool:
-        self.rows.append(tuple(row[:10]))
-        return True
-
-
 class _Load:
     """One load: the loader, each channel's Python decoder, the window, the problems."""
 
@@ -93,10 +78,10 @@ class _Load:
 
 
 def _zentf_decoder() -> Callable[[bytes], list]:
-    from zentf.transport.wire.codec import ingest_tf
+    from zentf.transport.wire.codec import RowCapture, ingest_tf
 
     def decode(payload: bytes) -> list:
-        cap = _Capture()
+        cap = RowCapture()
         ingest_tf(payload, cap, "", False)
         return cap.rows
     return decode

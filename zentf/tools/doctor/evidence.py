@@ -16,6 +16,8 @@ from collections import Counter, deque
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Optional
 
+from zentf.transport.wire.codec import RowCapture
+
 __all__ = ["RowCapture", "Evidence", "EdgeStats", "SenderStats", "GraphView", "MAX_EDGES", "MAX_SENDERS"]
 
 #: (child, sender, static) tables beyond these bounds count the extra samples as "overflow" only.
@@ -26,23 +28,6 @@ DELAY_WINDOW = 256
 #: Parent changes kept per edge.
 CHANGE_WINDOW = 16
 _NS = 1_000_000_000
-
-
-class RowCapture:
-    """Stands in for a buffer where a profile's ingest_tf inserts: keeps the decoded rows as evidence."""
-
-    __slots__ = ("rows",)
-
-    def __init__(self) -> None:
-        self.rows: list = []
-
-    def set_transforms_raw(self, samples: list, authority: str, is_static: bool = False) -> int:
-        self.rows.extend(samples)
-        return len(samples)
-
-    def set_transform_raw(self, *args: Any) -> bool:
-        self.rows.append(args[:10])
-        return True
 
 
 @dataclass

@@ -25,6 +25,7 @@ from ..ingest.tf_encoder import ts_item as _ts_item, ts_payload as _ts_payload
 __all__ = [
     "ENCODING", "MAX_PAYLOAD", "encoding_for", "type_name_from_encoding", "pack", "unpack", "encode",
     "decode", "decode_any", "tf_to_plain", "encode_tf", "ingest_tf", "tf_samples", "insert_samples", "authority_of",
+    "RowCapture",
 ]
 
 ENCODING = "application/msgpack"
@@ -177,6 +178,24 @@ def _frame(b: Any) -> str:
             raise TypeError("frame ids must be strings")
         name = frame_name(b)
     return name
+
+
+class RowCapture:
+    """Stands in for the BufferCore a wire's ``ingest_tf`` inserts into: keeps the decoded rows instead (what
+    the doctor takes as evidence and the bag loader's Python path stores)."""
+
+    __slots__ = ("rows",)
+
+    def __init__(self) -> None:
+        self.rows: list = []
+
+    def set_transforms_raw(self, samples: list, authority: str, is_static: bool = False) -> int:
+        self.rows.extend(samples)
+        return len(samples)
+
+    def set_transform_raw(self, *args: Any) -> bool:
+        self.rows.append(args[:10])
+        return True
 
 
 def ingest_tf(payload: bytes, core: Any, authority: str, is_static: bool) -> tuple[int, int, int, str | None]:
