@@ -20,6 +20,7 @@ from libc.string cimport memcmp, memcpy, memset
 
 from zentf.core.buffer_core cimport BufferCore
 from zentf.ros.frame_names cimport frame_name
+from zentf.transport.ingest.decoders cimport cdr_le
 
 __all__ = ["TfLoader", "KIND_SKIP", "KIND_CDR", "KIND_ROS1", "KIND_OTHER", "MCAP", "ROS1"]
 
@@ -186,7 +187,7 @@ cdef class TfLoader:
         cdef Py_ssize_t off = 8, ln, i, n
         cdef int32_t sec
         cdef uint32_t nsec, u
-        if end > _MAX_PAYLOAD or end < 8 or p[0] != 0 or p[1] != 1:
+        if end > _MAX_PAYLOAD or not cdr_le(p, end):
             return 0
         n = _u32(p + 4)
         if <uint64_t>n * 72 > <uint64_t>(end - 8):

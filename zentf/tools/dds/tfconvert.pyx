@@ -7,6 +7,8 @@ from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes
 from libc.stdint cimport int32_t, uint8_t, uint32_t, uint64_t
 from libc.string cimport memcpy
 
+from zentf.transport.ingest.decoders cimport cdr_le
+
 cdef bytes _STAMP = b"\x83\xa6header\x82\xa5stamp\x82\xa3sec\xce"
 cdef bytes _NSEC = b"\xa7nanosec\xce"
 cdef bytes _FRAME = b"\xa8frame_id"
@@ -115,7 +117,7 @@ def tf_cdr_to_msgpack(payload):
     if end > _MAX_PAYLOAD or end < 8:
         return None
     cdef const uint8_t* p = <const uint8_t*>PyBytes_AS_STRING(payload)
-    if p[0] != 0 or p[1] != 1:
+    if not cdr_le(p, end):
         return None
     cdef uint32_t n = _u32le(p + 4)
     if <uint64_t>n * 72 > <uint64_t>(end - 8):
