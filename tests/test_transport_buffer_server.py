@@ -55,6 +55,8 @@ def test_lookups_transform_and_errors_through_the_server(spawn, client_node, zen
 
     with pytest.raises(LookupException, match='"nowhere" passed to lookupTransform argument source_frame does not exist'):
         client.lookup_transform("av1", "nowhere", Time())
+    # a second sample of both drones first: with one, tf2 says "only time ... is in the buffer" instead
+    client.lookup_transform("av1", "av2", Time(nanoseconds=stamp + 1), timeout=20)
     with pytest.raises(ExtrapolationException, match=r"extrapolation [0-9.]+s into the past"):
         client.lookup_transform("av1", "av2", Time(sec=1))
     ok, why = client.can_transform("av1", "nowhere", Time(), return_debug_tuple=True)
