@@ -1,7 +1,7 @@
 """A recording's tf straight into a BufferCore: each format's chunks through the compiled ``TfLoader``.
 
 The containers are read here (MCAP chunks and ROS 1 chunks through the bounded scanners, SQLite rows),
-the records and TFMessages in C (``tfload.pyx``). A message the compiled decoders doubt is decoded by
+the records and TFMessages in C (``tfload.pyx``; a rosbag2 .db3's rows are stepped with SQLite's C API there). A message the compiled decoders doubt is decoded by
 the same Python decoders ``Bag.tf()`` uses (``fallback``), so the result is the one a sample-by-sample
 load gives. A time window (stamps in [start, end]; static transforms always) reads only the chunks
 that can hold it when the file has an index (MCAP chunk index, ROS 1 chunk infos): the chunks are
@@ -19,7 +19,7 @@ from typing import Any
 from .formats import BagFormat
 from .mcapscan import _CHUNK, _MESSAGE, MAGIC, ChunkRefused, McapChannel, McapScan, _REC
 from .tfdecode import TF_TYPE
-from .tfload import KIND_CDR, KIND_OTHER, KIND_ROS1, KIND_SKIP, MCAP, ROS1, TfLoader
+from .tfload import KIND_CDR, KIND_MSGPACK, KIND_OTHER, KIND_ROS1, KIND_SKIP, MCAP, ROS1, TfLoader
 
 __all__ = ["load_into", "TF_MD5"]
 
@@ -104,7 +104,7 @@ def _mcap(load: _Load, path: Path, zentf: bool) -> str | None:
             load.channel(ch.id, ch.topic, KIND_SKIP, None, "")
             return
         if zentf:
-            load.channel(ch.id, ch.topic, KIND_OTHER, msgpack, ch.metadata.get("sender", "") or "bag")
+            load.channel(ch.id, ch.topic, KIND_MSGPACK, msgpack, ch.metadata.get("sender", "") or "bag")
             return
         name = ch.schema.name if ch.schema else ""
         if name != TF_TYPE:
@@ -317,7 +317,9 @@ def _ros1(load: _Load) -> str | None:
 
 
 def _sqlite(load: _Load) -> str | None:
+    from .ros import _one_line
     from .ros2sqlite import SqliteBag
+    from .sqliteapi import unavailable
     from .tfdecode import cdr_tf_decoder
 
     sq = SqliteBag(load.bag.path)
@@ -333,6 +335,8 @@ def _sqlite(load: _Load) -> str | None:
             continue
         load.channel(cid, t.name, KIND_CDR, cdr, "bag")
         chosen.append(t)
+    if not sq.compressed and len(chosen) <= 64 and unavailable() is None:
+        return _sqlite_compiled(load, sq, chosen, ids)
     message = load.loader.message
     n = 0
     try:
@@ -340,13 +344,58 @@ def _sqlite(load: _Load) -> str | None:
             n += 1
             message(ids[(t.file, t.id)], raw)
     except Exception as e:  # noqa: BLE001 - damage inside the database: stop, say where
-        from .ros import _one_line
-
         return f"stopped after {n} tf messages ({_one_line(e)})"
     if sq.problems:
         more = f" (and {len(sq.problems) - 1} more)" if len(sq.problems) > 1 else ""
         return f"{sq.problems[0]}{more}; read {n} tf messages"
     return None
+
+
+def _sqlite_compiled(load: _Load, sq: Any, chosen: list, ids: dict[tuple[int, int], int]) -> str | None:
+    """SqliteBag.rows' query, stepped in C (TfLoader.sqlite): no tuple or bytes object per row; the same
+    rows in the same order, and the same line when the database is damaged."""
+    import os
+
+    from .ros import _one_line
+
+    n = 0
+    for i, file in enumerate(sq.files):
+        mine = [t for t in chosen if t.file == i]
+        if not mine:
+            continue
+        try:
+            sq._connect(file).close()  # missing, not a database, no messages table: its one line
+        except Exception as e:  # noqa: BLE001 - as the Python path reports it
+            return f"stopped after {n} tf messages ({_one_line(e)})"
+        sql = (f"SELECT topic_id, data FROM messages WHERE topic_id IN ({','.join(str(t.id) for t in mine)}) "
+               "ORDER BY timestamp, id").encode()
+        rows, error = load.loader.sqlite(b"file:" + os.fsencode(file) + b"?mode=ro", sql, [t.id for t in mine],
+                                         [ids[(i, t.id)] for t in mine])
+        n += rows
+        if error is not None:
+            return f"stopped after {n} tf messages ({_one_line(_sqlite_exception(*error))})"
+    return None
+
+
+def _sqlite_exception(code: int, message: str) -> Exception:
+    """The exception Python's sqlite3 raises for a primary SQLite result code (its _pysqlite_seterror)."""
+    import sqlite3
+
+    if code in (2, 12):
+        cls: type[Exception] = sqlite3.InternalError
+    elif code == 7:
+        cls = MemoryError
+    elif code in (1, 3, 4, 5, 6, 8, 9, 10, 13, 14, 15, 16, 17):
+        cls = sqlite3.OperationalError
+    elif code == 18:
+        cls = sqlite3.DataError
+    elif code in (19, 20):
+        cls = sqlite3.IntegrityError
+    elif code in (21, 25):
+        cls = sqlite3.InterfaceError
+    else:  # SQLITE_CORRUPT, SQLITE_NOTADB, ...
+        cls = sqlite3.DatabaseError
+    return cls(message)
 
 
 def load_into(bag: Any, core: Any, topics: Collection[str] | None = None, start: int | None = None,

@@ -332,40 +332,76 @@ def msgpack_tf(payload, bint canonical=True):
     return decode_msgpack(payload, &newest, None, canonical)
 
 
+cdef Sample* _walk_buf = NULL   # decode_msgpack's samples (the GIL guards it), kept between calls when small
+cdef Py_ssize_t _walk_cap = 0
+cdef Py_ssize_t _KEEP_WALK = 256
+
+
 cdef object decode_msgpack(object payload, int64_t* newest, Batch batch, bint canonical=True):
     """msgpack_tf, also giving the newest stamp (-1 if none); with a batch, the samples go into it
     (True returned) instead of a list of tuples."""
+    global _walk_buf, _walk_cap
     newest[0] = -1
     if type(payload) is not bytes:
         return None
-    cdef Py_ssize_t size = PyBytes_GET_SIZE(payload)
-    if size > _MAX_PAYLOAD:
+    cdef Py_ssize_t size = PyBytes_GET_SIZE(payload), n, i
+    n = msgpack_walk(<const uint8_t*>PyBytes_AS_STRING(payload), size, &_walk_buf, &_walk_cap, canonical)
+    if n == -2:
+        raise MemoryError()
+    if n < 0:
         return None
-    cdef Cur c
-    c.p = <const uint8_t*>PyBytes_AS_STRING(payload)
-    c.end = c.p + size
-    cdef Py_ssize_t n, i, j, kn, count = -1
-    cdef const uint8_t* k
-    cdef Sample s
     out = [] if batch is None else None
+    try:
+        for i in range(n):
+            if not _emit(&_walk_buf[i], out, batch, newest):
+                return None
+    finally:
+        if _walk_cap > _KEEP_WALK:  # a large message's buffer is not kept
+            free(_walk_buf)
+            _walk_buf = NULL
+            _walk_cap = 0
+    return True if batch is not None else out
+
+
+cdef Py_ssize_t msgpack_walk(const uint8_t* p, Py_ssize_t size, Sample** buf, Py_ssize_t* cap,
+                             bint canonical) noexcept nogil:
+    """The samples of a zentf (msgpack) TFMessage into buf[0..count) (grown with realloc as needed; names
+    point into p): count, -1 if anything is doubtful, -2 if memory ran out. Frame names are not checked
+    for UTF-8 here (callers do, as frame_name interns them)."""
+    if size > _MAX_PAYLOAD:
+        return -1
+    cdef Cur c
+    c.p = p
+    c.end = p + size
+    cdef Py_ssize_t n, i, j, kn, count = -1, m
+    cdef const uint8_t* k
+    cdef void* q
     if not _container(&c, 0x80, 0xde, &n):
-        return None
+        return -1
     for i in range(n):  # top level: "transforms" once, other fields skipped
         if not _key(&c, &k, &kn):
-            return None
+            return -1
         if _is(k, kn, b"transforms", 10):
             if count >= 0 or not _container(&c, 0x90, 0xdc, &count):
-                return None
+                return -1
+            if count > cap[0]:
+                # an element takes 24 bytes at the least: a count beyond that is a lie, not an allocation
+                if count > (c.end - c.p) // 24 + 1:
+                    return -1
+                m = max(count, 16)
+                q = realloc(buf[0], m * sizeof(Sample))
+                if q == NULL:
+                    return -2
+                buf[0] = <Sample*>q
+                cap[0] = m
             for j in range(count):
-                if not _element(&c, &s, canonical):
-                    return None
-                if not _emit(&s, out, batch, newest):
-                    return None
+                if not _element(&c, &buf[0][j], canonical):
+                    return -1
         elif not _skip(&c, 0):
-            return None
+            return -1
     if count < 0 or c.p != c.end:
-        return None
-    return True if batch is not None else out
+        return -1
+    return count
 
 
 # ---------------------------------------------------------------- CDR (XCDR1 little-endian)
