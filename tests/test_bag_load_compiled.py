@@ -499,3 +499,16 @@ def test_sqlite_cells_that_are_not_blobs_are_skipped_in_c_as_in_python(tmp_path,
     fast, fast_dump = _problems(folder, False, monkeypatch)
     slow, slow_dump = _problems(folder, True, monkeypatch)
     assert fast == slow == [] and fast_dump == slow_dump and len(fast_dump) > 10
+
+
+def test_messages_larger_than_the_walkers_first_buffer_decode_as_the_python_path():
+    """33 elements outgrow the listener's stack buffer; 5,000 the loader's kept one (both allocate then free)."""
+    from zentf.transport.ingest import decoders
+    from zentf.transport.wire import codec as wire
+
+    rnd = random.Random(23)
+    for n in (31, 32, 33, 300, 5000, 40):
+        payload = wire.encode_tf([_zentf_item(rnd) for _ in range(n)])
+        rows = wire.tf_samples(payload)[0]
+        assert len(rows) == n and decoders.msgpack_tf(payload) == rows
+        assert _msgpack_rows(payload) == _stored(rows)

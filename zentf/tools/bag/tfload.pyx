@@ -378,7 +378,8 @@ cdef class TfLoader:
     cdef int _msgpack(self, const uint8_t* p, Py_ssize_t size, object auth, bint is_static) except -1:
         """A zentf (msgpack) TFMessage into the core, read by the listener's walker (the same strict schema);
         0 (nothing stored) if it doubts the message or a name is not UTF-8."""
-        cdef Py_ssize_t n = msgpack_walk(p, size, &self.samples, &self.samples_cap, True), i
+        cdef bint owned = True
+        cdef Py_ssize_t n = msgpack_walk(p, size, &self.samples, &self.samples_cap, &owned, True), i
         cdef Py_ssize_t accepted = 0
         cdef Sample* s
         if n == -2:
