@@ -502,12 +502,12 @@ def test_sqlite_cells_that_are_not_blobs_are_skipped_in_c_as_in_python(tmp_path,
 
 
 def test_messages_larger_than_the_walkers_first_buffer_decode_as_the_python_path():
-    """33 elements outgrow the listener's stack buffer; 5,000 the loader's kept one (both allocate then free)."""
+    """129 elements outgrow the listener's stack buffer; 5,000 the loader's kept one (both allocate, then free)."""
     from zentf.transport.ingest import decoders
     from zentf.transport.wire import codec as wire
 
     rnd = random.Random(23)
-    for n in (31, 32, 33, 300, 5000, 40):
+    for n in (127, 128, 129, 300, 5000, 40):
         payload = wire.encode_tf([_zentf_item(rnd) for _ in range(n)])
         rows = wire.tf_samples(payload)[0]
         assert len(rows) == n and decoders.msgpack_tf(payload) == rows

@@ -333,7 +333,7 @@ def msgpack_tf(payload, bint canonical=True):
 
 
 cdef enum:
-    _STACK_SAMPLES = 32  # a message this small is decoded into the C stack (the listener's common case)
+    _STACK_SAMPLES = 128  # a message this small is decoded into the C stack (13 KiB; the listener's common case)
 
 
 cdef object decode_msgpack(object payload, int64_t* newest, Batch batch, bint canonical=True):
