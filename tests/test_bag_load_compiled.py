@@ -512,3 +512,23 @@ def test_messages_larger_than_the_walkers_first_buffer_decode_as_the_python_path
         rows = wire.tf_samples(payload)[0]
         assert len(rows) == n and decoders.msgpack_tf(payload) == rows
         assert _msgpack_rows(payload) == _stored(rows)
+
+
+def test_a_sqlite_blob_larger_than_any_tf_message_is_skipped_in_c_as_in_python(tmp_path, monkeypatch):
+    import sqlite3
+
+    from zentf.ros.tf import MAX_PAYLOAD
+
+    folder = _sqlite_bag(tmp_path, messages=20)
+    db = next(folder.glob("*.db3"))
+    con = sqlite3.connect(db)
+    rid = con.execute("SELECT id FROM messages WHERE topic_id=(SELECT id FROM topics WHERE name='/tf') LIMIT 1 OFFSET 5"
+                      ).fetchone()[0]
+    con.execute("UPDATE messages SET data=? WHERE id=?", (b"\x00\x01\x00\x00" + bytes(MAX_PAYLOAD), rid))
+    con.commit()
+    con.close()
+    _, loader = _bulk_load(folder)
+    assert loader.skipped_records == 1 and loader.fallbacks == 0
+    fast, fast_dump = _problems(folder, False, monkeypatch)
+    slow, slow_dump = _problems(folder, True, monkeypatch)
+    assert fast == slow == [] and fast_dump == slow_dump and len(fast_dump) > 10

@@ -209,6 +209,11 @@ cdef class TfLoader:
                     continue
                 blob = <const uint8_t*>api.column_blob(stmt, 1)
                 n = api.column_bytes(stmt, 1)
+                if n > _MAX_PAYLOAD and self._kind(cid):
+                    # larger than any decoder takes (the Python path refuses it too): not copied for it
+                    self.messages += 1
+                    self.skipped_records += 1
+                    continue
                 self._message(cid, blob if blob != NULL else <const uint8_t*>b"", n if blob != NULL else 0)
         finally:
             if stmt != NULL:
