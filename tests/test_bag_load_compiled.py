@@ -532,3 +532,21 @@ def test_a_sqlite_blob_larger_than_any_tf_message_is_skipped_in_c_as_in_python(t
     fast, fast_dump = _problems(folder, False, monkeypatch)
     slow, slow_dump = _problems(folder, True, monkeypatch)
     assert fast == slow == [] and fast_dump == slow_dump and len(fast_dump) > 10
+
+
+def test_tf_why_at_a_time_in_a_bag_reads_only_the_chunks_around_it(tmp_path, monkeypatch):
+    """`tf why --bag B TARGET SOURCE --time T` loads as `tf echo --bag --time` does (load_buffer_at)."""
+    from zentf.cli.tf_doctor import _why_bag
+    from zentf.core.time import Time
+    from zentf.tools.bag import mcapscan
+
+    path = write_ros2_mcap(tmp_path / "w.mcap", transforms(seed=3, messages=6000, frames=12))
+    reads = []
+    real = mcapscan.McapScan.chunk_data
+    monkeypatch.setattr(mcapscan.McapScan, "chunk_data", lambda self, *a, **k: reads.append(1) or real(self, *a, **k))
+    whole = _why_bag(str(path), "odom", "link_7", None, None, None, 1.0)
+    total = len(reads)
+    reads.clear()
+    at = _why_bag(str(path), "odom", "link_7", Time.from_sec(40.123), None, None, 1.0)
+    assert total > 60 and len(reads) < total // 4, (len(reads), total)
+    assert whole.ok and at.ok and "link_7" in at.text()
