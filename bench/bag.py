@@ -10,8 +10,9 @@ own read+decode loop and mcap-ros2-support's (decode only, no buffer: the refere
 then 1M transforms (100k TFMessages of 10, a generated rosbag2 MCAP) into a Buffer against rosbags'
 decode loop over the same file; then 1M transforms from a zentf MCAP recording and from a rosbag2
 SQLite bag, each against its per-message Python path and the libraries' own decode loop; then a
-generated ROS 2 MCAP of ``--big-mb`` MB (in /tmp, deleted after) loaded into a Buffer in a child process: time, and memory (peak RSS growth) against the raw
-transform bytes (stamp + 7 float64 = 64 B per transform), and ``tf echo --bag BIG --time T`` /
+generated ROS 2 MCAP of ``--big-mb`` MB (in /tmp, deleted after) loaded into a Buffer in a child
+process: time, and memory (peak RSS growth) against the raw transform bytes (stamp + 7 float64 = 64 B
+per transform), and ``tf echo --bag BIG --time T`` /
 ``--start/--end`` and ``tf why --bag BIG --time T`` (whole process, reading only the chunks around T).
 
     python bench/bag.py [-n 20000] [--big-mb 1024] [--only-ros] [--only-formats] [--big-ref]
@@ -362,10 +363,10 @@ def generate_zentf(path: Path, messages: int, per_msg: int = 10) -> int:
         for k in range(messages):
             stamp = t0 + k * 10_000_000
             st = {"sec": stamp // 1_000_000_000, "nanosec": stamp % 1_000_000_000}
-            w.write("tf", wire.encode_tf([{"header": {"stamp": st, "frame_id": frames[i]}, "child_frame_id": frames[i + 1],
-                                           "transform": {"translation": {"x": 0.1 * i, "y": 0.0, "z": 0.05},
-                                                         "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}
-                                          for i in range(per_msg)]), ENC, "/bench", stamp)
+            items = [{"header": {"stamp": st, "frame_id": frames[i]}, "child_frame_id": frames[i + 1],
+                      "transform": {"translation": {"x": 0.1 * i, "y": 0.0, "z": 0.05},
+                                    "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}} for i in range(per_msg)]
+            w.write("tf", wire.encode_tf(items), ENC, "/bench", stamp)
     return messages * per_msg
 
 

@@ -368,7 +368,8 @@ def _odd_zentf_payloads() -> list[bytes]:
            msgpack.packb({"extra": [1, {"a": None}], "transforms": [good]}),        # an unknown field
            msgpack.packb({"transforms": [good]}, use_single_float=True),            # float32 values
            msgpack.packb({"transforms": [{**good, "child_frame_id": b"bin"}]}),     # a bin name
-           msgpack.packb({"transforms": [{**good, "header": {**good["header"], "stamp": {"sec": True, "nanosec": 0}}}]}),
+           msgpack.packb({"transforms": [{**good, "header": {**good["header"],
+                                                             "stamp": {"sec": True, "nanosec": 0}}}]}),
            msgpack.packb({"transforms": [{**good, "header": {"frame_id": "map"}}, good]}),  # one element without stamp
            msgpack.packb({"transforms": [{**good, "transform": {"translation": {"x": 1}}}]}),
            msgpack.packb({"transforms": [good], "transforms ": 1}) + b"\x00",       # trailing byte
@@ -404,7 +405,7 @@ def test_odd_and_malformed_messages_in_a_zentf_recording_load_as_the_python_path
     assert loader.fallbacks > 100 and len(payloads) - loader.fallbacks > 50, loader.fallbacks
     assert loader.transforms >= 6
     undecodable = [r for r in caplog.records if "undecodable TFMessage" in r.getMessage()]
-    assert len(undecodable) >= 3 and all(str(path) in r.getMessage() or path.name in r.getMessage() for r in undecodable)
+    assert len(undecodable) >= 3 and all(path.name in r.getMessage() for r in undecodable)
     assert dump(load_buffer(path)) == dump(sample_by_sample(path))
 
 

@@ -1,8 +1,8 @@
 """A recording's tf straight into a BufferCore: each format's chunks through the compiled ``TfLoader``.
 
 The containers are read here (MCAP chunks and ROS 1 chunks through the bounded scanners, SQLite rows),
-the records and TFMessages in C (``tfload.pyx``; a rosbag2 .db3's rows are stepped with SQLite's C API there). A message the compiled decoders doubt is decoded by
-the same Python decoders ``Bag.tf()`` uses (``fallback``), so the result is the one a sample-by-sample
+the records and TFMessages in C (``tfload.pyx``; a rosbag2 .db3's rows are stepped there with SQLite's C
+API). A message the compiled decoders doubt is decoded by the same Python decoders ``Bag.tf()`` uses (``fallback``), so the result is the one a sample-by-sample
 load gives. A time window (stamps in [start, end]; static transforms always) reads only the chunks
 that can hold it when the file has an index (MCAP chunk index, ROS 1 chunk infos): the chunks are
 ordered by receive time, the window by stamp, so the first chunk is found by bisection on the stamps
