@@ -551,3 +551,25 @@ def test_tf_why_at_a_time_in_a_bag_reads_only_the_chunks_around_it(tmp_path, mon
     at = _why_bag(str(path), "odom", "link_7", Time.from_sec(40.123), None, None, 1.0)
     assert total > 60 and len(reads) < total // 4, (len(reads), total)
     assert whole.ok and at.ok and "link_7" in at.text()
+
+
+def test_a_window_of_a_sqlite_bag_reads_only_the_rows_around_it(tmp_path):
+    """rosbag2's timestamp index: receive-time slices found by bisection on stamps, as MCAP chunks are."""
+    from zentf.core.buffer_core import BufferCore
+    from zentf.core.time import Time
+    from zentf.tools.bag import bulk, load_buffer, load_buffer_at, open_bag
+
+    folder = write_rosbag2(tmp_path / "w", transforms(seed=3, messages=6000, frames=12), "sqlite3")
+    full = load_buffer(folder)
+    _, whole = _bulk_load(folder)
+    for t in (40.123, 10.5, 69.0):
+        load = bulk._Load(open_bag(folder), BufferCore(cache_time=1e9), None, int((t - 2) * NS), int((t + 2) * NS),
+                          bulk.MCAP)
+        assert bulk._sqlite(load) is None
+        assert 0 < load.loader.messages < whole.messages // 4, (load.loader.messages, whole.messages)
+        win = load_buffer_at(folder, Time.from_sec(t), ("odom", "link_7"))
+        at = Time.from_sec(t)
+        a, b = win.lookup_transform("odom", "link_7", at), full.lookup_transform("odom", "link_7", at)
+        assert (a.transform.translation, a.transform.rotation, a.header.stamp) == \
+            (b.transform.translation, b.transform.rotation, b.header.stamp)
+        assert win.lookup_transform("base_link", "sensor_3", Time(0))  # the statics, always

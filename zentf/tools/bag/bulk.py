@@ -2,11 +2,12 @@
 
 The containers are read here (MCAP chunks and ROS 1 chunks through the bounded scanners, SQLite rows),
 the records and TFMessages in C (``tfload.pyx``; a rosbag2 .db3's rows are stepped there with SQLite's C
-API). A message the compiled decoders doubt is decoded by the same Python decoders ``Bag.tf()`` uses (``fallback``), so the result is the one a sample-by-sample
-load gives. A time window (stamps in [start, end]; static transforms always) reads only the chunks
-that can hold it when the file has an index (MCAP chunk index, ROS 1 chunk infos): the chunks are
-ordered by receive time, the window by stamp, so the first chunk is found by bisection on the stamps
-its messages carry, then chunks are read until one starts past the window.
+API). A message the compiled decoders doubt is decoded by the same Python decoders ``Bag.tf()`` uses
+(``fallback``), so the result is the one a sample-by-sample load gives. A time window (stamps in
+[start, end]; static transforms always) reads only the chunks that can hold it when the file has an
+index (MCAP chunk index, ROS 1 chunk infos, a .db3's timestamp index: slices of receive time stand in
+for chunks): the chunks are ordered by receive time, the window by stamp, so the first chunk is found
+by bisection on the stamps its messages carry, then chunks are read until one starts past the window.
 """
 from __future__ import annotations
 
@@ -364,17 +365,77 @@ def _sqlite_compiled(load: _Load, sq: Any, chosen: list, ids: dict[tuple[int, in
         if not mine:
             continue
         try:
-            sq._connect(file).close()  # missing, not a database, no messages table: its one line
+            con = sq._connect(file)  # missing, not a database, no messages table: its one line
+            try:
+                span = _timestamp_span(con) if load.windowed else None
+            finally:
+                con.close()
         except Exception as e:  # noqa: BLE001 - as the Python path reports it
             return f"stopped after {n} tf messages ({_one_line(e)})"
-        sql = (f"SELECT topic_id, data FROM messages WHERE topic_id IN ({','.join(str(t.id) for t in mine)}) "
-               "ORDER BY timestamp, id").encode()
-        rows, error = load.loader.sqlite(b"file:" + os.fsencode(file) + b"?mode=ro", sql, [t.id for t in mine],
-                                         [ids[(i, t.id)] for t in mine])
-        n += rows
+        uri = b"file:" + os.fsencode(file) + b"?mode=ro"
+        error = None
+
+        def read(topics: list, lo: int | None = None, hi: int | None = None) -> None:
+            nonlocal n, error
+            if error is not None or not topics:
+                return
+            where = f"topic_id IN ({','.join(str(t.id) for t in topics)})"
+            if lo is not None:
+                where += f" AND timestamp >= {int(lo)} AND timestamp < {int(hi)}"
+            rows, err = load.loader.sqlite(uri, f"SELECT topic_id, data FROM messages WHERE {where} "
+                                                "ORDER BY timestamp, id".encode(),
+                                           [t.id for t in topics], [ids[(i, t.id)] for t in topics])
+            n += rows
+            error = error or err
+
+        if span is None:
+            read(mine)
+        else:  # receive-time slices stand in for chunks: the statics whole, the dynamic slices the window needs
+            statics = [t for t in mine if load.decoders[ids[(i, t.id)]][2]]
+            dynamic = [t for t in mine if t not in statics]
+            read(statics)
+            slices = _time_slices(span, {ids[(i, t.id)] for t in dynamic})
+            for sl in _window_chunks(load, slices, set(), lambda sl: read(dynamic, sl.lo, sl.hi)):
+                load.loader.dry = False
+                read(dynamic, sl.lo, sl.hi)
         if error is not None:
             return f"stopped after {n} tf messages ({_one_line(_sqlite_exception(*error))})"
     return None
+
+
+class _Slice:
+    """A span of receive times [lo, hi) of a .db3, read as one chunk is by a time window."""
+
+    __slots__ = ("lo", "hi", "channels")
+
+    def __init__(self, lo: int, hi: int, channels: set[int]) -> None:
+        self.lo, self.hi, self.channels = lo, hi, channels
+
+
+_SLICES = 256  # a window reads ~3 of them (and ~8 probed while bisecting): ~1/20 of a long recording
+
+
+def _timestamp_span(con: Any) -> tuple[int, int] | None:
+    """(first, last) receive time of the messages table if it has an index on timestamp (rosbag2's
+    timestamp_idx: a slice is then a range search, not a scan), else None (read it whole)."""
+    indexed = False
+    for row in con.execute("PRAGMA index_list(messages)").fetchall():
+        cols = con.execute(f"PRAGMA index_info({_quote(str(row[1]))})").fetchall()
+        indexed = indexed or (bool(cols) and cols[0][2] == "timestamp")
+    if not indexed:
+        return None
+    lo, hi = con.execute("SELECT MIN(timestamp), MAX(timestamp) FROM messages").fetchone()
+    return (lo, hi) if type(lo) is int and type(hi) is int else None
+
+
+def _quote(name: str) -> str:
+    return '"' + name.replace('"', '""') + '"'
+
+
+def _time_slices(span: tuple[int, int], channels: set[int]) -> list[_Slice]:
+    lo, hi = span
+    width = max(1, (hi - lo) // _SLICES + 1)
+    return [_Slice(a, min(a + width, hi + 1), channels) for a in range(lo, hi + 1, width)]
 
 
 def _sqlite_exception(code: int, message: str) -> Exception:
