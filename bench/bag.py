@@ -553,6 +553,17 @@ def bench_formats(repeat: int = 3, messages: int = 100_000) -> None:
                 got = fn()
                 times[k].append(time.perf_counter() - t)
                 assert got == n_tf, (k, got, n_tf)
+        at = 1_000 + messages * 0.01 / 2
+        echo = {}
+        for fmt, path in (("zentf MCAP", zpath), ("rosbag2 SQLite", sqpath)):
+            walls = []
+            for _ in range(3):
+                t = time.perf_counter()
+                out = subprocess.run([sys.executable, "-m", "zentf.cli", "tf", "echo", "base_link", "link_9", "--bag",
+                                      str(path), "--time", f"{at:.3f}"], capture_output=True, text=True, timeout=300)
+                walls.append(time.perf_counter() - t)
+                assert out.stdout.startswith("At time"), out.stderr
+            echo[fmt] = walls
     refs = {"zentf MCAP": "mcap reader + msgpack.unpackb", "rosbag2 SQLite": "rosbags read + decode"}
     print(f"1M transforms into a Buffer, best of {repeat} interleaved runs (transforms/s; load "
           f"{os.getloadavg()[0]:.1f})")
@@ -563,6 +574,9 @@ def bench_formats(repeat: int = 3, messages: int = 100_000) -> None:
         print(f"{'':<16} runs (s): zentf {', '.join(f'{x:.2f}' for x in times[(fmt, 'zentf')])}; before "
               f"{', '.join(f'{x:.2f}' for x in times[(fmt, 'before')])}; reference "
               f"{', '.join(f'{x:.2f}' for x in times[(fmt, 'ref')])}")
+    for fmt, walls in echo.items():
+        print(f"tf echo --bag ({fmt}) --time T: {min(walls):.2f} s (runs {', '.join(f'{w:.2f}' for w in walls)}; "
+              f"whole process, the chunks/rows around T)")
 
 
 def main() -> int:
