@@ -12,11 +12,20 @@ from libc.string cimport memset
 
 __all__ = ["unavailable"]
 
-cdef extern from "<dlfcn.h>" nogil:
-    void* dlopen(const char* filename, int flags)
-    void* dlsym(void* handle, const char* symbol)
-    int RTLD_LAZY
-    int RTLD_NOLOAD
+cdef extern from *:
+    """
+    /* POSIX dlopen/dlsym; elsewhere (Windows) no library is found and rows go through Python's sqlite3 */
+    #if defined(_WIN32)
+    static void* zentf_dlopen_loaded(const char* f) { (void)f; return NULL; }
+    static void* zentf_dlsym(void* h, const char* s) { (void)h; (void)s; return NULL; }
+    #else
+    #include <dlfcn.h>
+    static void* zentf_dlopen_loaded(const char* f) { return dlopen(f, RTLD_LAZY | RTLD_NOLOAD); }
+    static void* zentf_dlsym(void* h, const char* s) { return dlsym(h, s); }
+    #endif
+    """
+    void* dlopen_loaded "zentf_dlopen_loaded"(const char* filename) nogil
+    void* dlsym "zentf_dlsym"(void* handle, const char* symbol) nogil
 
 cdef SqliteApi _api
 cdef int _state = 0  # 0 not tried, 1 found, -1 not found
@@ -39,7 +48,7 @@ cdef int _load() noexcept:
     except Exception as e:  # noqa: BLE001 - no sqlite3 module: the Python path says so itself
         _why = f"Python's sqlite3 module is missing ({type(e).__name__})"
         return -1
-    h = dlopen(path, RTLD_LAZY | RTLD_NOLOAD)
+    h = dlopen_loaded(path)  # the module's own handle, only if it is already loaded
     if h == NULL:
         _why = f"{_sqlite3.__file__} is not loaded"
         return -1
