@@ -8,12 +8,14 @@ ROS bags (needs rosbags and mcap-ros2-support): /tf + /tf_static messages per se
 MCAP (tests/data/nav2_turtlebot.mcap) into a Buffer with ``load_buffer``, side by side with rosbags'
 own read+decode loop and mcap-ros2-support's (decode only, no buffer: the references do less);
 then 1M transforms (100k TFMessages of 10, a generated rosbag2 MCAP) into a Buffer against rosbags'
-decode loop over the same file; then a generated ROS 2 MCAP of ``--big-mb`` MB (in /tmp, deleted
-after) loaded into a Buffer in a child process: time, and memory (peak RSS growth) against the raw
-transform bytes (stamp + 7 float64 = 64 B per transform), and ``tf echo --bag BIG --time T`` /
-``--start/--end`` (whole process, reading only the chunks around T).
+decode loop over the same file; then 1M transforms from a zentf MCAP recording and from a rosbag2
+SQLite bag, each against its per-message Python path and the libraries' own decode loop; then a
+generated ROS 2 MCAP of ``--big-mb`` MB (in /tmp, deleted after) loaded into a Buffer in a child
+process: time, and memory (peak RSS growth) against the raw transform bytes (stamp + 7 float64 = 64 B
+per transform), and ``tf echo --bag BIG --time T`` /
+``--start/--end`` and ``tf why --bag BIG --time T`` (whole process, reading only the chunks around T).
 
-    python bench/bag.py [-n 20000] [--big-mb 1024] [--only-ros] [--big-ref]
+    python bench/bag.py [-n 20000] [--big-mb 1024] [--only-ros] [--only-formats] [--big-ref]
 """
 from __future__ import annotations
 
@@ -278,12 +280,11 @@ def bench_nav2(repeat: int = 5) -> list[tuple[str, float]]:
     return [(k, n / min(v)) for k, v in times.items()]
 
 
-def generate_big(path: Path, target_mb: int, per_msg: int = 10, messages: int | None = None) -> tuple[int, int]:
-    """A ROS 2 MCAP of ~target_mb MB: TFMessages of ``per_msg`` transforms (a chain of links at 100 Hz,
-    stamps patched into one encoded template). Returns (messages, transforms)."""
+def _cdr_template(per_msg: int) -> tuple[bytes, list[int], str]:
+    """A CDR TFMessage of ``per_msg`` transforms (a chain of links), the offsets of its stamps, the type's
+    definition."""
     import struct
 
-    from mcap.writer import CompressionType, Writer
     from rosbags.typesys import Stores, get_typestore
 
     from zentf.ros.tf import encode_tf
@@ -303,23 +304,70 @@ def generate_big(path: Path, target_mb: int, per_msg: int = 10, messages: int | 
     assert len(offsets) == per_msg, offsets
     store = get_typestore(Stores.ROS2_HUMBLE)
     msgdef, _ = store.generate_msgdef("tf2_msgs/msg/TFMessage", ros_version=2)
-    n = messages or max(1, target_mb * 1024 * 1024 // (len(template) + 31))
-    t0 = 1_000_000_000_000
+    return template, offsets, msgdef
+
+
+def _stamped(template: bytes, offsets: list[int], n: int):
+    """(stamp ns, payload) of n messages at 100 Hz from 1000 s, the template's stamps patched."""
+    import struct
+
     pack = struct.Struct("<iI").pack_into
+    buf = bytearray(template)
+    t0 = 1_000_000_000_000
+    for k in range(n):
+        stamp = t0 + k * 10_000_000
+        sec, nsec = divmod(stamp, 1_000_000_000)
+        for off in offsets:
+            pack(buf, off, sec, nsec)
+        yield stamp, bytes(buf)
+
+
+def generate_big(path: Path, target_mb: int, per_msg: int = 10, messages: int | None = None) -> tuple[int, int]:
+    """A ROS 2 MCAP of ~target_mb MB: TFMessages of ``per_msg`` transforms (a chain of links at 100 Hz,
+    stamps patched into one encoded template). Returns (messages, transforms)."""
+    from mcap.writer import CompressionType, Writer
+
+    template, offsets, msgdef = _cdr_template(per_msg)
+    n = messages or max(1, target_mb * 1024 * 1024 // (len(template) + 31))
     with open(path, "wb") as f:
         w = Writer(f, chunk_size=1024 * 1024, compression=CompressionType.NONE)
         w.start(profile="ros2", library="zentf bench")
         sid = w.register_schema(name="tf2_msgs/msg/TFMessage", encoding="ros2msg", data=msgdef.encode())
         cid = w.register_channel(topic="/tf", message_encoding="cdr", schema_id=sid)
-        buf = bytearray(template)
-        for k in range(n):
-            stamp = t0 + k * 10_000_000
-            sec, nsec = divmod(stamp, 1_000_000_000)
-            for off in offsets:
-                pack(buf, off, sec, nsec)
-            w.add_message(channel_id=cid, log_time=stamp, publish_time=stamp, data=bytes(buf), sequence=k)
+        for k, (stamp, data) in enumerate(_stamped(template, offsets, n)):
+            w.add_message(channel_id=cid, log_time=stamp, publish_time=stamp, data=data, sequence=k)
         w.finish()
     return n, n * per_msg
+
+
+def generate_sqlite(folder: Path, messages: int, per_msg: int = 10) -> int:
+    """A rosbag2 SQLite bag (written by rosbags) of the generator's TFMessages; returns the transforms."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    template, offsets, _ = _cdr_template(per_msg)
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    with Writer(folder, version=8, storage_plugin=StoragePlugin.SQLITE3) as w:
+        conn = w.add_connection("/tf", "tf2_msgs/msg/TFMessage", typestore=store)
+        for stamp, data in _stamped(template, offsets, messages):
+            w.write(conn, stamp, data)
+    return messages * per_msg
+
+
+def generate_zentf(path: Path, messages: int, per_msg: int = 10) -> int:
+    """A zentf MCAP recording (BagWriter, msgpack TFMessages from wire.encode_tf, as ``zentf bag record``
+    writes them) of the generator's chain at 100 Hz; returns the transforms."""
+    frames = ["base_link"] + [f"link_{i}" for i in range(per_msg)]
+    t0 = 1_000_000_000_000
+    with BagWriter(path) as w:
+        for k in range(messages):
+            stamp = t0 + k * 10_000_000
+            st = {"sec": stamp // 1_000_000_000, "nanosec": stamp % 1_000_000_000}
+            items = [{"header": {"stamp": st, "frame_id": frames[i]}, "child_frame_id": frames[i + 1],
+                      "transform": {"translation": {"x": 0.1 * i, "y": 0.0, "z": 0.05},
+                                    "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}} for i in range(per_msg)]
+            w.write("tf", wire.encode_tf(items), ENC, "/bench", stamp)
+    return messages * per_msg
 
 
 def _rss_kb() -> int:
@@ -370,15 +418,18 @@ def bench_big(target_mb: int, big_ref: bool = False) -> None:
               f"(target <= 1.2x), {r['peak_growth'] / max(1, r['held']):.2f}x the buffer's storage")
         print(f"{'load: target <= 15 s':<28} {'met' if r['seconds'] <= 15 else 'NOT met'}")
         at = 1_000 + n_msgs * 0.01 / 2  # the generator's stamps: 1000 s + 10 ms a message
-        for label, extra in (("tf echo --bag --time T", ["--time", f"{at:.3f}"]),
-                             ("tf echo --bag --start/--end", ["--start", f"{at - 1:.3f}", "--end", f"{at + 1:.3f}"])):
+        for label, cmd, extra in (
+                ("tf echo --bag --time T", "echo", ["--time", f"{at:.3f}"]),
+                ("tf echo --bag --start/--end", "echo", ["--start", f"{at - 1:.3f}", "--end", f"{at + 1:.3f}"]),
+                ("tf why --bag --time T", "why", ["--time", f"{at:.3f}"])):
             walls = []
             for _ in range(3):
                 t = time.perf_counter()
-                out = subprocess.run([sys.executable, "-m", "zentf.cli", "tf", "echo", "base_link", "link_9", "--bag",
+                out = subprocess.run([sys.executable, "-m", "zentf.cli", "tf", cmd, "base_link", "link_9", "--bag",
                                       str(path), *extra], capture_output=True, text=True, timeout=300)
                 walls.append(time.perf_counter() - t)
-                assert out.stdout.startswith("At time"), out.stderr
+                assert out.stdout.startswith("At time") if cmd == "echo" else \
+                    (out.returncode == 0 and "link_9" in out.stdout), out.stdout + out.stderr
             print(f"{label:<28} {min(walls):8.2f} s  (runs {', '.join(f'{w:.2f}' for w in walls)}; whole process, "
                   f"target <= 1 s; the full load above: {r['seconds']:.1f} s)")
         if not big_ref:
@@ -429,6 +480,105 @@ def bench_million(repeat: int = 3) -> None:
           "transforms/s (target >= 1M/s)")
 
 
+class _PythonPath:
+    """Today's per-message Python path of the loader, for a before/after row: zentf recordings through
+    the Python msgpack decoder, .db3 rows through Python's sqlite3."""
+
+    def __enter__(self):
+        from zentf.tools.bag import bulk, sqliteapi
+        from zentf.tools.bag.tfload import KIND_OTHER
+
+        self.saved = bulk.KIND_MSGPACK, sqliteapi.unavailable
+        bulk.KIND_MSGPACK = KIND_OTHER
+        sqliteapi.unavailable = lambda: "bench: the Python path"
+        return self
+
+    def __exit__(self, *exc):
+        from zentf.tools.bag import bulk, sqliteapi
+
+        bulk.KIND_MSGPACK, sqliteapi.unavailable = self.saved
+
+
+def bench_formats(repeat: int = 3, messages: int = 100_000) -> None:
+    """1M transforms (100k TFMessages of 10) into a Buffer from a zentf MCAP recording and from a rosbag2
+    SQLite bag: zentf's compiled load, its per-message Python path (before), and the independent libraries'
+    own read + decode loop over the same file (no buffer: the references do less), interleaved runs."""
+    import msgpack
+    from mcap.reader import make_reader
+    from rosbags.highlevel import AnyReader
+
+    from zentf.tools.bag import load_buffer
+
+    with tempfile.TemporaryDirectory(dir="/tmp") as tmp:
+        zpath, sqpath = Path(tmp) / "million_zentf.mcap", Path(tmp) / "million_db3"
+        t = time.perf_counter()
+        n_tf = generate_zentf(zpath, messages)
+        assert generate_sqlite(sqpath, messages) == n_tf
+        print(f"\ngenerated a zentf MCAP ({zpath.stat().st_size / 2**20:.0f} MiB) and a rosbag2 SQLite bag "
+              f"({sum(f.stat().st_size for f in sqpath.iterdir()) / 2**20:.0f} MiB) of {n_tf:,} transforms "
+              f"({messages:,} TFMessages of 10) in {time.perf_counter() - t:.0f} s")
+
+        def mcap_msgpack_loop() -> int:
+            n = 0
+            with open(zpath, "rb") as f:
+                for _, _, m in make_reader(f).iter_messages():
+                    n += len(msgpack.unpackb(m.data)["transforms"])
+            return n
+
+        def rosbags_loop() -> int:
+            n = 0
+            with AnyReader([sqpath]) as r:
+                for c, _, raw in r.messages():
+                    n += len(r.deserialize(raw, c.msgtype).transforms)
+            return n
+
+        def load(path: Path, python: bool) -> int:
+            if python:
+                with _PythonPath():
+                    buf = load_buffer(path)
+            else:
+                buf = load_buffer(path)
+            return sum(f["samples"] for f in buf.frame_info())
+
+        cases = {("zentf MCAP", "zentf"): lambda: load(zpath, False),
+                 ("zentf MCAP", "before"): lambda: load(zpath, True),
+                 ("zentf MCAP", "ref"): mcap_msgpack_loop,
+                 ("rosbag2 SQLite", "zentf"): lambda: load(sqpath, False),
+                 ("rosbag2 SQLite", "before"): lambda: load(sqpath, True),
+                 ("rosbag2 SQLite", "ref"): rosbags_loop}
+        times: dict[tuple[str, str], list[float]] = {k: [] for k in cases}
+        for _ in range(repeat):
+            for k, fn in cases.items():
+                t = time.perf_counter()
+                got = fn()
+                times[k].append(time.perf_counter() - t)
+                assert got == n_tf, (k, got, n_tf)
+        at = 1_000 + messages * 0.01 / 2
+        echo = {}
+        for fmt, path in (("zentf MCAP", zpath), ("rosbag2 SQLite", sqpath)):
+            walls = []
+            for _ in range(3):
+                t = time.perf_counter()
+                out = subprocess.run([sys.executable, "-m", "zentf.cli", "tf", "echo", "base_link", "link_9", "--bag",
+                                      str(path), "--time", f"{at:.3f}"], capture_output=True, text=True, timeout=300)
+                walls.append(time.perf_counter() - t)
+                assert out.stdout.startswith("At time"), out.stderr
+            echo[fmt] = walls
+    refs = {"zentf MCAP": "mcap reader + msgpack.unpackb", "rosbag2 SQLite": "rosbags read + decode"}
+    print(f"1M transforms into a Buffer, best of {repeat} interleaved runs (transforms/s; load "
+          f"{os.getloadavg()[0]:.1f})")
+    print(f"{'format':<16} {'zentf':>12} {'before (Python/msg)':>20} {'reference':<30} {'ref':>12} {'zentf/ref':>9}")
+    for fmt, ref in refs.items():
+        z, b, r = (n_tf / min(times[(fmt, k)]) for k in ("zentf", "before", "ref"))
+        print(f"{fmt:<16} {z:12,.0f} {b:20,.0f} {ref:<30} {r:12,.0f} {z / r:8.1f}x")
+        print(f"{'':<16} runs (s): zentf {', '.join(f'{x:.2f}' for x in times[(fmt, 'zentf')])}; before "
+              f"{', '.join(f'{x:.2f}' for x in times[(fmt, 'before')])}; reference "
+              f"{', '.join(f'{x:.2f}' for x in times[(fmt, 'ref')])}")
+    for fmt, walls in echo.items():
+        print(f"tf echo --bag ({fmt}) --time T: {min(walls):.2f} s (runs {', '.join(f'{w:.2f}' for w in walls)}; "
+              f"whole process, the chunks/rows around T)")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("-n", type=int, default=20000, help="messages per run")
@@ -437,12 +587,16 @@ def main() -> int:
     ap.add_argument("--big-ref", action="store_true", help="also time rosbags' decode of the big bag (~2 min a GB)")
     ap.add_argument("--pump", nargs=2, metavar=("ENDPOINT", "KEY"), help=argparse.SUPPRESS)
     ap.add_argument("--load-child", metavar="PATH", help=argparse.SUPPRESS)
+    ap.add_argument("--only-formats", action="store_true", help="only the zentf MCAP / SQLite million rows")
     args = ap.parse_args()
     if args.pump:
         _pump_main(args.pump[0], args.pump[1], args.n)
         return 0
     if args.load_child:
         _load_child(args.load_child)
+        return 0
+    if args.only_formats:
+        bench_formats()
         return 0
     if not args.only_ros:
         zenoh_rows(args)
@@ -454,6 +608,7 @@ def main() -> int:
         print(f"{name:<40} {rate:12,.0f} {zentf_rate / rate:8.2f}x")
     print(f"zentf / the faster reference: {zentf_rate / faster:.2f}x (target >= 2)")
     bench_million()
+    bench_formats()
     if args.big_mb:
         bench_big(args.big_mb, args.big_ref)
     return 0

@@ -1,12 +1,13 @@
 """A recording's tf straight into a BufferCore: each format's chunks through the compiled ``TfLoader``.
 
 The containers are read here (MCAP chunks and ROS 1 chunks through the bounded scanners, SQLite rows),
-the records and TFMessages in C (``tfload.pyx``). A message the compiled decoders doubt is decoded by
-the same Python decoders ``Bag.tf()`` uses (``fallback``), so the result is the one a sample-by-sample
-load gives. A time window (stamps in [start, end]; static transforms always) reads only the chunks
-that can hold it when the file has an index (MCAP chunk index, ROS 1 chunk infos): the chunks are
-ordered by receive time, the window by stamp, so the first chunk is found by bisection on the stamps
-its messages carry, then chunks are read until one starts past the window.
+the records and TFMessages in C (``tfload.pyx``; a rosbag2 .db3's rows are stepped there with SQLite's C
+API). A message the compiled decoders doubt is decoded by the same Python decoders ``Bag.tf()`` uses
+(``fallback``), so the result is the one a sample-by-sample load gives. A time window (stamps in
+[start, end]; static transforms always) reads only the chunks that can hold it when the file has an
+index (MCAP chunk index, ROS 1 chunk infos, a .db3's timestamp index: slices of receive time stand in
+for chunks): the chunks are ordered by receive time, the window by stamp, so the first chunk is found
+by bisection on the stamps its messages carry, then chunks are read until one starts past the window.
 """
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ from typing import Any
 from .formats import BagFormat
 from .mcapscan import _CHUNK, _MESSAGE, MAGIC, ChunkRefused, McapChannel, McapScan, _REC
 from .tfdecode import TF_TYPE
-from .tfload import KIND_CDR, KIND_OTHER, KIND_ROS1, KIND_SKIP, MCAP, ROS1, TfLoader
+from .tfload import KIND_CDR, KIND_MSGPACK, KIND_OTHER, KIND_ROS1, KIND_SKIP, MCAP, ROS1, TfLoader
 
 __all__ = ["load_into", "TF_MD5"]
 
@@ -104,7 +105,7 @@ def _mcap(load: _Load, path: Path, zentf: bool) -> str | None:
             load.channel(ch.id, ch.topic, KIND_SKIP, None, "")
             return
         if zentf:
-            load.channel(ch.id, ch.topic, KIND_OTHER, msgpack, ch.metadata.get("sender", "") or "bag")
+            load.channel(ch.id, ch.topic, KIND_MSGPACK, msgpack, ch.metadata.get("sender", "") or "bag")
             return
         name = ch.schema.name if ch.schema else ""
         if name != TF_TYPE:
@@ -317,7 +318,9 @@ def _ros1(load: _Load) -> str | None:
 
 
 def _sqlite(load: _Load) -> str | None:
+    from .ros import _one_line
     from .ros2sqlite import SqliteBag
+    from .sqliteapi import unavailable
     from .tfdecode import cdr_tf_decoder
 
     sq = SqliteBag(load.bag.path)
@@ -333,6 +336,8 @@ def _sqlite(load: _Load) -> str | None:
             continue
         load.channel(cid, t.name, KIND_CDR, cdr, "bag")
         chosen.append(t)
+    if not sq.compressed and len(chosen) <= 64 and unavailable() is None:
+        return _sqlite_compiled(load, sq, chosen, ids)
     message = load.loader.message
     n = 0
     try:
@@ -340,13 +345,118 @@ def _sqlite(load: _Load) -> str | None:
             n += 1
             message(ids[(t.file, t.id)], raw)
     except Exception as e:  # noqa: BLE001 - damage inside the database: stop, say where
-        from .ros import _one_line
-
         return f"stopped after {n} tf messages ({_one_line(e)})"
     if sq.problems:
         more = f" (and {len(sq.problems) - 1} more)" if len(sq.problems) > 1 else ""
         return f"{sq.problems[0]}{more}; read {n} tf messages"
     return None
+
+
+def _sqlite_compiled(load: _Load, sq: Any, chosen: list, ids: dict[tuple[int, int], int]) -> str | None:
+    """SqliteBag.rows' query, stepped in C (TfLoader.sqlite): no tuple or bytes object per row; the same
+    rows in the same order, and the same line when the database is damaged."""
+    import os
+
+    from .ros import _one_line
+
+    n = 0
+    for i, file in enumerate(sq.files):
+        mine = [t for t in chosen if t.file == i]
+        if not mine:
+            continue
+        try:
+            con = sq._connect(file)  # missing, not a database, no messages table: its one line
+            try:
+                span = _timestamp_span(con) if load.windowed else None
+            finally:
+                con.close()
+        except Exception as e:  # noqa: BLE001 - as the Python path reports it
+            return f"stopped after {n} tf messages ({_one_line(e)})"
+        uri = b"file:" + os.fsencode(file) + b"?mode=ro"
+        error = None
+
+        def read(topics: list, lo: int | None = None, hi: int | None = None) -> None:
+            nonlocal n, error
+            if error is not None or not topics:
+                return
+            where = f"topic_id IN ({','.join(str(t.id) for t in topics)})"
+            if lo is not None:
+                where += f" AND timestamp >= {int(lo)} AND timestamp < {int(hi)}"
+            rows, err = load.loader.sqlite(uri, f"SELECT topic_id, data FROM messages WHERE {where} "
+                                                "ORDER BY timestamp, id".encode(),
+                                           [t.id for t in topics], [ids[(i, t.id)] for t in topics])
+            n += rows
+            error = error or err
+
+        if span is None:
+            read(mine)
+        else:  # receive-time slices stand in for chunks: the statics whole, the dynamic slices the window needs
+            statics = [t for t in mine if load.decoders[ids[(i, t.id)]][2]]
+            dynamic = [t for t in mine if t not in statics]
+            read(statics)
+            slices = _time_slices(span, {ids[(i, t.id)] for t in dynamic})
+            for sl in _window_chunks(load, slices, set(), lambda sl: read(dynamic, sl.lo, sl.hi)):
+                load.loader.dry = False
+                read(dynamic, sl.lo, sl.hi)
+        if error is not None:
+            return f"stopped after {n} tf messages ({_one_line(_sqlite_exception(*error))})"
+    return None
+
+
+class _Slice:
+    """A span of receive times [lo, hi) of a .db3, read as one chunk is by a time window."""
+
+    __slots__ = ("lo", "hi", "channels")
+
+    def __init__(self, lo: int, hi: int, channels: set[int]) -> None:
+        self.lo, self.hi, self.channels = lo, hi, channels
+
+
+_SLICES = 256  # a window reads ~3 of them (and ~8 probed while bisecting): ~1/20 of a long recording
+
+
+def _timestamp_span(con: Any) -> tuple[int, int] | None:
+    """(first, last) receive time of the messages table if it has an index on timestamp (rosbag2's
+    timestamp_idx: a slice is then a range search, not a scan), else None (read it whole)."""
+    indexed = False
+    for row in con.execute("PRAGMA index_list(messages)").fetchall():
+        cols = con.execute(f"PRAGMA index_info({_quote(str(row[1]))})").fetchall()
+        indexed = indexed or (bool(cols) and cols[0][2] == "timestamp")
+    if not indexed:
+        return None
+    lo, hi = con.execute("SELECT MIN(timestamp), MAX(timestamp) FROM messages").fetchone()
+    return (lo, hi) if type(lo) is int and type(hi) is int else None
+
+
+def _quote(name: str) -> str:
+    return '"' + name.replace('"', '""') + '"'
+
+
+def _time_slices(span: tuple[int, int], channels: set[int]) -> list[_Slice]:
+    lo, hi = span
+    width = max(1, (hi - lo) // _SLICES + 1)
+    return [_Slice(a, min(a + width, hi + 1), channels) for a in range(lo, hi + 1, width)]
+
+
+def _sqlite_exception(code: int, message: str) -> Exception:
+    """The exception Python's sqlite3 raises for a primary SQLite result code (its _pysqlite_seterror)."""
+    import sqlite3
+
+    if code in (2, 12):
+        cls: type[Exception] = sqlite3.InternalError
+    elif code == 7:
+        cls = MemoryError
+    elif code in (1, 3, 4, 5, 6, 8, 9, 10, 13, 14, 15, 16, 17):
+        cls = sqlite3.OperationalError
+    elif code == 18:
+        cls = sqlite3.DataError
+    elif code in (19, 20):
+        cls = sqlite3.IntegrityError
+    elif code in (21, 25):
+        cls = sqlite3.InterfaceError
+    else:  # SQLITE_CORRUPT, SQLITE_NOTADB, ...
+        cls = sqlite3.DatabaseError
+    return cls(message)
 
 
 def load_into(bag: Any, core: Any, topics: Collection[str] | None = None, start: int | None = None,

@@ -3,7 +3,7 @@
 
 Why: loading a recording's tf sample by sample in Python costs a bytes object, a row tuple and ten
 float/int objects per transform (~3 us); here a chunk's records are walked in C, each TFMessage is
-decoded in place (ROS 2 CDR, ROS 1 serialization) and its transforms go to ``BufferCore.ingest_one_c``
+decoded in place (ROS 2 CDR, ROS 1 serialization, zentf's msgpack) and its transforms go to ``BufferCore.ingest_one_c``
 with no Python object but the interned frame names. Chunks arrive in pieces of bounded size (the
 caller decompresses them so: a bomb never sits in memory whole); a record cut by a piece boundary is
 carried over, a record too large to be a transform message is skipped without being kept.
@@ -14,18 +14,22 @@ the whole message to ``fallback(channel, payload)``, the Python path that decode
 uncompiled loader did, so the compiled path only ever stores what that path would store.
 """
 from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes_GET_SIZE
+from cpython.exc cimport PyErr_CheckSignals
 from libc.stdint cimport int32_t, int64_t, uint8_t, uint32_t, uint64_t
 from libc.stdlib cimport free, malloc, realloc
 from libc.string cimport memcmp, memcpy, memset
 
 from zentf.core.buffer_core cimport BufferCore
 from zentf.ros.frame_names cimport frame_name
-from zentf.transport.ingest.decoders cimport cdr_le
+from zentf.transport.ingest.decoders cimport Sample, cdr_le, msgpack_walk
 
-__all__ = ["TfLoader", "KIND_SKIP", "KIND_CDR", "KIND_ROS1", "KIND_OTHER", "MCAP", "ROS1"]
+from .sqliteapi cimport SQLITE_BLOB, SQLITE_DONE, SQLITE_OK, SQLITE_OPEN_READONLY, SQLITE_OPEN_URI, SQLITE_ROW
+from .sqliteapi cimport SqliteApi, sqlite_api
+
+__all__ = ["TfLoader", "KIND_SKIP", "KIND_CDR", "KIND_ROS1", "KIND_OTHER", "KIND_MSGPACK", "MCAP", "ROS1"]
 
 #: what a channel (MCAP channel id, ROS 1 connection id) carries
-KIND_SKIP, KIND_CDR, KIND_ROS1, KIND_OTHER = 0, 1, 2, 3
+KIND_SKIP, KIND_CDR, KIND_ROS1, KIND_OTHER, KIND_MSGPACK = 0, 1, 2, 3, 4
 #: record framings ``feed`` reads
 MCAP, ROS1 = 0, 1
 
@@ -76,11 +80,15 @@ cdef class TfLoader:
     cdef uint8_t* carry
     cdef Py_ssize_t carry_len, carry_cap, carry_need
     cdef uint64_t skip
+    cdef Sample* samples              # a msgpack message's samples (msgpack_walk grows it)
+    cdef Py_ssize_t samples_cap
 
     def __cinit__(self):
         self.kinds = NULL
         self.statics = NULL
         self.carry = NULL
+        self.samples = NULL
+        self.samples_cap = 0
 
     def __init__(self, BufferCore core, fallback, on_definition=None, int framing=MCAP,
                  int64_t start=0, int64_t end=(1 << 63) - 1):
@@ -103,12 +111,13 @@ cdef class TfLoader:
         free(self.kinds)
         free(self.statics)
         free(self.carry)
+        free(self.samples)
 
     # ------------------------------------------------------------------ channels
 
     def set_channel(self, uint64_t cid, int kind, authority, bint is_static):
-        """What messages of channel ``cid`` are: KIND_SKIP (ignored), KIND_CDR, KIND_ROS1, KIND_OTHER
-        (always through ``fallback``)."""
+        """What messages of channel ``cid`` are: KIND_SKIP (ignored), KIND_CDR, KIND_ROS1, KIND_MSGPACK (a zentf
+        recording's TFMessage), KIND_OTHER (always through ``fallback``)."""
         cdef uint32_t n
         cdef void* p
         if cid >= _MAX_CHANNELS:
@@ -137,9 +146,87 @@ cdef class TfLoader:
     # ------------------------------------------------------------------ one message
 
     def message(self, uint64_t cid, payload):
-        """One message's payload (bytes) of channel ``cid``."""
+        """One message's payload of channel ``cid``: bytes; anything else (a SQLite cell that is not a blob)
+        is a message with nothing to store."""
+        if type(payload) is not bytes:
+            if self._kind(cid):
+                self.messages += 1
+                self.skipped_records += 1
+            return
         cdef const uint8_t* p = <const uint8_t*>PyBytes_AS_STRING(payload)
         self._message(cid, p, PyBytes_GET_SIZE(payload))
+
+    def sqlite(self, bytes uri, bytes sql, list topic_ids, list channels):
+        """Step ``sql`` (rows of topic id, data) over the rosbag2 database ``uri`` (opened read-only) in C,
+        each row's blob into ``_message`` in place, topic ``topic_ids[i]`` as channel ``channels[i]``.
+        Returns (rows read, None) or (rows read, (SQLite error code, its message)) if SQLite failed;
+        None if the SQLite library could not be found (the caller reads through Python's sqlite3)."""
+        cdef const SqliteApi* api = sqlite_api()
+        if api == NULL:
+            return None
+        cdef Py_ssize_t k, nt = len(topic_ids), rows = 0
+        cdef int64_t tids[64]
+        cdef uint64_t cids[64]
+        cdef int64_t tid
+        cdef uint64_t cid
+        cdef void* db = NULL
+        cdef void* stmt = NULL
+        cdef int rc
+        cdef const uint8_t* blob
+        cdef int n
+        if nt > 64 or nt != len(channels):
+            raise ValueError("at most 64 topics, one channel each")
+        for k in range(nt):
+            tids[k] = topic_ids[k]
+            cids[k] = channels[k]
+        try:
+            rc = api.open_v2(uri, &db, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, NULL)
+            if rc != SQLITE_OK:
+                return rows, self._sqlite_error(api, db, rc)
+            api.busy_timeout(db, 5000)  # as Python's sqlite3.connect (timeout=5.0)
+            rc = api.prepare_v2(db, sql, -1, &stmt, NULL)
+            if rc != SQLITE_OK:
+                return rows, self._sqlite_error(api, db, rc)
+            while True:
+                rc = api.step(stmt)
+                if rc == SQLITE_DONE:
+                    return rows, None
+                if rc != SQLITE_ROW:
+                    return rows, self._sqlite_error(api, db, rc)
+                rows += 1
+                if (rows & 4095) == 0:
+                    PyErr_CheckSignals()  # Ctrl-C stops a long read
+                tid = api.column_int64(stmt, 0)
+                cid = 0xFFFFFFFF
+                for k in range(nt):
+                    if tids[k] == tid:
+                        cid = cids[k]
+                        break
+                if api.column_type(stmt, 1) != SQLITE_BLOB:
+                    if self._kind(cid):
+                        self.messages += 1
+                        self.skipped_records += 1
+                    continue
+                blob = <const uint8_t*>api.column_blob(stmt, 1)
+                n = api.column_bytes(stmt, 1)
+                if n > _MAX_PAYLOAD and self._kind(cid):
+                    # larger than any decoder takes (the Python path refuses it too): not copied for it
+                    self.messages += 1
+                    self.skipped_records += 1
+                    continue
+                self._message(cid, blob if blob != NULL else <const uint8_t*>b"", n if blob != NULL else 0)
+        finally:
+            if stmt != NULL:
+                api.finalize(stmt)
+            if db != NULL:
+                api.close(db)
+
+    cdef object _sqlite_error(self, const SqliteApi* api, void* db, int rc):
+        """(primary error code, SQLite's message) as Python's sqlite3 would report them."""
+        if db == NULL:
+            return rc & 0xff, "unable to open database file" if (rc & 0xff) == 14 else "out of memory"
+        cdef const char* m = api.errmsg(db)
+        return api.errcode(db) & 0xff, (<bytes>(<char*>m)).decode("utf-8", "replace") if m != NULL else ""
 
     cdef int _message(self, uint64_t cid, const uint8_t* p, Py_ssize_t n) except -1:
         cdef int kind = self._kind(cid)
@@ -151,6 +238,8 @@ cdef class TfLoader:
             done = self._cdr(p, n, self.auths[cid], self.statics[cid])
         elif kind == KIND_ROS1:
             done = self._ros1(p, n, self.auths[cid], self.statics[cid])
+        elif kind == KIND_MSGPACK:
+            done = self._msgpack(p, n, self.auths[cid], self.statics[cid])
         if not done:
             self.fallbacks += 1
             self.fallback(cid, PyBytes_FromStringAndSize(<const char*>p, n))
@@ -289,6 +378,35 @@ cdef class TfLoader:
                 off += 56
         finally:
             self.core.ingest_end_c(accepted)
+        return 1
+
+    cdef int _msgpack(self, const uint8_t* p, Py_ssize_t size, object auth, bint is_static) except -1:
+        """A zentf (msgpack) TFMessage into the core, read by the listener's walker (the same strict schema);
+        0 (nothing stored) if it doubts the message or a name is not UTF-8."""
+        cdef bint owned = True
+        cdef Py_ssize_t n = msgpack_walk(p, size, &self.samples, &self.samples_cap, &owned, True), i
+        cdef Py_ssize_t accepted = 0
+        cdef Sample* s
+        if n == -2:
+            raise MemoryError()
+        if n < 0:
+            return 0
+        for i in range(n):  # every name first: a doubt stores nothing
+            s = &self.samples[i]
+            if frame_name(s.parent, s.parent_len) is None or frame_name(s.child, s.child_len) is None:
+                return 0
+        self.core.ingest_begin_c()
+        try:
+            for i in range(n):
+                s = &self.samples[i]
+                accepted += self._insert(s.parent, s.parent_len, s.child, s.child_len, s.sec * _NS + s.nsec,
+                                         <const uint8_t*>s.v, auth, is_static)
+        finally:
+            self.core.ingest_end_c(accepted)
+            if self.samples_cap > 4096:  # a huge message's samples are not kept
+                free(self.samples)
+                self.samples = NULL
+                self.samples_cap = 0
         return 1
 
     # ------------------------------------------------------------------ records, piece by piece

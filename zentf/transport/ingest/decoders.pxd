@@ -28,5 +28,7 @@ cdef inline bint cdr_le(const uint8_t* p, Py_ssize_t n) noexcept nogil:
     return n >= 8 and p[0] == 0 and p[1] == 1
 
 
+cdef Py_ssize_t msgpack_walk(const uint8_t* p, Py_ssize_t size, Sample** buf, Py_ssize_t* cap, bint* owned,
+                             bint canonical) noexcept nogil
 cdef object decode_msgpack(object payload, int64_t* newest, Batch batch, bint canonical=*)
 cdef object decode_cdr(object payload, int64_t* newest, Batch batch)

@@ -14,7 +14,7 @@ frame names (a bounded cache).
 cimport cython
 from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes_GET_SIZE
 from libc.stdint cimport int32_t, int64_t, uint8_t, uint32_t, uint64_t
-from libc.stdlib cimport free, realloc
+from libc.stdlib cimport free, malloc, realloc
 from libc.string cimport memcmp, memcpy
 
 from ...ros.frame_names cimport frame_name
@@ -332,40 +332,78 @@ def msgpack_tf(payload, bint canonical=True):
     return decode_msgpack(payload, &newest, None, canonical)
 
 
+cdef enum:
+    _STACK_SAMPLES = 128  # a message this small is decoded into the C stack (13 KiB; the listener's common case)
+
+
 cdef object decode_msgpack(object payload, int64_t* newest, Batch batch, bint canonical=True):
     """msgpack_tf, also giving the newest stamp (-1 if none); with a batch, the samples go into it
     (True returned) instead of a list of tuples."""
     newest[0] = -1
     if type(payload) is not bytes:
         return None
-    cdef Py_ssize_t size = PyBytes_GET_SIZE(payload)
+    cdef Sample stack[_STACK_SAMPLES]
+    cdef Sample* buf = stack
+    cdef Py_ssize_t cap = _STACK_SAMPLES, n, i
+    cdef bint owned = False
+    n = msgpack_walk(<const uint8_t*>PyBytes_AS_STRING(payload), PyBytes_GET_SIZE(payload), &buf, &cap, &owned,
+                     canonical)
+    try:
+        if n == -2:
+            raise MemoryError()
+        if n < 0:
+            return None
+        out = [] if batch is None else None
+        for i in range(n):
+            if not _emit(&buf[i], out, batch, newest):
+                return None
+        return True if batch is not None else out
+    finally:
+        if owned:
+            free(buf)
+
+
+cdef Py_ssize_t msgpack_walk(const uint8_t* p, Py_ssize_t size, Sample** buf, Py_ssize_t* cap, bint* owned,
+                             bint canonical) noexcept nogil:
+    """The samples of a zentf (msgpack) TFMessage into buf[0][0..count), names pointing into p: count, -1 if
+    anything is doubtful, -2 if memory ran out. buf[0] holds cap[0] samples; a larger message gets a larger
+    one (realloc'd if owned[0], else malloc'd and owned[0] set: the caller frees an owned buffer). Frame
+    names are not checked for UTF-8 here (callers do, as frame_name interns them)."""
     if size > _MAX_PAYLOAD:
-        return None
+        return -1
     cdef Cur c
-    c.p = <const uint8_t*>PyBytes_AS_STRING(payload)
-    c.end = c.p + size
-    cdef Py_ssize_t n, i, j, kn, count = -1
+    c.p = p
+    c.end = p + size
+    cdef Py_ssize_t n, i, j, kn, count = -1, m
     cdef const uint8_t* k
-    cdef Sample s
-    out = [] if batch is None else None
+    cdef void* q
     if not _container(&c, 0x80, 0xde, &n):
-        return None
+        return -1
     for i in range(n):  # top level: "transforms" once, other fields skipped
         if not _key(&c, &k, &kn):
-            return None
+            return -1
         if _is(k, kn, b"transforms", 10):
             if count >= 0 or not _container(&c, 0x90, 0xdc, &count):
-                return None
+                return -1
+            if count > cap[0]:
+                # an element takes 24 bytes at the least: a count beyond that is a lie, not an allocation
+                if count > (c.end - c.p) // 24 + 1:
+                    return -1
+                m = max(count, 16)
+                q = realloc(buf[0], m * sizeof(Sample)) if owned[0] else malloc(m * sizeof(Sample))
+                if q == NULL:
+                    return -2
+                buf[0] = <Sample*>q
+                cap[0] = m
+                owned[0] = True
             for j in range(count):
-                if not _element(&c, &s, canonical):
-                    return None
-                if not _emit(&s, out, batch, newest):
-                    return None
+                if not _element(&c, &buf[0][j], canonical):
+                    return -1
         elif not _skip(&c, 0):
-            return None
+            return -1
     if count < 0 or c.p != c.end:
-        return None
-    return True if batch is not None else out
+        return -1
+    return count
 
 
 # ---------------------------------------------------------------- CDR (XCDR1 little-endian)
