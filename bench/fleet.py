@@ -2,7 +2,8 @@
 with the same traffic as raw Zenoh puts through the same routers, measured in the same run.
 
     python bench/fleet.py [--robots 1,10,50,100] [--frames 50] [--hz 30] [--seconds 5] [--procs 2]
-                          [--netns] [--wire zentf|ros2] [--raw-ring] [--quick] [--json FILE] [--tree DIR]
+                          [--netns] [--wire zentf|ros2] [--raw-ring] [--raw-as-zentf] [--quick] [--json FILE]
+                          [--tree DIR]
 
 Every row starts fresh processes, once for zentf and once for raw Zenoh (which first alternates from
 row to row):
@@ -30,7 +31,9 @@ listeners; the callback does one get_latest_common_time, which the fleet listene
 robot's message); and ``sent`` = messages sent in the window over R x H x seconds (< 100 %: the
 robot processes could not keep up). The ratio line is zentf / raw. ``--raw-ring``: the raw listeners
 read a drop-oldest ring from a Python thread, the listener's way of receiving, instead of a callback on
-Zenoh's thread (to tell a thread hand-off's latency from zentf's own). ``--tree DIR``: every process
+Zenoh's thread (to tell a thread hand-off's latency from zentf's own). ``--raw-as-zentf``: the raw robots' puts
+carry what zentf's do besides the payload (the node's name as attachment, or rmw_zenoh's attachment, the
+wire's encoding, congestion control BLOCK), to tell what the routers pay for those from the rest. ``--tree DIR``: every process
 imports zentf from another checkout (before/after runs). Results and details: docs/performance.md.
 """
 from __future__ import annotations
@@ -155,7 +158,7 @@ def robots(args: argparse.Namespace) -> None:
     from zentf.core.time import Time
 
     # everything a robot needs is imported before the baseline: memory per robot is what robots add
-    import zenoh  # noqa: F401
+    import zenoh
     from zentf.ros import encode_tf as cdr_encode_tf
     from zentf.transport import parameters  # noqa: F401  (a node's parameter services)
     from zentf.transport.broadcaster import TransformBroadcaster
@@ -191,9 +194,21 @@ def robots(args: argparse.Namespace) -> None:
             keepalive.append(session)
             encode = codec.encode_tf if args.wire == "zentf" else cdr_encode_tf
             key = f"robot{i}/tf" if args.wire == "zentf" else f"bench/robot{i}/tf"
-            pub = session.declare_publisher(key)
+            extra: dict = {}
+            if args.raw_as_zentf:
+                from zentf.core.messages import TFMessage
+                from zentf.transport.wire.profiles import make_profile, ros2_attachment
 
-            def send(stamp_ns: int, angle: float, tfs=tfs, pub=pub, i=i, encode=encode) -> None:
+                prof = make_profile(args.wire)
+                extra = {"encoding": prof.encoding(TFMessage.TYPE_NAME)}
+                pub = session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK, **extra)
+                att = (f"/robot{i}/robot".encode() if args.wire == "zentf"
+                       else ros2_attachment(1, time.time_ns(), b"G" * 16))
+                extra = {"attachment": zenoh.ZBytes(att)}
+            else:
+                pub = session.declare_publisher(key)
+
+            def send(stamp_ns: int, angle: float, tfs=tfs, pub=pub, i=i, encode=encode, extra=extra) -> None:
                 stamp = Time(nanoseconds=stamp_ns)
                 qz, qw = math.sin(angle / 2), math.cos(angle / 2)
                 for ts in tfs:
@@ -201,7 +216,7 @@ def robots(args: argparse.Namespace) -> None:
                     rot = ts.transform.rotation
                     rot.z = qz
                     rot.w = qw
-                pub.put(PREFIX.pack(stamp_ns, i) + encode(tfs))
+                pub.put(PREFIX.pack(stamp_ns, i) + encode(tfs), **extra)
         senders.append((i, send))
     _reply({"ready": True, "rss_base": base, "rss": rss_kb()})
     state = {"sent": 0, "late": 0, "stop": threading.Event()}
@@ -430,7 +445,7 @@ def run_phase(impl: str, n_robots: int, args: argparse.Namespace, net=None) -> d
     """Fresh router(s), listeners and robots for one implementation and R; the window's figures."""
     children: list[Child] = []
     common = ["--impl", impl, "--frames", str(args.frames), "--hz", str(args.hz), "--wire", args.wire,
-              *(["--raw-ring"] if args.raw_ring else [])]
+              *(["--raw-ring"] if args.raw_ring else []), *(["--raw-as-zentf"] if args.raw_as_zentf else [])]
     where_robots = net.cmd("a") if net is not None else []
     where_listen = net.cmd("b") if net is not None else []
     try:
@@ -547,7 +562,9 @@ def print_header(args: argparse.Namespace, setup: str) -> None:
     print(f"fleet: R robots x {args.frames} frames at {args.hz:g} Hz through {setup}; the robots share "
           f"min(R, {args.procs}) processes (several robots per process: this machine has {os.cpu_count()} cores); "
           f"{args.seconds:g} s window after {args.warmup:g} s warm-up; wire {args.wire}; ratio = zentf / raw"
-          + (" (raw listeners: a ring read by a thread)" if args.raw_ring else ""), flush=True)
+          + (" (raw listeners: a ring read by a thread)" if args.raw_ring else "")
+          + (" (raw puts: zentf's attachment, encoding and congestion control)" if args.raw_as_zentf else ""),
+          flush=True)
     print(f"{'R':>4} {'impl':<6}" + "".join(f" {h:>{w}}" for h, w, _, _ in COLUMNS) + "  load", flush=True)
 
 
@@ -575,6 +592,8 @@ def main() -> None:
     ap.add_argument("--procs", type=int, default=2, help="processes the robots share (2)")
     ap.add_argument("--wire", default="zentf", choices=["zentf", "ros2"])
     ap.add_argument("--netns", action="store_true", help="two routers in network namespaces (root)")
+    ap.add_argument("--raw-as-zentf", action="store_true",
+                    help="the raw puts carry zentf's attachment, encoding and congestion control")
     ap.add_argument("--raw-ring", action="store_true",
                     help="raw listeners read a drop-oldest ring from a Python thread (the listener's way of "
                          "receiving) instead of a callback on Zenoh's thread")

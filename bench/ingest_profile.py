@@ -3,6 +3,7 @@ process, without the network (local puts fill a ring first, then one thread drai
 
     python bench/ingest_profile.py [--n 20000] [--runs 5] [--wire zentf|ros2|both]
     python bench/ingest_profile.py --callgrind [--n 20000] [--wire ...]   (needs valgrind)
+    python bench/ingest_profile.py --cold [--n 3000] [--gap-ms 1] [--wire ...]
 
 Times: the draining thread's CPU per message (its own clock, so the load of a shared machine moves it
 less than wall time), best and median of --runs, for the raw ring loop (try_recv, payload and attachment
@@ -11,6 +12,12 @@ into a Buffer, 1 transform a message, one sender, as bench/e2e.py floods it). ``
 instructions of zentf's thread instead (callgrind, collecting inside ``serve`` only) and splits them into
 zenoh-python's own per-message work (the ring, the sample's payload and attachment, the sample's
 deallocation: what the raw ring loop does too) and zentf's (decode, insert, queues, the rest).
+``--cold`` times the steps of one message's handling, in the tf thread's order, for a message that
+arrives alone (another process puts one every --gap-ms over loopback: the thread wakes from the ring
+for each, its caches cold, which is what bench/e2e.py's latency measures) and for the same messages
+back to back (a ring filled in-process, drained: the flood's warm case). The steps are Python calls
+to the same zenoh-python accessors and to the listener's compiled ``ingest(payload, authority)``
+(decode, future guard, insert), each timed with perf_counter_ns: zenoh-python's part against zentf's.
 """
 from __future__ import annotations
 
@@ -25,6 +32,7 @@ import tempfile
 import threading
 import time
 from pathlib import Path
+from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
@@ -40,7 +48,7 @@ def tf_dict(child: str, stamp: int) -> dict:
 class Rig:
     """A Zenoh session whose local puts fill a ring of ``n`` samples (the payloads of bench/e2e.py's flood)."""
 
-    def __init__(self, wire: str, n: int) -> None:
+    def __init__(self, wire: str, n: int, zenoh_options: Any = None) -> None:
         import zenoh
 
         from zentf.transport.options import ZenohOptions
@@ -53,7 +61,7 @@ class Rig:
         self.payloads = [self.profile.encode_tf([tf_dict(f"f{i % 100}", base + i * 1000)]) for i in range(n)]
         self.attachments = ([zenoh.ZBytes(b"/bench/bench_sender")] if wire == "zentf" else
                             [zenoh.ZBytes(ros2_attachment(i + 1, base + i, b"G" * 16)) for i in range(n)])
-        self.session = ZenohOptions(mode="peer", no_multicast=True).open_session()
+        self.session = (zenoh_options or ZenohOptions(mode="peer", no_multicast=True)).open_session()
 
     def ring(self, key: str):
         sub = self.session.declare_subscriber(key, self.zenoh.handlers.RingChannel(self.n + 16))
@@ -158,23 +166,129 @@ def callgrind(wire: str, n: int) -> None:
           f"0.9x the loop's rate would have {zenoh / n / 9:,.0f} Ir a message for everything zentf does.\n")
 
 
+#: (step, what it runs) for --cold, in the order the tf thread runs them
+COLD_STEPS = ["zenoh-python: attachment to bytes", "zenoh-python: key compared with the subscriber's",
+              "zenoh-python: payload to bytes", "zentf: decode + insert (ingest)", "zenoh-python: the sample's deallocation"]
+
+
+def _steps(sample, concrete, ingest, authority, out: list) -> None:
+    """One message's handling, step by step, each step's ns appended to out (see COLD_STEPS)."""
+    pc = time.perf_counter_ns
+    t0 = pc()
+    sample.attachment.to_bytes()
+    t1 = pc()
+    if not sample.key_expr == concrete:
+        raise RuntimeError("a sample on another key")
+    t2 = pc()
+    payload = sample.payload.to_bytes()
+    t3 = pc()
+    ingest(payload, authority)
+    t4 = pc()
+    del sample
+    t5 = pc()
+    out.append((t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4))
+
+
+def _cold_sender(wire: str, endpoint: str, n: int, gap_ms: float) -> None:
+    """(child) Put n of the rig's messages on bench/cold, one every gap_ms, to a subscriber at endpoint."""
+    import zenoh
+
+    from zentf.transport.options import ZenohOptions
+
+    rig = Rig(wire, n, ZenohOptions(mode="peer", no_multicast=True, connect=[endpoint]))
+    pub = rig.session.declare_publisher("bench/cold", congestion_control=zenoh.CongestionControl.BLOCK)
+    while not pub.matching_status.matching:
+        time.sleep(0.005)
+    time.sleep(0.3)
+    for i, p in enumerate(rig.payloads):
+        pub.put(p, attachment=rig.attachments[i % len(rig.attachments)])
+        time.sleep(gap_ms / 1000)
+    rig.session.close()
+
+
+def cold(wire: str, n: int, gap_ms: float) -> None:
+    """Print the per-step medians of a message handled alone (cold) and back to back (warm)."""
+    import zenoh
+
+    from zentf.transport.buffer import Buffer
+    from zentf.transport.options import ZenohOptions
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from e2e import free_port
+
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    rig = Rig(wire, n, ZenohOptions(mode="peer", no_multicast=True, listen=[endpoint]))
+    prof = rig.profile
+    authority = prof.fixed_authority or "/bench/bench_sender"
+    results: dict[str, list] = {}
+    for case in ("cold", "warm"):
+        buf = Buffer()
+        ingest = prof.tf_ingest(buf, buf, time.time_ns, 5 * NS, False)
+        out: list = []
+        if case == "cold":
+            sub = rig.session.declare_subscriber("bench/cold", zenoh.handlers.RingChannel(n + 16))
+            child = subprocess.Popen([sys.executable, __file__, "--role", "cold-send", "--wire", wire,
+                                      "--endpoint", endpoint, "--n", str(n), "--gap-ms", str(gap_ms)])
+            concrete = zenoh.KeyExpr("bench/cold")
+            try:
+                for _ in range(n):
+                    sample = sub.handler.recv()
+                    _steps(sample, concrete, ingest, authority, out)
+                    del sample
+            finally:
+                child.wait(60)
+        else:
+            sub = rig.ring("bench/zentf")
+            concrete = zenoh.KeyExpr("bench/zentf")
+            while (sample := sub.handler.try_recv()) is not None:
+                _steps(sample, concrete, ingest, authority, out)
+                del sample
+        sub.undeclare()
+        results[case] = out[100:]  # the first ones warm the caches and the buffer up
+    rig.session.close()
+    print(f"| {wire} wire: one message's steps, median ns | alone, every {gap_ms:g} ms (cold) | back to back (warm) |")
+    print("|---|---|---|")
+    totals = {}
+    for case in results:
+        totals[case] = [sum(r) for r in results[case]]
+    zsum = {c: 0.0 for c in results}
+    for i, label in enumerate(COLD_STEPS):
+        med = {c: statistics.median(r[i] for r in results[c]) for c in results}
+        for c in results:
+            zsum[c] += med[c] if label.startswith("zenoh") else 0
+        print(f"| {label} | {med['cold']:,.0f} | {med['warm']:,.0f} |")
+    print(f"| all (median of the sums) | {statistics.median(totals['cold']):,.0f} | "
+          f"{statistics.median(totals['warm']):,.0f} |")
+    print(f"| zenoh-python's share (sum of its medians) | {zsum['cold']:,.0f} | {zsum['warm']:,.0f} |\n")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--role", default="main", choices=["main", "drain"])
+    ap.add_argument("--role", default="main", choices=["main", "drain", "cold-send"])
     ap.add_argument("--wire", default="both", choices=["zentf", "ros2", "both"])
     ap.add_argument("--n", type=int, default=20000, help="messages in the ring")
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--callgrind", action="store_true", help="count instructions instead (valgrind)")
+    ap.add_argument("--cold", action="store_true", help="time one message's steps alone and back to back")
+    ap.add_argument("--gap-ms", type=float, default=1.0, help="--cold: ms between the messages sent alone")
+    ap.add_argument("--endpoint", help=argparse.SUPPRESS)
     args = ap.parse_args()
     wires = ["zentf", "ros2"] if args.wire == "both" else [args.wire]
     if args.role == "drain":  # (under callgrind: zentf's thread only)
         Rig(wires[0], args.n).zentf()
+        return
+    if args.role == "cold-send":
+        _cold_sender(wires[0], args.endpoint, args.n, args.gap_ms)
         return
     print(f"# zentf ingest profile  (python {sys.version.split()[0]}, {os.cpu_count()} cpus, "
           f"load {os.getloadavg()[0]:.1f}; {args.n} messages of 1 transform, in-process)\n")
     if args.callgrind:
         for wire in wires:
             callgrind(wire, args.n)
+        return
+    if args.cold:
+        for wire in wires:
+            cold(wire, min(args.n, 5000), args.gap_ms)
         return
     print("| wire | raw ring loop, CPU µs/message best [median] | zentf's tf thread | loop / zentf (rate ratio) |")
     print("|---|---|---|---|")

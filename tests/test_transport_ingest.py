@@ -242,3 +242,22 @@ def test_per_element_path_keeps_few_frame_names(monkeypatch: pytest.MonkeyPatch)
         held = sum(sys.getsizeof(k) + sys.getsizeof(v) for k, v in wire._FRAME_CACHE.items())
         assert len(wire._FRAME_CACHE) <= wire.FRAME_CACHE_SIZE and held < 3_000_000, (m, held)
     assert [s[1] for batch in rec.samples for s in batch] == [f"forged_{'x' * 200}_{i}" for i in range(n)]
+
+
+def test_a_sender_tail_names_each_sender_by_its_own_bytes() -> None:
+    """ROS 2's queue key is the GID after rmw_zenoh's per-sample fields: a flood's sender gets its key
+    again without a copy, and a different sender of the same attachment size never gets the last one's."""
+    from zentf.transport.ingest.handler import SenderTail
+
+    tail = SenderTail(33, 16, 16)
+    a = bytes(range(16)) + b"\x10" + b"A" * 16
+    a2 = bytes(range(1, 17)) + b"\x10" + b"A" * 16   # the same sender, the next sequence number
+    b = bytes(range(16)) + b"\x10" + b"A" * 15 + b"B"
+    first = tail(a)
+    assert first == b"A" * 16
+    assert tail(a2) is first                          # the same GID: the same key object, no slice
+    assert tail(b) == b"A" * 15 + b"B"                # another GID: its own bytes
+    assert tail(a) == b"A" * 16
+    odd = bytes(range(16)) + b"\x11" + b"A" * 16      # no marker: the whole attachment is the key
+    assert tail(odd) == odd
+    assert tail(b"short") == b"short"

@@ -12,6 +12,7 @@ cdef object attachment_of(object sample)
 cdef class SenderTail:
     cdef readonly Py_ssize_t size, marker_at
     cdef readonly int marker
+    cdef bytes last  # the key given last: a flood's sender gets it again without a slice
     cdef object key(self, bytes raw)
 
 
@@ -54,6 +55,7 @@ cdef class TfHandler:
     cdef public Py_ssize_t messages, transforms, rejected, malformed, wildcard
     cdef public Py_ssize_t payload_bytes
     cdef public object topic
+    cdef object concrete  # the subscriber's key as a zenoh.KeyExpr when it has no wildcard, else None
     cdef object authority(self, object sample, object raw)
     cdef object queued(self, object sample, object raw)
     cdef bint handle(self, object sample, object raw, bint have_raw) except -1
