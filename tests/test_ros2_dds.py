@@ -382,6 +382,28 @@ def test_named_and_discovered_topics(world: World) -> None:
         assert got.get().to_dict() == point
 
 
+def _router_knows(world: World, session, key: str) -> None:
+    """Wait until the router routes to the subscriptions ``session`` declared so far (the first messages a
+    sender puts right after a declaration can otherwise miss it): a subscription on a probe key, declared
+    after them on the same link, hears a put from another session."""
+    import threading
+
+    from zentf.transport.options import ZenohOptions
+
+    heard = threading.Event()
+    probe_key = f"zentf_test_probe/{os.getpid()}_{time.monotonic_ns()}"  # no program's key
+    probe = session.declare_subscriber(probe_key, lambda _s: heard.set())
+    other = ZenohOptions(connect=[world.router], no_multicast=True, mode="client").open_session()
+    try:
+        deadline = time.monotonic() + 30
+        while not heard.wait(0.05):
+            assert time.monotonic() < deadline, "the router never routed to a new subscription"
+            other.put(probe_key, b"probe")
+    finally:
+        other.close()
+        probe.undeclare()
+
+
 def _count_zentf(world: World, key: str, n: int, send, what: str, marker: bytes = b"\xa3dup") -> list:
     """Samples (holding ``marker``) on a zentf key while ``send()`` publishes n distinct messages, after a
     quiet spell."""
@@ -392,6 +414,7 @@ def _count_zentf(world: World, key: str, n: int, send, what: str, marker: bytes 
     try:
         sub = session.declare_subscriber(key, lambda s: seen.append(s.payload.to_bytes())
                                          if marker in s.payload.to_bytes() else None)
+        _router_knows(world, session, key)
         send()
         deadline = time.monotonic() + 30
         while len(seen) < n:
