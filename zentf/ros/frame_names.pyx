@@ -21,7 +21,8 @@ cdef Py_ssize_t _MAX_BYTES = FRAME_CACHE_BYTES
 cdef Py_ssize_t _ENTRY = _ENTRY_BYTES
 cdef Py_ssize_t _NAME_MAX_LEN = DEFAULT_MAX_FRAME_ID_LENGTH
 cdef enum:
-    SLOTS = 1024
+    SLOTS = 8192       # a fleet of 100 robots x 51 frames cycles through 5,100 names
+    MEMO_MAX_LEN = 64  # longer names are not memoized: the memo holds at most SLOTS x 64 bytes of names
 cdef list _slot_raw = [None] * SLOTS
 cdef list _slot_name = [None] * SLOTS
 
@@ -54,6 +55,7 @@ cdef object frame_name(const uint8_t* p, Py_ssize_t n):
             _held[0] = 0
         _names[raw] = name
         _held[0] = <Py_ssize_t>_held[0] + cost
-    _slot_raw[slot] = raw
-    _slot_name[slot] = name
+    if n <= MEMO_MAX_LEN:
+        _slot_raw[slot] = raw
+        _slot_name[slot] = name
     return name
