@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import re
 import select
@@ -151,10 +152,18 @@ def _robot_transforms(i: int, frames: int) -> list:
             for j in range(frames)]
 
 
+def _turn(tfs: list, stamp: object, angle: float) -> None:
+    """Stamp a robot's transforms and turn its joint to ``angle`` (what each robot sends, zentf or raw)."""
+    qz, qw = math.sin(angle / 2), math.cos(angle / 2)
+    for ts in tfs:
+        ts.header.stamp = stamp
+        rot = ts.transform.rotation
+        rot.z = qz
+        rot.w = qw
+
+
 def robots(args: argparse.Namespace) -> None:
     """Robots first..first+count-1 of R: print the RSS before and after making them, send on 'go'."""
-    import math
-
     from zentf.core.time import Time
 
     # everything a robot needs is imported before the baseline: memory per robot is what robots add
@@ -181,27 +190,20 @@ def robots(args: argparse.Namespace) -> None:
             keepalive.append(node)
 
             def send(stamp_ns: int, angle: float, tfs=tfs, br=br) -> None:
-                stamp = Time(nanoseconds=stamp_ns)
-                qz, qw = math.sin(angle / 2), math.cos(angle / 2)
-                for ts in tfs:
-                    ts.header.stamp = stamp
-                    rot = ts.transform.rotation
-                    rot.z = qz
-                    rot.w = qw
+                _turn(tfs, Time(nanoseconds=stamp_ns), angle)
                 br.send_transform(tfs)
         else:
             session = _zopts(args.endpoint).open_session()
             keepalive.append(session)
             encode = codec.encode_tf if args.wire == "zentf" else cdr_encode_tf
             key = f"robot{i}/tf" if args.wire == "zentf" else f"bench/robot{i}/tf"
-            extra: dict = {}
+            extra: dict = {}  # put's keyword arguments
             if args.raw_as_zentf:
                 from zentf.core.messages import TFMessage
                 from zentf.transport.wire.profiles import make_profile, ros2_attachment
 
-                prof = make_profile(args.wire)
-                extra = {"encoding": prof.encoding(TFMessage.TYPE_NAME)}
-                pub = session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK, **extra)
+                pub = session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK,
+                                                encoding=make_profile(args.wire).encoding(TFMessage.TYPE_NAME))
                 att = (f"/robot{i}/robot".encode() if args.wire == "zentf"
                        else ros2_attachment(1, time.time_ns(), b"G" * 16))
                 extra = {"attachment": zenoh.ZBytes(att)}
@@ -209,13 +211,7 @@ def robots(args: argparse.Namespace) -> None:
                 pub = session.declare_publisher(key)
 
             def send(stamp_ns: int, angle: float, tfs=tfs, pub=pub, i=i, encode=encode, extra=extra) -> None:
-                stamp = Time(nanoseconds=stamp_ns)
-                qz, qw = math.sin(angle / 2), math.cos(angle / 2)
-                for ts in tfs:
-                    ts.header.stamp = stamp
-                    rot = ts.transform.rotation
-                    rot.z = qz
-                    rot.w = qw
+                _turn(tfs, Time(nanoseconds=stamp_ns), angle)
                 pub.put(PREFIX.pack(stamp_ns, i) + encode(tfs), **extra)
         senders.append((i, send))
     _reply({"ready": True, "rss_base": base, "rss": rss_kb()})
