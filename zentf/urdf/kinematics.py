@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.math3d import quaternion_multiply_batch
-from .model import Joint, Robot
+from .model import Joint, Robot, origin_matrices
 
 __all__ = ["Kinematics", "JointTransforms"]
 
@@ -36,8 +36,13 @@ class _JointData:
     offset: float
 
 
-def _cross_matrix(a: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+def _cross_matrices(a: np.ndarray) -> np.ndarray:
+    """``(n, 3, 3)`` cross-product matrices of ``(n, 3)`` axes."""
+    m = np.zeros((len(a), 3, 3))
+    m[:, 0, 1], m[:, 0, 2] = -a[:, 2], a[:, 1]
+    m[:, 1, 0], m[:, 1, 2] = a[:, 2], -a[:, 0]
+    m[:, 2, 0], m[:, 2, 1] = -a[:, 1], a[:, 0]
+    return m
 
 
 class Kinematics:
@@ -52,12 +57,16 @@ class Kinematics:
         self.joint_names: list[str] = [j.name for j in actuated]
         self._index = {n: i for i, n in enumerate(self.joint_names)}
         self._joints: list[_JointData] = []
-        for j in order:
+        # every joint's constants built as whole arrays (a model can have 100,000 joints); each joint keeps views
+        origins = origin_matrices([j.origin for j in order])
+        axes = np.array([j.axis for j in order], dtype=float).reshape(-1, 3)
+        crosses = _cross_matrices(axes)
+        index = self._link_index
+        for i, j in enumerate(order):
             kind = _REVOLUTE if j.type in ("revolute", "continuous") else _PRISMATIC if j.type == "prismatic" else _FIXED
             source, mult, off = self._source(j)
-            axis = np.array(j.axis, dtype=float)
-            self._joints.append(_JointData(j.name, kind, self._link_index[j.parent], self._link_index[j.child],
-                                           j.origin.matrix(), axis, _cross_matrix(axis), source, mult, off))
+            self._joints.append(_JointData(j.name, kind, index[j.parent], index[j.child], origins[i], axes[i],
+                                           crosses[i], source, mult, off))
 
     def _source(self, j: Joint) -> tuple[int, float, float]:
         """Which actuated joint drives j, and how: (index, multiplier, offset)."""
@@ -190,7 +199,7 @@ class JointTransforms:
         self.q0 = np.array([quaternion_from_rpy(*j.origin.rpy) for j in joints], dtype=float).reshape(-1, 4)
         axes = np.array([j.axis for j in joints], dtype=float).reshape(-1, 3)
         self.axis = axes
-        rot = np.array([j.origin.matrix()[:3, :3] for j in joints]).reshape(-1, 3, 3)
+        rot = origin_matrices([j.origin for j in joints])[:, :3, :3]
         self.slide = np.einsum("jab,jb->ja", rot, axes)  # prismatic direction in the parent frame
         self.revolute = np.array([j.type in ("revolute", "continuous") for j in joints], dtype=bool)
         self.prismatic = np.array([j.type == "prismatic" for j in joints], dtype=bool)

@@ -23,7 +23,7 @@ from .resolve import resolve_uri, search_path
 from .xacro.budget import DEFAULT_BUDGET, Budget, parse_budget
 from .xacro.errors import XacroError
 from .xacro.process import expand_file
-from .xmltree import XElement, parse_xml
+from .xmltree import XElement, no_gc, parse_xml
 
 __all__ = ["parse_urdf", "load_urdf", "read_urdf_text"]
 
@@ -31,10 +31,15 @@ log = logging.getLogger("zentf.urdf")
 
 
 class _Ctx:
-    """Where we are: the file name for error messages."""
+    """Where we are: the file name for error messages; the number texts already read."""
 
     def __init__(self, source: str | None) -> None:
         self.source = source
+        #: text -> its finite numbers: models repeat "0 0 0" and "0 0 1" thousands of times (bounded in entries,
+        #: and its keys are strings the document holds anyway)
+        self.numbers: dict[str, tuple[float, ...]] = {}
+        #: frozen values built from those numbers, shared the same way (same bound)
+        self.shared: dict[tuple, object] = {}
 
     def error(self, message: str, el: XElement | None, element: str | None = None) -> URDFError:
         return URDFError(message, element=element if element is not None else (_describe(el) if el else None),
@@ -54,39 +59,64 @@ def _req(ctx: _Ctx, el: XElement, attr: str, owner: XElement | None = None) -> s
     return v
 
 
+_NUMBERS_KEPT = 4096
+
+
 def _floats(ctx: _Ctx, el: XElement, attr: str, n: int, default: tuple | None, owner: XElement | None = None
             ) -> tuple[float, ...]:
-    text = el.get(attr)
-
-    def where() -> str:  # only when refusing: a model has hundreds of thousands of numbers
-        return (_describe(owner) + " " if owner is not None and owner is not el else "") + _describe(el)
-
+    text = el.attrib.get(attr)
     if text is None:
         if default is None:
-            raise ctx.error(f"missing required attribute '{attr}'", el, where())
+            raise ctx.error(f"missing required attribute '{attr}'", el, _where(el, owner))
         return default
-    parts = text.split()
-    try:
-        values = tuple(map(float, parts))
-    except ValueError:
-        raise ctx.error(f"bad number in {attr}=\"{text}\"", el, where()) from None
+    values = ctx.numbers.get(text)
+    if values is None:
+        try:
+            values = tuple(map(float, text.split()))
+        except ValueError:
+            raise ctx.error(f"bad number in {attr}=\"{text}\"", el, _where(el, owner)) from None
+        if not all(map(math.isfinite, values)):
+            if len(values) != n:
+                raise ctx.error(f"{attr}=\"{text}\" needs {n} number{'s' if n > 1 else ''}, got {len(values)}", el,
+                                _where(el, owner))
+            raise ctx.error(f"{attr}=\"{text}\" must be finite numbers", el, _where(el, owner))
+        if len(ctx.numbers) < _NUMBERS_KEPT:
+            ctx.numbers[text] = values
     if len(values) != n:
-        raise ctx.error(f"{attr}=\"{text}\" needs {n} number{'s' if n > 1 else ''}, got {len(values)}", el, where())
-    if not all(map(math.isfinite, values)):
-        raise ctx.error(f"{attr}=\"{text}\" must be finite numbers", el, where())
+        raise ctx.error(f"{attr}=\"{text}\" needs {n} number{'s' if n > 1 else ''}, got {len(values)}", el,
+                        _where(el, owner))
     return values
+
+
+def _where(el: XElement, owner: XElement | None) -> str:
+    """The element a refused number is in (worked out only when refusing: a model has hundreds of thousands)."""
+    return (_describe(owner) + " " if owner is not None and owner is not el else "") + _describe(el)
 
 
 def _float(ctx: _Ctx, el: XElement, attr: str, default: float | None, owner: XElement | None = None) -> float:
     return _floats(ctx, el, attr, 1, None if default is None else (default,), owner)[0]
 
 
+_ZERO3 = (0.0, 0.0, 0.0)
+_IDENTITY = Pose()
+
+
 def _origin(ctx: _Ctx, parent: XElement) -> Pose:
     o = parent.find("origin")
     if o is None:
-        return Pose()
-    return Pose(_floats(ctx, o, "xyz", 3, (0.0, 0.0, 0.0), parent),  # type: ignore[arg-type]
-                _floats(ctx, o, "rpy", 3, (0.0, 0.0, 0.0), parent))  # type: ignore[arg-type]
+        return _IDENTITY
+    key = (_floats(ctx, o, "xyz", 3, _ZERO3, parent), _floats(ctx, o, "rpy", 3, _ZERO3, parent))
+    return _shared(ctx, key, Pose)  # type: ignore[return-value]
+
+
+def _shared(ctx: _Ctx, key: tuple, make) -> object:
+    """``make(*key)``, one object per distinct key (the objects are frozen)."""
+    got = ctx.shared.get(key)
+    if got is None:
+        got = make(*key)
+        if len(ctx.shared) < _NUMBERS_KEPT:
+            ctx.shared[key] = got
+    return got
 
 
 def _material(ctx: _Ctx, el: XElement, owner: XElement | None) -> Material:
@@ -126,6 +156,11 @@ def _geometry(ctx: _Ctx, visual: XElement, link: XElement, dirs: list[str], base
 
 def parse_urdf(text: str | bytes, *, source: str | None = None, package_path: list[str] | None = None) -> Robot:
     """Parse and check URDF text; URDFError (one line) says what is wrong where."""
+    with no_gc():  # the model is acyclic: see no_gc
+        return _parse(text, source, package_path)
+
+
+def _parse(text: str | bytes, source: str | None, package_path: list[str] | None) -> Robot:
     ctx = _Ctx(source)
     if isinstance(text, bytes):
         text = text.decode("utf-8", errors="replace")
@@ -136,14 +171,20 @@ def parse_urdf(text: str | bytes, *, source: str | None = None, package_path: li
     dirs = search_path(package_path, source)
     base_dir = str(Path(source).resolve().parent) if source else None
 
-    for m in root_el.findall("material"):
+    top: dict[str, list[XElement]] = {"material": [], "link": [], "joint": []}
+    for el in root_el.children:  # one pass over what can be hundreds of thousands of elements
+        group = top.get(el.tag)
+        if group is not None:
+            group.append(el)
+
+    for m in top["material"]:
         mat = _material(ctx, m, None)
         if not mat.name:
             raise ctx.error("missing required attribute 'name'", m)
         robot.materials[mat.name] = mat
 
     link_els: dict[str, XElement] = {}
-    for el in root_el.findall("link"):
+    for el in top["link"]:
         name = _req(ctx, el, "name")
         if name in robot.links:
             raise ctx.error(f"duplicate link name (first at line {link_els[name].line})", el)
@@ -166,7 +207,7 @@ def parse_urdf(text: str | bytes, *, source: str | None = None, package_path: li
         raise ctx.error("no <link> elements", root_el)
 
     joint_els: dict[str, XElement] = {}
-    for el in root_el.findall("joint"):
+    for el in top["joint"]:
         name = _req(ctx, el, "name")
         if name in robot.joints:
             raise ctx.error(f"duplicate joint name (first at line {joint_els[name].line})", el)
@@ -184,12 +225,18 @@ def parse_urdf(text: str | bytes, *, source: str | None = None, package_path: li
         if a is not None:
             axis = _floats(ctx, a, "xyz", 3, (1.0, 0.0, 0.0), el)
         if jtype in ("revolute", "continuous", "prismatic", "planar"):
-            axis = _unit_axis(ctx, axis, a or el)
+            unit = ctx.shared.get(("axis", axis))
+            if unit is None:
+                unit = _unit_axis(ctx, axis, a or el)
+                if len(ctx.shared) < _NUMBERS_KEPT:
+                    ctx.shared[("axis", axis)] = unit
+            axis = unit  # type: ignore[assignment]
         limit = None
         le = el.find("limit")
         if le is not None:
-            limit = JointLimit(_float(ctx, le, "lower", 0.0, el), _float(ctx, le, "upper", 0.0, el),
-                               _float(ctx, le, "effort", None, el), _float(ctx, le, "velocity", None, el))
+            limit = _shared(ctx, (_float(ctx, le, "lower", 0.0, el), _float(ctx, le, "upper", 0.0, el),
+                                  _float(ctx, le, "effort", None, el), _float(ctx, le, "velocity", None, el)),
+                            JointLimit)
         elif jtype in ("revolute", "prismatic"):
             raise ctx.error(f"a {jtype} joint needs <limit> (lower, upper, effort, velocity)", el)
         mimic = None
