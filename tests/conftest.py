@@ -24,6 +24,41 @@ import pytest
 REPO = Path(__file__).resolve().parent.parent
 
 
+#: Tests of 10 s or more on CI's 2 cores, longest first (a name without [params] covers every case). They
+#: run before the rest: xdist hands tests out in collection order, and one of these started near the end
+#: would run alone while the other worker idles. A renamed test just loses its place; nothing breaks.
+LONG_FIRST = (
+    "tests/test_cli_tf_doctor.py::test_doctor_on_a_healthy_drones_graph_reports_nothing",
+    "tests/test_urdf_hostile.py::test_a_100000_link_chain_has_kinematics_a_publisher_and_a_view",
+    "tests/test_readme.py::test_readme_run_things_block[zentf launch laser]",
+    "tests/test_view_browser.py::test_view_web_shows_r2d2_in_one_framed_3d_view",
+    "tests/test_urdf_hostile.py::test_a_100000_link_chain_checks_and_graphs",
+    "tests/test_urdf_xacro.py::test_the_macro_bomb_stops_with_one_line_within_the_default_budget",
+    "tests/test_transport_forged_tf_memory.py::test_big_tf_messages_leave_no_memory_behind",
+    "tests/test_cli_tf_doctor.py::test_doctor_names_each_staged_problem_live_and_in_a_bag",
+    "tests/test_bag_ros_play.py::test_nav2_played_with_clock_into_a_sim_time_listener_gives_the_reference_lookups",
+    "tests/test_ros2_live.py::test_zentf_sees_a_ros2_node",
+    "tests/test_cli_topic_tools.py::test_topic_delay_in_sim_time_and_on_the_wall_clock",
+    "tests/test_urdf_hostile.py::test_a_100000_deep_mimic_chain_loads_in_linear_time",
+    "tests/test_urdf_view.py::test_view_draws_r2d2_with_its_collada_meshes",
+    "tests/test_cli_tf_doctor.py::test_tf_tools_read_a_fleet",
+    "tests/test_readme.py::test_readme_run_things_block[zentf bag info tests/data/nav2_turtlebot]",
+    "tests/test_transport_tfwire.py::test_msgpack_compiled_equals_python_on_well_formed_messages",
+    "tests/test_transport_tfwire.py::test_cdr_compiled_equals_python_on_well_formed_messages",
+    "tests/test_cli_tf_doctor.py::test_why_names_every_stale_edge_of_a_four_deep_chain",
+    "tests/test_ros2_dds.py::test_two_bridges_one_relays_no_duplicates",
+    "tests/test_ros2_dds.py::test_kilted_with_the_robot_setting",
+    "tests/test_transport_service.py::test_zentf_service_list_type_call",
+)
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """The LONG_FIRST tests first, in its order; the rest keep theirs (the sort is stable)."""
+    rank = {name: i for i, name in enumerate(LONG_FIRST)}
+    last = len(rank)
+    items.sort(key=lambda item: rank.get(item.nodeid, rank.get(item.nodeid.split("[", 1)[0], last)))
+
+
 def free_port() -> int:
     """A TCP port that is free on 127.0.0.1 right now."""
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
