@@ -4,6 +4,7 @@ from __future__ import annotations
 import subprocess
 import sys
 from collections.abc import Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 
 from conftest import REPO
 
@@ -14,6 +15,14 @@ def zentf(args: Sequence[str], env: Mapping[str, str] | None, timeout: float = 6
     """Run `zentf ARGS` to completion (stdout and stderr kept apart)."""
     return subprocess.run([*ZENTF, *args], env=dict(env) if env is not None else None, cwd=str(REPO),
                           capture_output=True, text=True, timeout=timeout, stdin=subprocess.DEVNULL)
+
+
+def zentf_together(runs: Sequence[Sequence[str]], env: Mapping[str, str] | None,
+                   timeout: float = 60.0) -> list[subprocess.CompletedProcess]:
+    """Run several `zentf` commands at once, each to completion: observers of one graph that each listen for
+    their own --duration overlap their waits instead of adding them up."""
+    with ThreadPoolExecutor(len(runs)) as pool:
+        return list(pool.map(lambda args: zentf(args, env, timeout), runs))
 
 
 def assert_one_line_error(proc: subprocess.CompletedProcess, *needles: str, code: int | None = None) -> str:

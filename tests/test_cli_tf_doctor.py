@@ -13,7 +13,7 @@ import time
 
 import pytest
 
-from cli_helpers import zentf
+from cli_helpers import zentf, zentf_together
 from conftest import REPO, Proc
 
 STAGER = str(REPO / "tests" / "tf_stager.py")
@@ -206,16 +206,18 @@ def test_tf_tools_read_a_fleet(spawn, zenoh_env, test_namespace, tmp_path):
                      "sends": [_send("world", "r1/base")]},
                     {"name": "r2", "namespace": f"{test_namespace}/robot2",
                      "sends": [_send("world", "r2/base")]}], env=env)
-    echo = zentf(["tf", "echo", "world", "r1/base", "-c", "1", "--timeout", "20", "--tf-topic", "robot1/tf"], env)
-    assert echo.returncode == 0 and "Translation" in echo.stdout, echo.stderr
-    echo = zentf(["tf", "echo", "world", "r2/base", "-c", "1", "--timeout", "20",
-                  "--ros-args", "-r", f"/tf:=/{test_namespace}/robot2/tf"], env)
-    assert echo.returncode == 0 and "Translation" in echo.stdout, echo.stderr
-    mon = zentf(["tf", "monitor", "--duration", "1.5", "--all-namespaces"], env, timeout=60)
+    # five independent observers of the staged fleet, at once (their listening windows overlap)
+    echo1, echo2, mon, doc, why = zentf_together([
+        ["tf", "echo", "world", "r1/base", "-c", "1", "--timeout", "20", "--tf-topic", "robot1/tf"],
+        ["tf", "echo", "world", "r2/base", "-c", "1", "--timeout", "20",
+         "--ros-args", "-r", f"/tf:=/{test_namespace}/robot2/tf"],
+        ["tf", "monitor", "--duration", "1.5", "--all-namespaces"],
+        ["tf", "doctor", "--duration", "1.5", "--tf-topic", "robot2/tf", "--json"],
+        ["tf", "why", "r1/base", "r2/base", "-d", "1.5", "-A"]], env)
+    for echo in (echo1, echo2):
+        assert echo.returncode == 0 and "Translation" in echo.stdout, echo.stderr
     assert "r1/base" in mon.stdout and "r2/base" in mon.stdout, mon.stdout
-    doc = zentf(["tf", "doctor", "--duration", "1.5", "--tf-topic", "robot2/tf", "--json"], env, timeout=60)
     assert {e["frame"] for e in json.loads(doc.stdout)["edges"]} == {"r2/base"}, doc.stdout
-    why = zentf(["tf", "why", "r1/base", "r2/base", "-d", "1.5", "-A"], env, timeout=60)
     assert "world -> r2/base" in why.stdout and "world -> r1/base" in why.stdout, why.stdout
     try:
         import rerun  # noqa: F401  (zentf[view])
