@@ -80,6 +80,19 @@ def memory_mb(pid: int) -> tuple[float, float]:
     return fields["VmRSS"], fields["VmHWM"]
 
 
+def steady_mb(pid: int, timeout: float = 10.0) -> float:
+    """RSS once the process has stopped growing after its start (two readings 0.3 s apart within 1 MB)."""
+    last = memory_mb(pid)[0]
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        time.sleep(0.3)
+        now = memory_mb(pid)[0]
+        if abs(now - last) < 1.0:
+            return now
+        last = now
+    return last
+
+
 def settled_mb(pid: int, idle: float, limit: float, timeout: float = 10.0) -> float:
     """RSS above idle once it is within ``limit`` (the release after a burst takes a moment), else the last."""
     deadline = time.monotonic() + timeout
@@ -110,8 +123,7 @@ def test_big_tf_messages_leave_no_memory_behind(spawn, ros2_env, victim: str, ki
         done = spawn.python("-c", ZENTF_SIDE, env={**env, "ZENTF_WIRE": "zentf"})
         done.wait_for_line("^ready", timeout=30)
         done_line = "^sentinel"
-    time.sleep(2.0)  # the process has settled after its start
-    idle = memory_mb(proc.pid)[0]
+    idle = steady_mb(proc.pid)  # the process has settled after its start
     forger = spawn.python("-c", FORGER, "30", "1800000", kind, env=env)
     forger.wait_for_line("^sent", timeout=180)
     done.wait_for_line(done_line, timeout=180)
