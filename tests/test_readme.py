@@ -314,9 +314,10 @@ def test_docs_cli_example(index, user):
     cwd, env = user
     demos = []
     try:
-        for cmd, ready in ex.demos:
+        for cmd, _ready in ex.demos:  # background demos start together (as `&` lets them), then each is awaited
             demos.append(Run(cmd, cwd, env))
-            demos[-1].wait_for(ready, READY_WITHIN)
+        for demo, (_cmd, ready) in zip(demos, ex.demos):
+            demo.wait_for(ready, READY_WITHIN)
         for cmd, expected in ex.runs:
             run = Run(cmd, cwd, env)
             try:
