@@ -72,9 +72,10 @@ def check(path: str, **model: Any) -> None:
         counts[j.type] = counts.get(j.type, 0) + 1
     summary = ", ".join(f"{n} {t}" for t, n in sorted(counts.items()))
     print(f"{len(robot.links)} links, {len(robot.joints)} joints" + (f" ({summary})" if summary else ""))
-    mimics = [j for j in robot.joints.values() if j.mimic is not None]
-    for j in mimics:
-        print(f"mimic: {printable(j.name)} = {j.mimic.multiplier:g} * {printable(j.mimic.joint)} + {j.mimic.offset:g}")
+    mimics = [f"mimic: {printable(j.name)} = {j.mimic.multiplier:g} * {printable(j.mimic.joint)} + {j.mimic.offset:g}"
+              for j in robot.joints.values() if j.mimic is not None]
+    if mimics:  # one write: a model can have 100,000 of them
+        print("\n".join(mimics))
     for link, filename in robot.missing_meshes():
         print(f"mesh not found (drawn without it; frames unaffected): link '{printable(link)}': {printable(filename)}")
 
