@@ -295,3 +295,49 @@ def test_joint_state_message_round_trip() -> None:
     assert wire.decode(wire.encode(js), JointState) == js
     with pytest.raises(ValueError, match=r"JointState\.position\[1\]: expected a number"):
         JointState.from_dict({**js.to_dict(), "position": [0.5, "x"]})
+
+
+def test_parsing_leaves_nothing_for_the_cyclic_collector() -> None:
+    """The element tree and the model are freed by reference counting: a tree kept in a cycle (expat's
+    handlers refer to their parser) waited for the collector, which doubled the time of a big model."""
+    import gc
+
+    text = R2D2.read_text()
+    gc.collect()
+    gc.disable()
+    try:
+        robot = parse_urdf(text)
+        del robot
+        assert gc.collect() == 0
+    finally:
+        gc.enable()
+    parse_urdf(text)
+    assert gc.isenabled()  # the pause while parsing is undone
+    gc.disable()
+    try:
+        parse_urdf(text)
+        assert not gc.isenabled()  # and a caller's own pause is kept
+    finally:
+        gc.enable()
+
+
+def test_a_number_text_read_once_is_checked_again_where_it_is_reused() -> None:
+    """Number texts are read once per model; each use still checks its count, finiteness and its line."""
+    ok = parse_urdf('<robot name="r"><link name="a"/><link name="b"/><link name="c"/>'
+                    '<joint name="j" type="fixed"><parent link="a"/><child link="b"/><origin xyz="1 2 3" rpy="1 2 3"/></joint>'
+                    '<joint name="k" type="fixed"><parent link="b"/><child link="c"/><origin xyz="1 2 3"/></joint></robot>')
+    assert ok.joints["j"].origin.xyz == ok.joints["k"].origin.xyz == (1.0, 2.0, 3.0)
+    with pytest.raises(URDFError) as exc:
+        parse_urdf('<robot name="r">\n<link name="a"/><link name="b"/>\n<joint name="j" type="revolute"><parent link="a"/>'
+                   '<child link="b"/><origin xyz="1 2 3"/>\n<limit lower="1 2 3" upper="1" effort="1" velocity="1"/>'
+                   '</joint></robot>')
+    assert str(exc.value) == "<string>:4: <joint name='j'> <limit>: lower=\"1 2 3\" needs 1 number, got 3"
+
+
+def test_kinematics_origins_are_the_poses_matrices_bit_for_bit() -> None:
+    robot = parse_urdf(R2D2.read_text())
+    kin = Kinematics(robot)
+    for jd in kin._joints:
+        j = robot.joints[jd.name]
+        assert np.array_equal(jd.origin, j.origin.matrix()), jd.name
+        assert np.array_equal(jd.axis, np.array(j.axis)), jd.name
