@@ -33,6 +33,7 @@ from zentf.core.time import Time
 from zentf.transport.listener import _FutureGuard
 from zentf.ros import CdrError, encode_tf as cdr_encode_tf, tf_samples
 from zentf.ros.tf import _FRAMES  # the one interned-name cache every decoder shares
+from zentf.ros.frame_names import clear_frame_names
 
 NS = 1_000_000_000
 MAX_SEC = (2**63 - 1) // NS
@@ -153,12 +154,10 @@ def test_a_fleets_frame_names_stay_interned() -> None:
     """100 robots x 51 frames in one listener (``tf_topic="/*/tf"``): every name decodes to the same str
     object message after message. A cache started over each time 4096 names were reached made a new
     str (and its hash, in the buffer's frame table) for every transform of such a fleet."""
-    from zentf.ros import tf as ros_tf
     from zentf.core.constants import DEFAULT_MAX_FRAMES
 
     assert decoders.FRAME_CACHE_SIZE > DEFAULT_MAX_FRAMES  # whatever a buffer takes fits
-    _FRAMES.clear()
-    ros_tf._FRAMES_HELD[0] = 0
+    clear_frame_names()  # names this process decoded before (another test's fleet) start over too
     robots = [[transform_dict(f"robot{i}/base_link", f"robot{i}/link_{j}") for j in range(50)] for i in range(100)]
     payloads = [(msgpack.packb({"transforms": r}), cdr_encode_tf(r)) for r in robots]
     first = [[(s[0], s[1]) for s in decoders.msgpack_tf(m)] for m, _ in payloads]

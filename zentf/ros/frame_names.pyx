@@ -59,3 +59,14 @@ cdef object frame_name(const uint8_t* p, Py_ssize_t n):
         _slot_raw[slot] = raw
         _slot_name[slot] = name
     return name
+
+
+def clear_frame_names():
+    """Forget every interned name, the dict's and the memo's in front of it (clearing the dict alone leaves
+    the memo answering with the old str objects): a clean start for whoever measures the interning."""
+    cdef Py_ssize_t i
+    _names.clear()
+    _held[0] = 0
+    for i in range(SLOTS):
+        _slot_raw[i] = None
+        _slot_name[i] = None
