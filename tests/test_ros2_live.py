@@ -14,7 +14,7 @@ import sys
 
 import pytest
 
-from cli_helpers import zentf
+from cli_helpers import zentf, zentf_together
 from conftest import REPO, router_address
 
 pytest.importorskip("zenoh_ros2_sdk")
@@ -71,39 +71,42 @@ def test_zentf_sees_a_ros2_node(ros2_env, spawn, tmp_path) -> None:
     m = listener.wait_for_line(r"map->base_link (\S+) (\S+) (\S+)", timeout=40)
     assert [float(x) for x in m.groups()] == [1.5, 2.0, 3.0]   # map->odom (1,2,3) + odom->base_link (0.5,0,0)
 
-    echo = zentf(["tf", "echo", "map", "base_link", "--count", "1", "--timeout", "30"], ros2_env)
+    # independent observers of the one SDK node, a few at a time (their waits overlap instead of adding up)
+    echo, topics, nodes, info, static = zentf_together([
+        ["tf", "echo", "map", "base_link", "--count", "1", "--timeout", "30"],
+        ["topic", "list", "-t", "--wait", "3"],
+        ["node", "list", "--wait", "3"],
+        ["node", "info", "/sdk_tf_node", "--wait", "3"],
+        ["topic", "echo", "/tf_static", "--once", "--json", "--timeout", "30"]], ros2_env)
     assert echo.returncode == 0, echo.stderr
     assert "Translation: [1.500, 2.000, 3.000]" in echo.stdout
 
-    topics = zentf(["topic", "list", "-t", "--wait", "3"], ros2_env)
     assert topics.returncode == 0, topics.stderr
     assert "/tf [tf2_msgs/msg/TFMessage]" in topics.stdout
     assert "/tf_static [tf2_msgs/msg/TFMessage]" in topics.stdout
-    nodes = zentf(["node", "list", "--wait", "3"], ros2_env)
     assert "/sdk_tf_node" in nodes.stdout.split(), nodes.stdout
-    info = zentf(["node", "info", "/sdk_tf_node", "--wait", "3"], ros2_env)
     assert "/tf: tf2_msgs/msg/TFMessage" in info.stdout, info.stdout
 
-    static = zentf(["topic", "echo", "/tf_static", "--once", "--json", "--timeout", "30"], ros2_env)
     assert static.returncode == 0, static.stderr
     msg = json.loads(static.stdout.splitlines()[0])
     t = msg["transforms"][0]
     assert (t["header"]["frame_id"], t["child_frame_id"]) == ("map", "odom")
     assert t["transform"]["translation"] == {"x": 1.0, "y": 2.0, "z": 3.0}
 
-    monitor = zentf(["tf", "monitor", "--duration", "2"], ros2_env)
+    monitor, frames, hz, graph = zentf_together([
+        ["tf", "monitor", "--duration", "2"],
+        ["tf", "frames", "--wait", "1", "--print", "-o", str(tmp_path / "frames")],
+        ["topic", "hz", "/tf", "--duration", "2"],
+        ["graph", "--wait", "2"]], ros2_env)
     assert monitor.returncode == 0, monitor.stderr
     # ROS 2's tf2_monitor says "Authority undetectable"; zentf names the sender by the GID in its attachment
     # (resolved to a node where it is rmw_zenoh's hash of the token key; zenoh-ros2-sdk draws random GIDs)
     assert "base_link" in monitor.stdout and "publisher gid " in monitor.stdout, monitor.stdout
-    frames = zentf(["tf", "frames", "--wait", "1", "--print", "-o", str(tmp_path / "frames")], ros2_env)
     assert frames.returncode == 0, frames.stderr
     assert "odom" in frames.stdout and "base_link" in frames.stdout and (tmp_path / "frames.gv").exists()
-    hz = zentf(["topic", "hz", "/tf", "--duration", "2"], ros2_env)
     assert hz.returncode == 0 and "average rate: " in hz.stdout, hz.stdout + hz.stderr
     rate = float(hz.stdout.split("average rate: ")[-1].split()[0])
     assert 5 < rate < 15                                                   # the SDK node publishes at 10 Hz
-    graph = zentf(["graph", "--wait", "2"], ros2_env)
     assert "/sdk_tf_node" in graph.stdout and "-> /tf [tf2_msgs/msg/TFMessage]" in graph.stdout
 
     # a listener that starts late, after the SDK node has been publishing for a while
