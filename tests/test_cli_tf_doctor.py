@@ -45,14 +45,15 @@ def _one(findings: dict, code: str, frame: str) -> dict:
 def test_doctor_on_a_healthy_drones_graph_reports_nothing(spawn, zenoh_env):
     """30 s of the drones demo: not one finding, only the summary line (and exit code 0)."""
     spawn([sys.executable, "-m", "zentf.cli", "launch", "drones"]).wait_for_line(r"publishing av1 and av2", 60)
-    proc = zentf(["tf", "doctor", "--duration", "30", "--json"], zenoh_env, timeout=120)
+    # the 30 s JSON report and a 1 s text one, at once (two independent doctors of the same graph)
+    proc, text = zentf_together([["tf", "doctor", "--duration", "30", "--json"], ["tf", "doctor", "--duration", "1"]],
+                                zenoh_env, timeout=120)
     assert proc.returncode == 0, (proc.stdout, proc.stderr)
     report = json.loads(proc.stdout)
     assert report["healthy"] and report["findings"] == [], report["findings"]
     rates = {e["frame"]: e["rate"] for e in report["edges"]}
     assert set(rates) == {"av1", "av2"} and all(5 < r < 55 for r in rates.values()), rates  # (50 Hz unloaded)
     assert report["trees"][0]["root"] == "world" and report["trees"][0]["lct_lag"] < 1.0
-    text = zentf(["tf", "doctor", "--duration", "1"], zenoh_env, timeout=60)
     assert text.returncode == 0 and text.stdout.strip().splitlines() == [text.stdout.strip()], text.stdout
     assert "no problems found" in text.stdout
 
@@ -188,11 +189,11 @@ def test_doctor_and_monitor_name_ros2_publishers_by_node(spawn, ros2_env):
     """--wire ros2: the sender is the GID in rmw_zenoh's attachment, resolved through the graph's tokens."""
     _stager(spawn, [{"name": "dup_a", "sends": [_send("world", "payload")]},
                     {"name": "dup_b", "sends": [_send("world", "payload")]}], env=ros2_env)
-    proc = zentf(["tf", "doctor", "--duration", "2.5", "--json"], ros2_env, timeout=60)
+    proc, mon = zentf_together([["tf", "doctor", "--duration", "2.5", "--json"], ["tf", "monitor", "--duration", "2"]],
+                               ros2_env)  # at once: two independent observers
     assert proc.returncode == 1, (proc.stdout, proc.stderr)
     dup = _one(_codes(json.loads(proc.stdout)), "multiple_publishers", "payload")
     assert set(dup["publishers"]) == {"/dup_a", "/dup_b"}, dup
-    mon = zentf(["tf", "monitor", "--duration", "2"], ros2_env, timeout=60)
     assert mon.returncode == 0, mon.stderr
     assert "/dup_a" in mon.stdout or "/dup_b" in mon.stdout, mon.stdout
     assert "Authority undetectable" not in mon.stdout and "gid" not in mon.stdout, mon.stdout
