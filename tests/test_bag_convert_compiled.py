@@ -145,17 +145,11 @@ def _mutated(payloads: list[bytes], seed: int) -> list[bytes]:
 
 
 def _tf_payloads(ros1: bool, n: int, seed: int) -> list[bytes]:
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+    """n well-formed TFMessages serialized by rosbags (ROS 1 as the fixture bag defines it, or ROS 2 CDR)."""
+    from rosbags.typesys import Stores, get_typestore
 
     rnd = random.Random(seed)
-    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
-    if ros1:
-        from bag_reference import ROS1
-        from zentf.tools.bag.ros1scan import Ros1Scan
-
-        scan = Ros1Scan(ROS1)
-        scan.read_index()
-        store.register(get_types_from_msg(next(c.msgdef for c in scan.connections.values() if c.topic == "/tf"), TF))
+    store = _ros1_store() if ros1 else get_typestore(Stores.ROS2_HUMBLE)
     out = []
     for _ in range(n):
         items = [(rnd.choice(["map", "odom", "ä"]), rnd.choice(["base", "c" * rnd.randrange(1, 40)]),
@@ -170,7 +164,6 @@ def _write_raw(path, payloads: list[bytes], ros1: bool):
     """A bag of these payloads (as they are) on /tf, written by rosbags (ROS 1) or the mcap package (ROS 2)."""
     if ros1:
         from rosbags.rosbag1 import Writer
-        from rosbags.typesys import Stores, get_typestore
 
         with Writer(path) as w:
             conn = w.add_connection("/tf", TF, typestore=_ros1_store(), callerid="/pub")

@@ -13,6 +13,7 @@ string without its NUL, a stamp out of range, a name that is not UTF-8, an unkno
 the whole message to ``fallback(channel, payload)``, the Python path that decodes it as the
 uncompiled loader did, so the compiled path only ever stores what that path would store.
 """
+cimport cython
 from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes_GET_SIZE
 from cpython.exc cimport PyErr_CheckSignals
 from libc.stdint cimport int64_t, uint8_t, uint32_t, uint64_t
@@ -55,6 +56,7 @@ cdef inline void _seven(const uint8_t* p, double* v) noexcept nogil:
     memcpy(v, p, 56)
 
 
+@cython.final  # its cdef methods are called directly (no vtable): the C compiler inlines the small ones
 cdef class TfLoader:
     """Decodes the transform messages of a bag's records into ``core``; see the module docstring.
 
@@ -299,15 +301,15 @@ cdef class TfLoader:
                                          <const uint8_t*>s.v, auth, is_static)
         finally:
             self.core.ingest_end_c(accepted)
-            self._trim()
+            if self.samples_cap > 4096:
+                self._trim()
         return 1
 
     cdef void _trim(self) noexcept:
-        """A huge message's samples are not kept."""
-        if self.samples_cap > 4096:
-            free(self.samples)
-            self.samples = NULL
-            self.samples_cap = 0
+        """A huge message's samples are not kept (called when samples_cap > 4096)."""
+        free(self.samples)
+        self.samples = NULL
+        self.samples_cap = 0
 
     cdef int _msgpack(self, const uint8_t* p, Py_ssize_t size, object auth, bint is_static) except -1:
         """A zentf (msgpack) TFMessage into the core, read by the listener's walker (the same strict schema);
@@ -331,7 +333,8 @@ cdef class TfLoader:
                                          <const uint8_t*>s.v, auth, is_static)
         finally:
             self.core.ingest_end_c(accepted)
-            self._trim()
+            if self.samples_cap > 4096:
+                self._trim()
         return 1
 
     # ------------------------------------------------------------------ records, piece by piece
