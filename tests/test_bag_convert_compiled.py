@@ -156,7 +156,7 @@ def _tf_payloads(ros1: bool, n: int, seed: int) -> list[bytes]:
                   rnd.randrange(0, 2**31), rnd.randrange(10**9), (rnd.random(), 0.0, 1.0), (0.0, 0.0, 0.0, 1.0))
                  for _ in range(rnd.randrange(1, 5))]
         msg = store.types[TF](transforms=[_ts(store, *it) for it in items])
-        out.append(store.serialize_ros1(msg, TF) if ros1 else store.serialize_cdr(msg, TF))
+        out.append(bytes(store.serialize_ros1(msg, TF) if ros1 else store.serialize_cdr(msg, TF)))
     return out
 
 
@@ -334,3 +334,22 @@ def test_ros1_tf_rows_are_decoded_in_c_as_rosbags_decodes_them(generated, kind, 
     assert fast == ref and len(fast) >= 200 and python == 0
     if kind == "generated":
         assert any(f"'negative', {0xFFFFFFFF * NS + 5}" in rows for _, _, rows in fast)
+
+
+# ---------------------------------------------------------------- the DDS bridge's use of the same writer
+
+
+def test_the_dds_bridges_tf_writer_gives_its_python_paths_bytes():
+    """tf_cdr_to_msgpack (uint32 stamps, as zentf's broadcasters write) equals the bridge's Python writer byte for
+    byte on nav2's tf and on random messages, and refuses (None) what that writer has to read element by element."""
+    from zentf.tools.bag import open_bag
+    from zentf.tools.dds.convert import _python_tf_cdr_to_msgpack
+    from zentf.transport.ingest.tf_transcode import tf_cdr_to_msgpack
+
+    real = [m.payload for m in open_bag(FIXTURES["nav2_mcap"]).raw(["/tf", "/tf_static"])]
+    for payload in real + _tf_payloads(False, 300, seed=21):
+        assert tf_cdr_to_msgpack(payload) == _python_tf_cdr_to_msgpack(payload)[0]
+    for payload in _mutated(_tf_payloads(False, 300, seed=22), seed=23):
+        got = tf_cdr_to_msgpack(payload)
+        if got is not None:
+            assert got == _python_tf_cdr_to_msgpack(payload)[0]
