@@ -7,6 +7,7 @@ BufferCore. A topic whose type cannot be decoded is skipped and reported once th
 """
 from __future__ import annotations
 
+import functools
 import logging
 import os
 from collections.abc import Callable, Collection, Iterator
@@ -28,10 +29,6 @@ TF_TOPICS = ("tf", "tf_static")
 CDR_TF = "cdr;tf2_msgs/msg/TFMessage"
 #: TFMessages of ROS bags go to msgpack through the compiled writers (tests switch it off for the reference)
 COMPILED_TF = True
-
-
-def _packb_cdr(write: Callable[..., bytes | None]) -> Callable[[bytes], bytes | None]:
-    return lambda raw: write(raw, True)
 
 
 def zentf_topic(ros_name: str) -> str:
@@ -132,7 +129,7 @@ class Bag:
             return None
         from zentf.transport.ingest.tf_transcode import tf_cdr_to_msgpack, tf_ros1_to_msgpack
 
-        return tf_ros1_to_msgpack if self._ros.ros1 else _packb_cdr(tf_cdr_to_msgpack)
+        return tf_ros1_to_msgpack if self._ros.ros1 else functools.partial(tf_cdr_to_msgpack, packb=True)
 
     def zentf(self, topics: Collection[str] | None = None,
               on_skip: Callable[[str, str], None] | None = None, *, tf_as_cdr: bool = False) -> Iterator[BagMessage]:
