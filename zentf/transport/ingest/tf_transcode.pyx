@@ -1,6 +1,7 @@
 # cython: language_level=3, boundscheck=False, wraparound=False, cdivision=True
 """A ROS TFMessage (ROS 2 CDR, ROS 1 serialization) straight to zentf's msgpack TFMessage, in C: the DDS
-bridge's /tf and ``bag convert`` / ``bag play`` of ROS bags. The message is read by the shared walkers
+bridge's /tf and ``bag convert`` / ``bag play`` of ROS bags; and zentf's msgpack TFMessage to ROS 2 CDR
+(``tf_msgpack_to_cdr``: ``bag play`` of zentf and ROS 1 bags onto ROS 2's wire). The message is read by the shared walkers
 (decoders.pxd: the listener's and the bag loader's bounds and refusals), its names checked for UTF-8,
 then written in one allocation; no Python object per transform. Anything doubtful gives None and the
 caller takes its Python path, which says what is wrong.
@@ -14,10 +15,10 @@ from libc.stdint cimport int64_t, uint8_t, uint32_t, uint64_t
 from libc.stdlib cimport free
 from libc.string cimport memcpy
 
-from .decoders cimport Sample, cdr_walk, ros1_walk
+from .decoders cimport Sample, cdr_walk, msgpack_walk, ros1_walk
 from .msgpack_writer cimport _w_array, _w_be32, _w_f64, _w_uint
 
-__all__ = ["tf_cdr_to_msgpack", "tf_ros1_to_msgpack"]
+__all__ = ["tf_cdr_to_msgpack", "tf_ros1_to_msgpack", "tf_msgpack_to_cdr"]
 
 cdef const char* _HEAD = b"\x81\xaatransforms"                          # 12 bytes, then the array header
 cdef const char* _STAMP = b"\x83\xa6header\x82\xa5stamp\x82\xa3sec"     # 20 bytes, then sec
@@ -149,6 +150,86 @@ cdef object _write(Sample* s, Py_ssize_t n, bint packb):
     if o - start != size:
         raise AssertionError("tf_transcode: size")
     return out
+
+
+cdef inline void _put_u32le(char* o, uint32_t v) noexcept nogil:
+    o[0] = <char>v
+    o[1] = <char>(v >> 8)
+    o[2] = <char>(v >> 16)
+    o[3] = <char>(v >> 24)
+
+
+cdef object _write_cdr(Sample* s, Py_ssize_t n):
+    """The CDR TFMessage (XCDR1 little-endian) of n walked samples, laid out as zentf.ros.tf.encode_tf lays it
+    out (zero padding); None if a name is not UTF-8 (or has a NUL) or a sec does not fit CDR's int32."""
+    cdef Py_ssize_t i, at, size = 8
+    for i in range(n):  # ``at``: bytes after the 4-byte encapsulation header, as CDR aligns
+        if not (_utf8(s[i].parent, s[i].parent_len) and _utf8(s[i].child, s[i].child_len)):
+            return None
+        if s[i].sec > 0x7FFFFFFF or s[i].parent_len > 0xFFFFFFF0 or s[i].child_len > 0xFFFFFFF0:
+            return None
+        at = size - 4 + 8 + 4 + s[i].parent_len + 1
+        at += (-at) & 3
+        at += 4 + s[i].child_len + 1
+        at += (-at) & 7
+        size = at + 4 + 56
+    out = PyBytes_FromStringAndSize(NULL, size)
+    cdef char* o = PyBytes_AS_STRING(out)
+    memcpy(o, b"\x00\x01\x00\x00", 4)
+    _put_u32le(o + 4, <uint32_t>n)
+    at = 4
+    for i in range(n):
+        _put_u32le(o + 4 + at, <uint32_t>s[i].sec)
+        _put_u32le(o + 4 + at + 4, <uint32_t>s[i].nsec)
+        at += 8
+        _put_u32le(o + 4 + at, <uint32_t>(s[i].parent_len + 1))
+        memcpy(o + 4 + at + 4, s[i].parent, s[i].parent_len)
+        at += 4 + s[i].parent_len
+        o[4 + at] = 0
+        at += 1
+        while at & 3:
+            o[4 + at] = 0
+            at += 1
+        _put_u32le(o + 4 + at, <uint32_t>(s[i].child_len + 1))
+        memcpy(o + 4 + at + 4, s[i].child, s[i].child_len)
+        at += 4 + s[i].child_len
+        o[4 + at] = 0
+        at += 1
+        while at & 7:
+            o[4 + at] = 0
+            at += 1
+        memcpy(o + 4 + at, s[i].v, 56)  # little-endian hosts only (setup.py builds for x86-64 and arm64)
+        at += 56
+    if at + 4 != size:
+        raise AssertionError("tf_transcode: cdr size")
+    return out
+
+
+def tf_msgpack_to_cdr(payload):
+    """The ROS 2 CDR TFMessage (zentf.ros.tf.encode_tf's bytes) of a zentf msgpack TFMessage laid out as zentf writes
+    it, read by the listener's walker; None if anything is doubtful or laid out otherwise (the caller's Python
+    path reads it and says what is wrong)."""
+    if type(payload) is not bytes:
+        return None
+    cdef Sample stack[_STACK_SAMPLES]
+    cdef Sample* buf = stack
+    cdef Py_ssize_t cap = _STACK_SAMPLES, n
+    cdef bint owned = False
+    n = msgpack_walk(<const uint8_t*>PyBytes_AS_STRING(payload), PyBytes_GET_SIZE(payload), &buf, &cap, &owned,
+                     True)
+    try:
+        if n == -2:
+            raise MemoryError()
+        if n < 0:
+            return None
+        # only zentf's own layouts (its broadcasters' uint32 stamps, or msgpack.packb's): the walker skips unknown
+        # fields and reads keys in any order, which the Python path's TFMessage.from_dict refuses or reads otherwise
+        if _write(buf, n, False) != payload and _write(buf, n, True) != payload:
+            return None
+        return _write_cdr(buf, n)
+    finally:
+        if owned:
+            free(buf)
 
 
 cdef object _transcode(object payload, bint ros1, bint packb):
