@@ -30,8 +30,7 @@ from ...transport.wire.ros2 import Ros2Profile
 from ...transport.wire.zentf_wire import ZentfProfile
 from .errors import BagError
 from .native import BagMessage, rebase_key
-from . import source
-from .source import CDR_TF, open_bag
+from .source import CDR_TF, compiled_tf, open_bag
 
 __all__ = ["Recorder", "Player", "PlayStats"]
 
@@ -182,7 +181,7 @@ class Player:
         payload = m.payload
         if not self._as_recorded and m.encoding != CDR_TF:  # (a well-formed recorded CDR TFMessage goes as is)
             cdr = None
-            if self._tf_as_cdr and m.type_name == _TF and source.COMPILED_TF:
+            if self._tf_as_cdr and m.type_name == _TF and compiled_tf():
                 cdr = tf_msgpack_to_cdr(payload)  # in C; None: doubtful, re-encoded below (which says why)
             if cdr is not None:
                 payload = cdr

@@ -31,6 +31,11 @@ CDR_TF = "cdr;tf2_msgs/msg/TFMessage"
 COMPILED_TF = True
 
 
+def compiled_tf() -> bool:
+    """Whether TFMessages take the compiled writers (``COMPILED_TF``, read when asked)."""
+    return COMPILED_TF
+
+
 def zentf_topic(ros_name: str) -> str:
     """ROS topic name -> zentf topic (key expression relative to the root): '/odom' -> 'odom'."""
     return ros_name.strip("/")
