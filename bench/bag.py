@@ -9,13 +9,15 @@ MCAP (tests/data/nav2_turtlebot.mcap) into a Buffer with ``load_buffer``, side b
 own read+decode loop and mcap-ros2-support's (decode only, no buffer: the references do less);
 then 1M transforms (100k TFMessages of 10, a generated rosbag2 MCAP) into a Buffer against rosbags'
 decode loop over the same file; then 1M transforms from a zentf MCAP recording and from a rosbag2
-SQLite bag, each against its per-message Python path and the libraries' own decode loop; then a
+SQLite bag, each against its per-message Python path and the libraries' own decode loop; then ``bag
+convert`` of 1M transforms from a rosbag2 MCAP and from a ROS 1 bag to a zentf MCAP, against the Python
+path it replaces and rosbags' decode loop; then a
 generated ROS 2 MCAP of ``--big-mb`` MB (in /tmp, deleted after) loaded into a Buffer in a child
 process: time, and memory (peak RSS growth) against the raw transform bytes (stamp + 7 float64 = 64 B
 per transform), and ``tf echo --bag BIG --time T`` /
 ``--start/--end`` and ``tf why --bag BIG --time T`` (whole process, reading only the chunks around T).
 
-    python bench/bag.py [-n 20000] [--big-mb 1024] [--only-ros] [--only-formats] [--big-ref]
+    python bench/bag.py [-n 20000] [--big-mb 1024] [--only-ros] [--only-formats] [--only-convert] [--big-ref]
 """
 from __future__ import annotations
 
@@ -579,6 +581,109 @@ def bench_formats(repeat: int = 3, messages: int = 100_000) -> None:
               f"whole process, the chunks/rows around T)")
 
 
+def _ros1_template(per_msg: int) -> tuple[bytes, list[int], object]:
+    """A ROS 1 TFMessage of ``per_msg`` transforms (the chain of _cdr_template), its stamps' offsets, and a
+    rosbags typestore holding tf2_msgs/TFMessage as ROS 1 defines it."""
+    import struct
+
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)  # has geometry_msgs and std_msgs; tf2_msgs/TFMessage added
+    store.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", "tf2_msgs/msg/TFMessage"))
+    T = store.types
+    frames = ["base_link"] + [f"link_{i}" for i in range(per_msg)]
+    marker = 0x5A5A5A5A
+    items = [T["geometry_msgs/msg/TransformStamped"](
+        header=T["std_msgs/msg/Header"](seq=0, stamp=T["builtin_interfaces/msg/Time"](sec=marker, nanosec=0),
+                                        frame_id=frames[i]),
+        child_frame_id=frames[i + 1],
+        transform=T["geometry_msgs/msg/Transform"](
+            translation=T["geometry_msgs/msg/Vector3"](x=0.1 * i, y=0.0, z=0.05),
+            rotation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0))) for i in range(per_msg)]
+    template = bytes(store.serialize_ros1(T["tf2_msgs/msg/TFMessage"](transforms=items), "tf2_msgs/msg/TFMessage"))
+    offsets = []
+    i = template.find(struct.pack("<I", marker))
+    while i >= 0:
+        offsets.append(i)
+        i = template.find(struct.pack("<I", marker), i + 4)
+    assert len(offsets) == per_msg, offsets
+    return template, offsets, store
+
+
+def generate_ros1(path: Path, messages: int, per_msg: int = 10) -> int:
+    """A ROS 1 bag (written by rosbags, lz4 chunks) of the generator's chain at 100 Hz; returns the transforms."""
+    from rosbags.rosbag1 import Writer
+
+    template, offsets, store = _ros1_template(per_msg)
+    w = Writer(path)
+    w.set_compression(Writer.CompressionFormat.LZ4)
+    with w:
+        conn = w.add_connection("/tf", "tf2_msgs/msg/TFMessage", typestore=store, callerid="/bench")
+        for stamp, data in _stamped(template, offsets, messages):
+            w.write(conn, stamp, data)
+    return messages * per_msg
+
+
+def bench_convert(repeat: int = 3, messages: int = 100_000) -> None:
+    """``bag convert`` of 1M transforms (100k TFMessages of 10) from a rosbag2 MCAP and from a ROS 1 bag to a
+    zentf MCAP: the compiled TFMessage writers, the Python path they replace (rosbags' decoder, to_plain,
+    msgpack: before), and rosbags' own read + decode loop over the same file (no writing: the reference does
+    less), interleaved runs."""
+    from rosbags.highlevel import AnyReader
+
+    from zentf.tools.bag import source
+    from zentf.tools.bag.convert import convert
+
+    with tempfile.TemporaryDirectory(dir="/tmp") as tmp:
+        r2, r1 = Path(tmp) / "million.mcap", Path(tmp) / "million.bag"
+        t = time.perf_counter()
+        _, n_tf = generate_big(r2, 0, messages=messages)
+        assert generate_ros1(r1, messages) == n_tf
+        print(f"\ngenerated a rosbag2 MCAP ({r2.stat().st_size / 2**20:.0f} MiB) and a ROS 1 bag "
+              f"({r1.stat().st_size / 2**20:.0f} MiB) of {n_tf:,} transforms ({messages:,} TFMessages of 10) in "
+              f"{time.perf_counter() - t:.0f} s")
+        out = Path(tmp) / "out.mcap"
+
+        def run(path: Path, compiled: bool) -> int:
+            source.COMPILED_TF = compiled
+            try:
+                r = convert(path, out, to="zentf")
+            finally:
+                source.COMPILED_TF = True
+            out.unlink()
+            return r["messages"] * 10
+
+        def rosbags_loop(path: Path) -> int:
+            n = 0
+            with AnyReader([path]) as r:
+                for c, _, raw in r.messages():
+                    n += len(r.deserialize(raw, c.msgtype).transforms)
+            return n
+
+        cases = {}
+        for fmt, path in (("rosbag2 MCAP", r2), ("ROS 1 bag", r1)):
+            cases[(fmt, "zentf")] = lambda path=path: run(path, True)
+            cases[(fmt, "before")] = lambda path=path: run(path, False)
+            cases[(fmt, "ref")] = lambda path=path: rosbags_loop(path)
+        times: dict[tuple[str, str], list[float]] = {k: [] for k in cases}
+        for _ in range(repeat):
+            for k, fn in cases.items():
+                t = time.perf_counter()
+                got = fn()
+                times[k].append(time.perf_counter() - t)
+                assert got == n_tf, (k, got, n_tf)
+    print(f"bag convert to a zentf MCAP, 1M transforms, best of {repeat} interleaved runs (transforms/s; load "
+          f"{os.getloadavg()[0]:.1f})")
+    print(f"{'format':<14} {'zentf':>12} {'before (Python/msg)':>20} {'rosbags read + decode':>22} "
+          f"{'zentf/before':>12} {'zentf/ref':>9}")
+    for fmt in ("rosbag2 MCAP", "ROS 1 bag"):
+        z, b, r = (n_tf / min(times[(fmt, k)]) for k in ("zentf", "before", "ref"))
+        print(f"{fmt:<14} {z:12,.0f} {b:20,.0f} {r:22,.0f} {z / b:11.1f}x {z / r:8.1f}x")
+        print(f"{'':<14} runs (s): zentf {', '.join(f'{x:.2f}' for x in times[(fmt, 'zentf')])}; before "
+              f"{', '.join(f'{x:.2f}' for x in times[(fmt, 'before')])}; reference "
+              f"{', '.join(f'{x:.2f}' for x in times[(fmt, 'ref')])}")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("-n", type=int, default=20000, help="messages per run")
@@ -588,6 +693,7 @@ def main() -> int:
     ap.add_argument("--pump", nargs=2, metavar=("ENDPOINT", "KEY"), help=argparse.SUPPRESS)
     ap.add_argument("--load-child", metavar="PATH", help=argparse.SUPPRESS)
     ap.add_argument("--only-formats", action="store_true", help="only the zentf MCAP / SQLite million rows")
+    ap.add_argument("--only-convert", action="store_true", help="only the bag convert million rows")
     args = ap.parse_args()
     if args.pump:
         _pump_main(args.pump[0], args.pump[1], args.n)
@@ -597,6 +703,9 @@ def main() -> int:
         return 0
     if args.only_formats:
         bench_formats()
+        return 0
+    if args.only_convert:
+        bench_convert()
         return 0
     if not args.only_ros:
         zenoh_rows(args)
@@ -609,6 +718,7 @@ def main() -> int:
     print(f"zentf / the faster reference: {zentf_rate / faster:.2f}x (target >= 2)")
     bench_million()
     bench_formats()
+    bench_convert()
     if args.big_mb:
         bench_big(args.big_mb, args.big_ref)
     return 0

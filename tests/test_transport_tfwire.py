@@ -33,7 +33,6 @@ from zentf.core.time import Time
 from zentf.transport.listener import _FutureGuard
 from zentf.ros import CdrError, encode_tf as cdr_encode_tf, tf_samples
 from zentf.ros.tf import _FRAMES  # the one interned-name cache every decoder shares
-from zentf.ros.frame_names import clear_frame_names
 
 NS = 1_000_000_000
 MAX_SEC = (2**63 - 1) // NS
@@ -154,18 +153,47 @@ def test_a_fleets_frame_names_stay_interned() -> None:
     """100 robots x 51 frames in one listener (``tf_topic="/*/tf"``): every name decodes to the same str
     object message after message. A cache started over each time 4096 names were reached made a new
     str (and its hash, in the buffer's frame table) for every transform of such a fleet."""
+    from zentf.ros import tf as ros_tf
     from zentf.core.constants import DEFAULT_MAX_FRAMES
 
     assert decoders.FRAME_CACHE_SIZE > DEFAULT_MAX_FRAMES  # whatever a buffer takes fits
-    clear_frame_names()  # names this process decoded before (another test's fleet) start over too
+    ros_tf.forget_frame_names()
+    payloads = _fleet_payloads()
+    _assert_fleet_names_interned(payloads)
+    assert len(_FRAMES) == 100 * 51
+
+
+def _fleet_payloads() -> list[tuple[bytes, bytes]]:
     robots = [[transform_dict(f"robot{i}/base_link", f"robot{i}/link_{j}") for j in range(50)] for i in range(100)]
-    payloads = [(msgpack.packb({"transforms": r}), cdr_encode_tf(r)) for r in robots]
+    return [(msgpack.packb({"transforms": r}), cdr_encode_tf(r)) for r in robots]
+
+
+def _assert_fleet_names_interned(payloads: list[tuple[bytes, bytes]]) -> None:
     first = [[(s[0], s[1]) for s in decoders.msgpack_tf(m)] for m, _ in payloads]
     for (m, c), names in zip(payloads, first):
         for decode, payload in ((decoders.msgpack_tf, m), (decoders.cdr_tf, c)):
             again = [(s[0], s[1]) for s in decode(payload)]
             assert all(a is b and p is q for (a, p), (b, q) in zip(again, names)), again[0]
-    assert len(_FRAMES) == 100 * 51
+
+
+def test_a_fleets_names_stay_interned_after_the_name_cache_starts_over() -> None:
+    """Forged long names fill the names cache until it starts over: the memo in front of it forgets with
+    it, so a fleet's names (decoded before and after) are again one str each, message after message. A
+    memo that kept its names handed out strs the cache no longer held: a name it let go of (another name
+    took its slot) came back as a second str."""
+    from zentf.ros import tf as ros_tf
+
+    ros_tf.forget_frame_names()
+    payloads = _fleet_payloads()
+    _assert_fleet_names_interned(payloads)  # the memo now holds most of the fleet's names
+    forged = [transform_dict("p", f"forged_{'x' * 200}_{i}") for i in range(15_000)]
+    for i in range(0, len(forged), 500):  # through the compiled path: the cache starts over on its own
+        decoders.msgpack_tf(msgpack.packb({"transforms": forged[i:i + 500]}))
+    assert len(_FRAMES) < 15_000
+    _assert_fleet_names_interned(payloads)
+    for m, _ in payloads:  # what the memo hands out is what the cache holds
+        for parent, child, *_rest in decoders.msgpack_tf(m):
+            assert _FRAMES.get(parent.encode()) is parent and _FRAMES.get(child.encode()) is child
 
 # ------------------------------------------------------------------ anything else: same as before
 

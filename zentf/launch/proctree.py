@@ -18,21 +18,39 @@ __all__ = ["LAUNCH_ID_VAR", "snapshot", "alive", "descendants", "has_launch_id",
 LAUNCH_ID_VAR = "ZENTF_LAUNCH_ID"
 
 
+def _stat(pid: int) -> "tuple[int, int, str] | None":
+    """(parent pid, process group, state) of one process; None if it is gone."""
+    try:  # os.open/os.read: this runs on every stop, in several processes at once
+        fd = os.open(f"/proc/{pid}/stat", os.O_RDONLY)
+        try:
+            data = os.read(fd, 4096)
+        finally:
+            os.close(fd)
+        fields = data[data.rindex(b")") + 2:].split(None, 3)
+        return int(fields[1]), int(fields[2]), fields[0].decode()
+    except (OSError, ValueError, IndexError):
+        return None  # gone meanwhile
+
+
 def snapshot() -> "dict[int, tuple[int, int, str]]":
     """pid -> (parent pid, process group, state) for every process visible now."""
     table: dict[int, tuple[int, int, str]] = {}
     # newest first: what was just forked is read before it can fork again (pids grow until they wrap)
     for name in sorted((n for n in os.listdir("/proc") if n.isdigit()), key=int, reverse=True):
-        try:  # os.open/os.read: this runs on every stop, in several processes at once
-            fd = os.open(f"/proc/{name}/stat", os.O_RDONLY)
-            try:
-                data = os.read(fd, 4096)
-            finally:
-                os.close(fd)
-            fields = data[data.rindex(b")") + 2:].split(None, 3)
-            table[int(name)] = (int(fields[1]), int(fields[2]), fields[0].decode())
-        except (OSError, ValueError, IndexError):
-            continue  # gone meanwhile
+        entry = _stat(int(name))
+        if entry is not None:
+            table[int(name)] = entry
+    # A process read before its parent, whose parent then exited and was gone when read, names a parent
+    # not in the table: it was re-parented (to a subreaper, or init) before that parent vanished, so a
+    # second read gives its parent now. Without it a re-forking process read between its parent's fork and
+    # exit belongs to nobody's tree in this snapshot.
+    for pid, (ppid, _, _) in list(table.items()):
+        if ppid > 0 and ppid not in table:
+            entry = _stat(pid)
+            if entry is None:
+                del table[pid]
+            else:
+                table[pid] = entry
     return table
 
 

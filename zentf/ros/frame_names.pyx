@@ -12,7 +12,7 @@ from libc.string cimport memcmp
 
 from zentf.core.constants import DEFAULT_MAX_FRAME_ID_LENGTH
 from zentf.ros.tf import _FRAMES as _NAMES
-from zentf.ros.tf import _FRAMES_HELD, _ENTRY_BYTES, FRAME_CACHE_BYTES, FRAME_CACHE_SIZE
+from zentf.ros.tf import _FRAMES_FORGET, _FRAMES_HELD, _ENTRY_BYTES, FRAME_CACHE_BYTES, FRAME_CACHE_SIZE
 
 cdef dict _names = _NAMES
 cdef list _held = _FRAMES_HELD  # estimated bytes in _names, shared with zentf.ros.tf.keep_frame_name
@@ -25,6 +25,22 @@ cdef enum:
     MEMO_MAX_LEN = 64  # longer names are not memoized: the memo holds at most SLOTS x 64 bytes of names
 cdef list _slot_raw = [None] * SLOTS
 cdef list _slot_name = [None] * SLOTS
+
+
+cdef void _forget_memo() noexcept:
+    """Empty the memo: every name it hands out must be the one _names holds (one str per name)."""
+    cdef Py_ssize_t i
+    for i in range(SLOTS):
+        _slot_raw[i] = None
+        _slot_name[i] = None
+
+
+def forget_memo() -> None:
+    """The memo's part of zentf.ros.tf.forget_frame_names (called when the names start over)."""
+    _forget_memo()
+
+
+_FRAMES_FORGET.append(forget_memo)
 
 
 cdef object frame_name(const uint8_t* p, Py_ssize_t n):
@@ -53,20 +69,10 @@ cdef object frame_name(const uint8_t* p, Py_ssize_t n):
         if len(_names) >= _MAX_NAMES or <Py_ssize_t>_held[0] + cost > _MAX_BYTES:
             _names.clear()
             _held[0] = 0
+            _forget_memo()
         _names[raw] = name
         _held[0] = <Py_ssize_t>_held[0] + cost
     if n <= MEMO_MAX_LEN:
         _slot_raw[slot] = raw
         _slot_name[slot] = name
     return name
-
-
-def clear_frame_names():
-    """Forget every interned name, the dict's and the memo's in front of it (clearing the dict alone leaves
-    the memo answering with the old str objects): a clean start for whoever measures the interning."""
-    cdef Py_ssize_t i
-    _names.clear()
-    _held[0] = 0
-    for i in range(SLOTS):
-        _slot_raw[i] = None
-        _slot_name[i] = None

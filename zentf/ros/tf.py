@@ -11,7 +11,7 @@ the layout needs: the buffer validates the rest.
 from __future__ import annotations
 
 import struct
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import Any
 
 from ..core.constants import DEFAULT_MAX_FRAME_ID_LENGTH
@@ -37,22 +37,37 @@ FRAME_CACHE_BYTES = 2_500_000
 _ENTRY_BYTES = 200  # a kept name's cost beyond twice its length: the bytes and str headers, its dict slot
 _FRAMES: dict[bytes, str] = {}
 _FRAMES_HELD = [0]  # estimated bytes held by _FRAMES (2 x length + _ENTRY_BYTES an entry)
+#: memos in front of _FRAMES (zentf/ros/frame_names.pyx): forgotten whenever _FRAMES starts over, or a name
+#: a memo still held would come back as a second str once the memo lets it go
+_FRAMES_FORGET: list[Callable[[], None]] = []
 
 
-def bounded_put(cache: dict, held: list, key: Any, value: Any, cost: int) -> None:
+def bounded_put(cache: dict, held: list, key: Any, value: Any, cost: int) -> bool:
     """``cache[key] = value`` within FRAME_CACHE_SIZE entries and FRAME_CACHE_BYTES (``held[0]``: the
-    estimated bytes already in it; ``cost``: this entry's); a full cache starts over."""
-    if len(cache) >= FRAME_CACHE_SIZE or held[0] + cost > FRAME_CACHE_BYTES:
+    estimated bytes already in it; ``cost``: this entry's); a full cache starts over (then True)."""
+    full = len(cache) >= FRAME_CACHE_SIZE or held[0] + cost > FRAME_CACHE_BYTES
+    if full:
         cache.clear()
         held[0] = 0
     cache[key] = value
     held[0] += cost
+    return full
+
+
+def forget_frame_names() -> None:
+    """Start the frame-name cache over, with the memos in front of it."""
+    _FRAMES.clear()
+    _FRAMES_HELD[0] = 0
+    for forget in _FRAMES_FORGET:
+        forget()
 
 
 def keep_frame_name(raw: bytes, name: str) -> None:
     """Remember a decoded frame name (zentf/ros/frame_names.pyx does the same inline, in C)."""
     if len(raw) <= DEFAULT_MAX_FRAME_ID_LENGTH:  # a longer one the buffer refuses anyway
-        bounded_put(_FRAMES, _FRAMES_HELD, raw, name, 2 * len(raw) + _ENTRY_BYTES)
+        if bounded_put(_FRAMES, _FRAMES_HELD, raw, name, 2 * len(raw) + _ENTRY_BYTES):
+            for forget in _FRAMES_FORGET:
+                forget()
 
 
 def frame_name(raw: bytes) -> str:

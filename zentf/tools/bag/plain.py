@@ -1,7 +1,8 @@
 """rosbags message objects <-> zentf's plain dicts (what zentf's msgpack wire carries).
 
 ROS 1 messages take the ROS 2 shape on the way in (``std_msgs/Header.seq`` is dropped, as
-rosbag2's ROS 1 converter does); primitive arrays become lists (``uint8[]`` becomes bytes).
+rosbag2's ROS 1 converter does; ROS 1 ``time`` is unsigned, so a sec that rosbags read as a negative
+int32 is read back as the uint32 it is); primitive arrays become lists (``uint8[]`` becomes bytes).
 On the way out, missing fields get ROS defaults (zero, empty), so zentf's trimmed messages (its
 Marker has no mesh or texture fields) fill complete ROS 2 messages.
 """
@@ -12,13 +13,14 @@ from typing import Any
 __all__ = ["to_plain", "from_plain"]
 
 _HEADER = "std_msgs/msg/Header"
+_TIME = "builtin_interfaces/msg/Time"
 _DTYPES = {"bool": "bool", "byte": "uint8", "char": "uint8", "int8": "int8", "uint8": "uint8", "int16": "int16",
            "uint16": "uint16", "int32": "int32", "uint32": "uint32", "int64": "int64", "uint64": "uint64",
            "float32": "float32", "float64": "float64"}
 _BASE_DEFAULTS = {"bool": False, "string": "", "wstring": "", "float32": 0.0, "float64": 0.0}
 
 
-def to_plain(obj: Any) -> Any:
+def to_plain(obj: Any, ros1: bool = False) -> Any:
     """A deserialized rosbags message (dataclass with ``__msgtype__``) as plain dicts and lists."""
     msgtype = getattr(obj, "__msgtype__", None)
     if msgtype is not None:
@@ -26,10 +28,12 @@ def to_plain(obj: Any) -> Any:
         for name in obj.__dataclass_fields__:
             if name == "__msgtype__" or (name == "seq" and msgtype == _HEADER):
                 continue
-            out[name] = to_plain(getattr(obj, name))
+            out[name] = to_plain(getattr(obj, name), ros1)
+        if ros1 and msgtype == _TIME and type(out.get("sec")) is int and out["sec"] < 0:
+            out["sec"] &= 0xFFFFFFFF
         return out
     if isinstance(obj, list):
-        return [to_plain(x) for x in obj]
+        return [to_plain(x, ros1) for x in obj]
     tolist = getattr(obj, "tolist", None)
     if tolist is not None:  # numpy array or scalar
         if getattr(obj, "ndim", 0) and obj.dtype.kind == "u" and obj.dtype.itemsize == 1:

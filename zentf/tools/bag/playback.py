@@ -3,7 +3,9 @@
 Both go through the node's wire profile (raw subscriptions and publishers: zentf's wire, or ROS 2's
 with ``--wire ros2``). ``Player`` plays every format zentf reads (see ``source.open_bag``): ROS names
 become zentf topics (``/odom`` -> ``odom``), ROS payloads are re-encoded to zentf's msgpack wire form
-(and, on a wire of other payloads, from it to the wire's), latched topics (``/tf_static``,
+(and, on a wire of other payloads, from it to the wire's; a rosbag2 bag's TFMessages go onto ROS 2's wire
+as recorded, once the compiled reader has found them well-formed, other bags' from msgpack to CDR in C),
+latched topics (``/tf_static``,
 transient-local QoS, ROS 1 latching) go out through a cached advanced publisher. With ``clock_hz > 0``
 it publishes ``/clock`` = the recorded (log) time, as ``ros2 bag play --clock`` does, in the time base
 of the recording's tf stamps: a sim-time graph recorded by a wall-clock recorder (nav2 in Gazebo: stamps
@@ -23,16 +25,19 @@ from typing import Any
 from ...core.messages import Clock, message_type
 from ...core.text import printable
 from ...transport.wire import codec as zentf_codec
+from ...transport.ingest.tf_transcode import tf_msgpack_to_cdr
+from ...transport.wire.ros2 import Ros2Profile
 from ...transport.wire.zentf_wire import ZentfProfile
 from .errors import BagError
 from .native import BagMessage, rebase_key
-from .source import open_bag
+from .source import CDR_TF, compiled_tf, open_bag
 
 __all__ = ["Recorder", "Player", "PlayStats"]
 
 log = logging.getLogger("zentf.tools.bag")
 
 _NS = 1_000_000_000
+_TF = "tf2_msgs/msg/TFMessage"
 #: the longest single wait (a wait past ``threading.TIMEOUT_MAX`` raises OverflowError)
 _MAX_WAIT = 3600.0
 #: a message due further into the play than this (seconds of wall time) is refused, not waited for
@@ -97,6 +102,10 @@ class Player:
         self.node = node
         #: the bag's payloads are zentf's msgpack: sent as they are on zentf's wire, re-encoded on another
         self._as_recorded = node.wire.payload_format == ZentfProfile.payload_format
+        #: on ROS 2's wire a rosbag2 bag's TFMessages go out as recorded (checked well-formed, not re-encoded),
+        #: other bags' from their msgpack to CDR in C
+        self._tf_as_cdr = node.wire.payload_format == Ros2Profile.payload_format
+        self.compiled_tf_to_cdr = 0  # TFMessages written to CDR in C (tf_transcode.tf_msgpack_to_cdr)
         self.path = os.fspath(path)
         self.namespace = namespace.strip("/")
         self.rate = float(rate)
@@ -131,10 +140,15 @@ class Player:
             return gap if abs(gap) > CLOCK_BASE_GAP else 0
         return 0
 
+    def _pub_key(self, key: str, enc: str) -> tuple[str, str]:
+        """A channel's publisher: per encoding when payloads go out as recorded, else one per key (a ROS 2
+        bag's TFMessage goes out as its recorded CDR or, if doubtful, re-encoded: the same topic)."""
+        return (key, enc if self._as_recorded else "")
+
     def _publisher(self, key: str, enc: str, type_name: str, latched: bool) -> Any:
         """The node's raw publisher of a channel (its topic is the key's, absolute); None when the wire
         cannot carry it (one line through on_skip)."""
-        pk = (key, enc)
+        pk = self._pub_key(key, enc)
         if pk in self._pubs:
             return self._pubs[pk]
         try:
@@ -165,14 +179,22 @@ class Player:
         if pub is None:
             return
         payload = m.payload
-        if not self._as_recorded:
-            try:
-                payload = self.node.wire.encode(zentf_codec.decode(payload, message_type(m.type_name)), m.type_name)
-            except (KeyError, ValueError, TypeError) as e:
-                self._pubs[(key, m.encoding)] = None
-                pub.destroy()
-                self._skip(key, f"cannot re-encode {m.type_name or 'an untyped message'} for this wire: {e}")
-                return
+        if not self._as_recorded and m.encoding != CDR_TF:  # (a well-formed recorded CDR TFMessage goes as is)
+            cdr = None
+            if self._tf_as_cdr and m.type_name == _TF and compiled_tf():
+                cdr = tf_msgpack_to_cdr(payload)  # in C; None: doubtful, re-encoded below (which says why)
+            if cdr is not None:
+                payload = cdr
+                self.compiled_tf_to_cdr += 1
+            else:
+                try:
+                    payload = self.node.wire.encode(zentf_codec.decode(payload, message_type(m.type_name)),
+                                                    m.type_name)
+                except (KeyError, ValueError, TypeError) as e:
+                    self._pubs[self._pub_key(key, m.encoding)] = None
+                    pub.destroy()
+                    self._skip(key, f"cannot re-encode {m.type_name or 'an untyped message'} for this wire: {e}")
+                    return
         if m.sender:
             pub.publish_as(payload, m.sender)
         else:
@@ -202,7 +224,7 @@ class Player:
         last_report = time.monotonic()
         while not self.stop_event.is_set():
             reader = self.bag
-            it = iter(reader.zentf(self.topics, self._on_skip))
+            it = iter(reader.zentf(self.topics, self._on_skip, tf_as_cdr=self._tf_as_cdr))
             first: BagMessage | None = next(it, None)
             if first is None:
                 self.stats.problem = reader.problem

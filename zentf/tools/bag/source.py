@@ -7,6 +7,7 @@ BufferCore. A topic whose type cannot be decoded is skipped and reported once th
 """
 from __future__ import annotations
 
+import functools
 import logging
 import os
 from collections.abc import Callable, Collection, Iterator
@@ -18,12 +19,21 @@ from .errors import BagError
 from .formats import BagFormat, detect_format
 from .native import BagMessage, BagReader, rebase_key
 
-__all__ = ["Bag", "RawMessage", "open_bag", "zentf_topic", "TF_TOPICS"]
+__all__ = ["Bag", "RawMessage", "open_bag", "zentf_topic", "TF_TOPICS", "CDR_TF"]
 
 log = logging.getLogger("zentf.tools.bag")
 
 #: topic base names that carry transforms (dynamic, static)
 TF_TOPICS = ("tf", "tf_static")
+#: the encoding of a BagMessage that carries a rosbag2 TFMessage's recorded CDR (``zentf(tf_as_cdr=True)``)
+CDR_TF = "cdr;tf2_msgs/msg/TFMessage"
+#: TFMessages of ROS bags go to msgpack through the compiled writers (tests switch it off for the reference)
+COMPILED_TF = True
+
+
+def compiled_tf() -> bool:
+    """Whether TFMessages take the compiled writers (``COMPILED_TF``, read when asked)."""
+    return COMPILED_TF
 
 
 def zentf_topic(ros_name: str) -> str:
@@ -56,6 +66,8 @@ class Bag:
         self.skipped_chunks = 0
         self.skipped: dict[str, str] = {}  # topic -> why it is not decoded
         self._ros: Any = None
+        self._tf_layout: bool | None = None  # the bag's TFMessage is laid out as ROS's (None: not looked yet)
+        self.compiled_tf = 0  # TFMessages zentf() wrote through the compiled path
         if self.format is BagFormat.ZENTF:
             BagReader(self.path)  # fails early on a missing or non-MCAP file
         else:
@@ -105,13 +117,33 @@ class Bag:
         if why:
             raise ValueError(why)
         try:
-            return to_plain(self._ros.deserialize(m.payload, m.type_name))
+            return to_plain(self._ros.deserialize(m.payload, m.type_name), self._ros.ros1)
         except Exception as e:  # noqa: BLE001
             raise ValueError(f"payload does not decode ({type(e).__name__})") from None
 
+    def _tf_transcoder(self, m: RawMessage) -> Callable[[bytes], bytes | None] | None:
+        """The compiled TFMessage -> msgpack writer for m's topic (None if its type is not TFMessage as ROS
+        lays it out: that topic goes through rosbags)."""
+        from .tfdecode import TF_TYPE, standard_tf_layout
+
+        if not COMPILED_TF or m.type_name != TF_TYPE or self._ros.ensure_type(m.conn):
+            return None
+        if self._tf_layout is None:
+            self._tf_layout = standard_tf_layout(self._ros)
+        if not self._tf_layout:
+            return None
+        from zentf.transport.ingest.tf_transcode import tf_cdr_to_msgpack, tf_ros1_to_msgpack
+
+        return tf_ros1_to_msgpack if self._ros.ros1 else functools.partial(tf_cdr_to_msgpack, packb=True)
+
     def zentf(self, topics: Collection[str] | None = None,
-              on_skip: Callable[[str, str], None] | None = None) -> Iterator[BagMessage]:
-        """zentf BagMessages: ROS names mapped to zentf topics, payloads re-encoded to msgpack."""
+              on_skip: Callable[[str, str], None] | None = None, *, tf_as_cdr: bool = False) -> Iterator[BagMessage]:
+        """zentf BagMessages: ROS names mapped to zentf topics, payloads re-encoded to msgpack.
+
+        TFMessages go from the bag's bytes to msgpack in C (tf_transcode.pyx; ``compiled_tf`` counts them),
+        as the Python path (rosbags' decoder, to_plain, msgpack) would write them; a message the compiled
+        path doubts takes the Python path, which says what is wrong. ``tf_as_cdr``: a rosbag2 bag's
+        well-formed TFMessages keep their recorded CDR (encoding ``CDR_TF``), for a ROS 2 wire."""
         if self._ros is None:
             for m in self.raw(topics):
                 yield m.conn
@@ -119,24 +151,37 @@ class Bag:
         from zentf.transport.wire.codec import pack
 
         decoded: set[str] = set()  # topics with at least one decoded message
+        fast: dict[tuple[str, str], Any] = {}  # (topic, type) -> its compiled TFMessage writer, or None
         bad = 0
+        as_cdr = tf_as_cdr and not self._ros.ros1
         for m in self.raw(topics):
             if m.topic in self.skipped:
                 continue
-            try:
-                payload = pack(self.decode(m))
-            except ValueError as e:
-                if m.topic in decoded:  # one damaged message of a good topic costs itself
-                    bad += 1
-                    if bad == 1:
-                        log.warning("%s: a %s message does not decode (%s); skipping such messages",
-                                    m.topic, m.type_name, e)
+            kind = (m.topic, m.type_name)
+            if kind not in fast:
+                fast[kind] = self._tf_transcoder(m)
+            write = fast[kind]
+            payload = write(m.payload) if write is not None else None
+            encoding = f"application/msgpack;{m.type_name}"
+            if payload is not None:
+                self.compiled_tf += 1
+                if as_cdr:
+                    payload, encoding = m.payload, CDR_TF
+            else:
+                try:
+                    payload = pack(self.decode(m))
+                except ValueError as e:
+                    if m.topic in decoded:  # one damaged message of a good topic costs itself
+                        bad += 1
+                        if bad == 1:
+                            log.warning("%s: a %s message does not decode (%s); skipping such messages",
+                                        m.topic, m.type_name, e)
+                        continue
+                    self._skip(m.topic, f"type {m.type_name or '?'} cannot be carried: {e}", on_skip)
                     continue
-                self._skip(m.topic, f"type {m.type_name or '?'} cannot be carried: {e}", on_skip)
-                continue
             decoded.add(m.topic)
-            yield BagMessage(zentf_topic(m.topic), m.type_name, f"application/msgpack;{m.type_name}", m.sender,
-                             m.latched, "", m.log_time, payload)
+            yield BagMessage(zentf_topic(m.topic), m.type_name, encoding, m.sender, m.latched, "", m.log_time,
+                             payload)
 
     def tf(self, topics: Collection[str] | None = None) -> Iterator[tuple[bool, str, Any, list]]:
         """(is_static, authority, raw payload, rows) per transform message; rows is None for zentf

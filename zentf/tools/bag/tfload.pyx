@@ -13,15 +13,16 @@ string without its NUL, a stamp out of range, a name that is not UTF-8, an unkno
 the whole message to ``fallback(channel, payload)``, the Python path that decodes it as the
 uncompiled loader did, so the compiled path only ever stores what that path would store.
 """
+cimport cython
 from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes_GET_SIZE
 from cpython.exc cimport PyErr_CheckSignals
-from libc.stdint cimport int32_t, int64_t, uint8_t, uint32_t, uint64_t
+from libc.stdint cimport int64_t, uint8_t, uint32_t, uint64_t
 from libc.stdlib cimport free, malloc, realloc
 from libc.string cimport memcmp, memcpy, memset
 
 from zentf.core.buffer_core cimport BufferCore
 from zentf.ros.frame_names cimport frame_name
-from zentf.transport.ingest.decoders cimport Sample, cdr_le, msgpack_walk
+from zentf.transport.ingest.decoders cimport Sample, cdr_walk, msgpack_walk, ros1_walk
 
 from .sqliteapi cimport SQLITE_BLOB, SQLITE_DONE, SQLITE_OK, SQLITE_OPEN_READONLY, SQLITE_OPEN_URI, SQLITE_ROW
 from .sqliteapi cimport SqliteApi, sqlite_api
@@ -55,6 +56,7 @@ cdef inline void _seven(const uint8_t* p, double* v) noexcept nogil:
     memcpy(v, p, 56)
 
 
+@cython.final  # its cdef methods are called directly (no vtable): the C compiler inlines the small ones
 cdef class TfLoader:
     """Decodes the transform messages of a bag's records into ``core``; see the module docstring.
 
@@ -82,6 +84,7 @@ cdef class TfLoader:
     cdef uint64_t skip
     cdef Sample* samples              # a msgpack message's samples (msgpack_walk grows it)
     cdef Py_ssize_t samples_cap
+    cdef bint samples_owned           # always True (the walkers realloc the loader's own buffer)
 
     def __cinit__(self):
         self.kinds = NULL
@@ -89,6 +92,7 @@ cdef class TfLoader:
         self.carry = NULL
         self.samples = NULL
         self.samples_cap = 0
+        self.samples_owned = True
 
     def __init__(self, BufferCore core, fallback, on_definition=None, int framing=MCAP,
                  int64_t start=0, int64_t end=(1 << 63) - 1):
@@ -268,123 +272,49 @@ cdef class TfLoader:
         return self.core.ingest_one_c(a, b, stamp, v, auth, is_static)
 
     cdef int _cdr(self, const uint8_t* p, Py_ssize_t end, object auth, bint is_static) except -1:
-        """A ROS 2 CDR TFMessage (XCDR1 little-endian) into the core; 0 (nothing stored) if doubtful.
-
-        Per element: int32 sec, uint32 nanosec, frame_id and child_frame_id (uint32 length with the NUL,
-        the bytes, the NUL; padding to 4 after frame_id), padding to 8 counted after the 4-byte header,
-        7 float64. Bytes after the last element are ignored (as zentf.ros.tf.tf_samples does)."""
-        cdef Py_ssize_t off = 8, ln, i, n
-        cdef int32_t sec
-        cdef uint32_t nsec, u
-        if end > _MAX_PAYLOAD or not cdr_le(p, end):
-            return 0
-        n = _u32(p + 4)
-        if <uint64_t>n * 72 > <uint64_t>(end - 8):
-            return 0
-        for i in range(n):  # check the whole message first: a doubt stores nothing
-            if end - off < 12:
-                return 0
-            u = _u32(p + off)
-            memcpy(&sec, &u, 4)
-            nsec = _u32(p + off + 4)
-            ln = _u32(p + off + 8)
-            off += 12
-            if sec < 0 or nsec >= _NS or ln < 1 or end - off < ln or p[off + ln - 1] != 0:
-                return 0
-            off = (off + ln + 3) & ~(<Py_ssize_t>3)
-            if end - off < 4:
-                return 0
-            ln = _u32(p + off)
-            off += 4
-            if ln < 1 or end - off < ln or p[off + ln - 1] != 0:
-                return 0
-            off += ln
-            off += (4 - off) & 7
-            if end - off < 56:
-                return 0
-            off += 56
-        cdef const uint8_t* parent
-        cdef Py_ssize_t plen, child_at
-        cdef Py_ssize_t accepted = 0
-        off = 8
-        self.core.ingest_begin_c()
-        try:
-            for i in range(n):
-                u = _u32(p + off)
-                memcpy(&sec, &u, 4)
-                nsec = _u32(p + off + 4)
-                ln = _u32(p + off + 8)
-                off += 12
-                parent = p + off
-                plen = ln - 1
-                off = (off + ln + 3) & ~(<Py_ssize_t>3)
-                ln = _u32(p + off)
-                off += 4
-                child_at = off
-                off += ln
-                off += (4 - off) & 7
-                accepted += self._insert(parent, plen, p + child_at, ln - 1, sec * _NS + nsec, p + off, auth,
-                                         is_static)
-                off += 56
-        finally:
-            self.core.ingest_end_c(accepted)
-        return 1
+        """A ROS 2 CDR TFMessage into the core, read by the listener's walker (decoders.cdr_walk); 0 (nothing
+        stored) if it doubts the message. An element whose name is not UTF-8 is skipped (as the Python
+        decoder skips it)."""
+        return self._samples(cdr_walk(p, end, &self.samples, &self.samples_cap, &self.samples_owned), auth,
+                             is_static)
 
     cdef int _ros1(self, const uint8_t* p, Py_ssize_t end, object auth, bint is_static) except -1:
-        """A ROS 1 tf2_msgs/TFMessage into the core; 0 (nothing stored) if doubtful.
+        """A ROS 1 tf2_msgs/TFMessage into the core, read by decoders.ros1_walk (ROS 1 time is unsigned); 0
+        (nothing stored) if it doubts the message."""
+        return self._samples(ros1_walk(p, end, &self.samples, &self.samples_cap, &self.samples_owned), auth,
+                             is_static)
 
-        Per element: uint32 seq, uint32 secs, uint32 nsecs (ROS 1 time is unsigned), frame_id and
-        child_frame_id (uint32 length, the bytes: no NUL, no padding), 7 float64. The message must end
-        with its last element."""
-        cdef Py_ssize_t off = 4, ln, i, n, child_at, plen
-        cdef int64_t stamp
-        cdef const uint8_t* parent
-        if end > _MAX_PAYLOAD or end < 4:
+    cdef int _samples(self, Py_ssize_t n, object auth, bint is_static) except -1:
+        """The n walked samples into the core (a name that is not UTF-8 skips its element); 0 if the walker
+        doubted the message (n == -1)."""
+        cdef Py_ssize_t i, accepted = 0
+        cdef Sample* s
+        if n == -2:
+            raise MemoryError()
+        if n < 0:
             return 0
-        n = _u32(p)
-        if <uint64_t>n * 76 > <uint64_t>(end - 4):
-            return 0
-        for i in range(n):
-            if end - off < 16:
-                return 0
-            ln = _u32(p + off + 12)
-            off += 16
-            if end - off < ln + 4:
-                return 0
-            off += ln
-            ln = _u32(p + off)
-            off += 4
-            if end - off < ln + 56:
-                return 0
-            off += ln + 56
-        if off != end:
-            return 0
-        cdef Py_ssize_t accepted = 0
-        off = 4
         self.core.ingest_begin_c()
         try:
             for i in range(n):
-                stamp = <int64_t>_u32(p + off + 4) * _NS + _u32(p + off + 8)
-                ln = _u32(p + off + 12)
-                off += 16
-                parent = p + off
-                plen = ln
-                off += ln
-                ln = _u32(p + off)
-                off += 4
-                child_at = off
-                off += ln
-                accepted += self._insert(parent, plen, p + child_at, ln, stamp, p + off, auth, is_static)
-                off += 56
+                s = &self.samples[i]
+                accepted += self._insert(s.parent, s.parent_len, s.child, s.child_len, s.sec * _NS + s.nsec,
+                                         <const uint8_t*>s.v, auth, is_static)
         finally:
             self.core.ingest_end_c(accepted)
+            if self.samples_cap > 4096:
+                self._trim()
         return 1
+
+    cdef void _trim(self) noexcept:
+        """A huge message's samples are not kept (called when samples_cap > 4096)."""
+        free(self.samples)
+        self.samples = NULL
+        self.samples_cap = 0
 
     cdef int _msgpack(self, const uint8_t* p, Py_ssize_t size, object auth, bint is_static) except -1:
         """A zentf (msgpack) TFMessage into the core, read by the listener's walker (the same strict schema);
         0 (nothing stored) if it doubts the message or a name is not UTF-8."""
-        cdef bint owned = True
-        cdef Py_ssize_t n = msgpack_walk(p, size, &self.samples, &self.samples_cap, &owned, True), i
+        cdef Py_ssize_t n = msgpack_walk(p, size, &self.samples, &self.samples_cap, &self.samples_owned, True), i
         cdef Py_ssize_t accepted = 0
         cdef Sample* s
         if n == -2:
@@ -403,10 +333,8 @@ cdef class TfLoader:
                                          <const uint8_t*>s.v, auth, is_static)
         finally:
             self.core.ingest_end_c(accepted)
-            if self.samples_cap > 4096:  # a huge message's samples are not kept
-                free(self.samples)
-                self.samples = NULL
-                self.samples_cap = 0
+            if self.samples_cap > 4096:
+                self._trim()
         return 1
 
     # ------------------------------------------------------------------ records, piece by piece

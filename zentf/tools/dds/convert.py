@@ -21,7 +21,7 @@ __all__ = ["tf_cdr_to_msgpack", "cdr_to_message", "message_to_cdr", "check_cdr"]
 
 # the compiled decoder: None for anything doubtful, then the Python one (tf_samples) names what is wrong
 from ...transport.ingest.decoders import cdr_tf as _cdr_tf
-from .tfconvert import tf_cdr_to_msgpack as _compiled  # CDR straight to msgpack in C: None for anything doubtful
+from ...transport.ingest.tf_transcode import tf_cdr_to_msgpack as _compiled  # in C: None for anything doubtful
 
 _NS = 1_000_000_000
 _STAMP = b"\x83\xa6header\x82\xa5stamp\x82\xa3sec\xce"

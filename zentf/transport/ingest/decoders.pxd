@@ -28,6 +28,14 @@ cdef inline bint cdr_le(const uint8_t* p, Py_ssize_t n) noexcept nogil:
     return n >= 8 and p[0] == 0 and p[1] == 1
 
 
+# The TFMessage walkers: one per serialization, shared by every compiled reader of it (the listener's
+# decoders here, the bag loader tools/bag/tfload.pyx, the msgpack writers of tf_transcode.pyx). Each fills
+# buf[0][0..count) with samples whose names point into p and returns count, -1 if anything is doubtful,
+# -2 if memory ran out (a larger message gets a malloc'd buffer: owned[0] set, the caller frees it).
+cdef Py_ssize_t cdr_walk(const uint8_t* p, Py_ssize_t size, Sample** buf, Py_ssize_t* cap,
+                         bint* owned) noexcept nogil
+cdef Py_ssize_t ros1_walk(const uint8_t* p, Py_ssize_t size, Sample** buf, Py_ssize_t* cap,
+                          bint* owned) noexcept nogil
 cdef Py_ssize_t msgpack_walk(const uint8_t* p, Py_ssize_t size, Sample** buf, Py_ssize_t* cap, bint* owned,
                              bint canonical) noexcept nogil
 cdef object decode_msgpack(object payload, int64_t* newest, Batch batch, bint canonical=*)

@@ -20,7 +20,7 @@ from libc.string cimport memcmp, memcpy
 from ...ros.frame_names cimport frame_name
 from .msgpack_reader cimport Cur, _be64, _container, _float, _int, _is, _skip, _str
 
-__all__ = ["msgpack_tf", "cdr_tf", "canonical_hits", "MAX_PAYLOAD", "FRAME_CACHE_SIZE"]
+__all__ = ["msgpack_tf", "cdr_tf", "ros1_tf", "canonical_hits", "MAX_PAYLOAD", "FRAME_CACHE_SIZE"]
 
 from ...ros.tf import MAX_PAYLOAD  # larger payloads are not decoded here (the Python paths refuse them)
 cdef Py_ssize_t _MAX_PAYLOAD = MAX_PAYLOAD
@@ -32,16 +32,6 @@ cdef extern from "Python.h":
 
 #: frame names are interned by zentf.ros.frame_names (bounded in names and bytes, shared with the bag loader)
 from ...ros.tf import FRAME_CACHE_SIZE
-
-cdef inline double _f64le(const uint8_t* p) noexcept nogil:
-    cdef uint64_t u = 0
-    cdef int i
-    for i in range(8):
-        u |= (<uint64_t>p[i]) << (8 * i)
-    cdef double d
-    memcpy(&d, &u, 8)
-    return d
-
 
 cdef inline uint32_t _u32le(const uint8_t* p) noexcept nogil:
     return p[0] | (<uint32_t>p[1] << 8) | (<uint32_t>p[2] << 16) | (<uint32_t>p[3] << 24)
@@ -425,51 +415,161 @@ cdef object decode_cdr(object payload, int64_t* newest, Batch batch):
     newest[0] = -1
     if type(payload) is not bytes:
         return None
-    cdef Py_ssize_t end = PyBytes_GET_SIZE(payload)
-    if end > _MAX_PAYLOAD or end < 8:
-        return None
-    cdef const uint8_t* p = <const uint8_t*>PyBytes_AS_STRING(payload)
-    if not cdr_le(p, end):
-        return None
+    cdef Sample stack[_STACK_SAMPLES]
+    cdef Sample* buf = stack
+    cdef Py_ssize_t cap = _STACK_SAMPLES, n, i
+    cdef bint owned = False
+    n = cdr_walk(<const uint8_t*>PyBytes_AS_STRING(payload), PyBytes_GET_SIZE(payload), &buf, &cap, &owned)
+    try:
+        if n == -2:
+            raise MemoryError()
+        if n < 0:
+            return None
+        out = [] if batch is None else None
+        for i in range(n):
+            if not _emit(&buf[i], out, batch, newest):
+                return None
+        return True if batch is not None else out
+    finally:
+        if owned:
+            free(buf)
+
+
+cdef inline bint _room(Py_ssize_t count, Sample** buf, Py_ssize_t* cap, bint* owned) noexcept nogil:
+    """buf[0] holds at least count samples (count already bounded by the payload's size); False if memory ran out."""
+    cdef Py_ssize_t m
+    cdef void* q
+    if count <= cap[0]:
+        return True
+    m = max(count, 16)
+    q = realloc(buf[0], m * sizeof(Sample)) if owned[0] else malloc(m * sizeof(Sample))
+    if q == NULL:
+        return False
+    buf[0] = <Sample*>q
+    cap[0] = m
+    owned[0] = True
+    return True
+
+
+cdef Py_ssize_t cdr_walk(const uint8_t* p, Py_ssize_t end, Sample** buf, Py_ssize_t* cap,
+                         bint* owned) noexcept nogil:
+    """The samples of a ROS 2 CDR TFMessage (XCDR1 little-endian) into buf[0][0..count), names pointing into
+    p (without their NUL): count, -1 if anything is doubtful, -2 if memory ran out (buffers as msgpack_walk).
+
+    Per element: int32 sec (>= 0), uint32 nanosec (< 1e9), frame_id and child_frame_id (uint32 length
+    with the NUL, the bytes, the NUL; padding to 4 after frame_id), padding to 8 counted after the 4-byte
+    encapsulation header, 7 float64. Every length is checked against the bytes left before it is used;
+    bytes after the last element are ignored (as zentf.ros.tf.tf_samples ignores them). Names are not
+    checked for UTF-8 here (callers do)."""
+    if end > _MAX_PAYLOAD or not cdr_le(p, end):
+        return -1
     cdef uint32_t n = _u32le(p + 4)
-    if <uint64_t>n * 72 > <uint64_t>(end - 8):
-        return None
-    cdef Py_ssize_t off = 8, ln, i, j
+    if <uint64_t>n * 72 > <uint64_t>(end - 8):  # an element takes 72 bytes at the least
+        return -1
+    if not _room(n, buf, cap, owned):
+        return -2
+    cdef Py_ssize_t off = 8, ln, i
     cdef int32_t sec
     cdef uint32_t nsec, u32
-    cdef Sample s
-    out = [] if batch is None else None
+    cdef Sample* s = buf[0]
     for i in range(n):
         if end - off < 12:
-            return None
+            return -1
         u32 = _u32le(p + off)
         memcpy(&sec, &u32, 4)
         nsec = _u32le(p + off + 4)
         ln = _u32le(p + off + 8)
         off += 12
         if sec < 0 or nsec >= _NS or ln < 1 or end - off < ln or p[off + ln - 1] != 0:
-            return None
+            return -1
         s.parent = p + off
         s.parent_len = ln - 1
         off = (off + ln + 3) & ~(<Py_ssize_t>3)
         if end - off < 4:
-            return None
+            return -1
         ln = _u32le(p + off)
         off += 4
         if ln < 1 or end - off < ln or p[off + ln - 1] != 0:
-            return None
+            return -1
         s.child = p + off
         s.child_len = ln - 1
         off += ln
         off += (4 - off) & 7
         if end - off < 56:
-            return None
-        for j in range(7):
-            s.v[j] = _f64le(p + off + 8 * j)
+            return -1
+        memcpy(s.v, p + off, 56)  # little-endian hosts only (setup.py builds for x86-64 and arm64)
         off += 56
         s.sec = sec
         s.nsec = nsec
-        if not _emit(&s, out, batch, newest):
-            return None
-    return True if batch is not None else out
+        s += 1
+    return n
 
+
+# ---------------------------------------------------------------- ROS 1
+
+def ros1_tf(payload):
+    """Samples of a well-formed ROS 1 tf2_msgs/TFMessage payload; None if anything is doubtful (ros1_walk)."""
+    if type(payload) is not bytes:
+        return None
+    cdef Sample stack[_STACK_SAMPLES]
+    cdef Sample* buf = stack
+    cdef Py_ssize_t cap = _STACK_SAMPLES, n, i
+    cdef bint owned = False
+    cdef int64_t newest = -1
+    n = ros1_walk(<const uint8_t*>PyBytes_AS_STRING(payload), PyBytes_GET_SIZE(payload), &buf, &cap, &owned)
+    try:
+        if n == -2:
+            raise MemoryError()
+        if n < 0:
+            return None
+        out = []
+        for i in range(n):
+            if not _emit(&buf[i], out, None, &newest):
+                return None
+        return out
+    finally:
+        if owned:
+            free(buf)
+
+
+cdef Py_ssize_t ros1_walk(const uint8_t* p, Py_ssize_t end, Sample** buf, Py_ssize_t* cap,
+                          bint* owned) noexcept nogil:
+    """The samples of a ROS 1 tf2_msgs/TFMessage into buf[0][0..count), as cdr_walk: count, -1, -2.
+
+    Per element: uint32 seq, uint32 secs, uint32 nsecs (ROS 1 time is unsigned: sec and nsec are kept
+    as they are, the stamp is sec * 1e9 + nsec), frame_id and child_frame_id (uint32 length, the bytes:
+    no NUL, no padding), 7 float64. The message must end with its last element."""
+    if end > _MAX_PAYLOAD or end < 4:
+        return -1
+    cdef uint32_t n = _u32le(p)
+    if <uint64_t>n * 76 > <uint64_t>(end - 4):  # an element takes 76 bytes at the least
+        return -1
+    if not _room(n, buf, cap, owned):
+        return -2
+    cdef Py_ssize_t off = 4, ln, i
+    cdef Sample* s = buf[0]
+    for i in range(n):
+        if end - off < 16:
+            return -1
+        s.sec = _u32le(p + off + 4)
+        s.nsec = _u32le(p + off + 8)
+        ln = _u32le(p + off + 12)
+        off += 16
+        if end - off < ln + 4:
+            return -1
+        s.parent = p + off
+        s.parent_len = ln
+        off += ln
+        ln = _u32le(p + off)
+        off += 4
+        if end - off < ln + 56:
+            return -1
+        s.child = p + off
+        s.child_len = ln
+        off += ln
+        memcpy(s.v, p + off, 56)
+        off += 56
+        s += 1
+    if off != end:
+        return -1
+    return n
