@@ -7,7 +7,7 @@ from __future__ import annotations
 import re
 import threading
 import uuid
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -79,6 +79,13 @@ class Samples:
             assert self.cond.wait_for(lambda: len(self.got) >= n, timeout), f"{len(self.got)} of {n} samples"
             return list(self.got)
 
+    def wait_for(self, wanted: Callable[[RawSample], bool], timeout: float = 20.0) -> RawSample:
+        """The first sample ``wanted`` accepts, once one has come (others may come before it)."""
+        with self.cond:
+            assert self.cond.wait_for(lambda: any(wanted(s) for s in self.got), timeout), \
+                f"none of {len(self.got)} samples was the one wanted"
+            return next(s for s in self.got if wanted(s))
+
 
 def point(x: float) -> PointStamped:
     return PointStamped(Header(Time(sec=3), "laser"), Point(x, 0.0, 0.0))
@@ -105,7 +112,9 @@ def test_raw_subscription_gets_payload_sender_key_and_type(nodes) -> None:
     assert b.wire.sender_id(s.attachment) == pub.sender_id  # who sent it, on either wire
     assert b.wire.authority(s.attachment, "?") == ("/" + a.get_namespace().strip("/") + "/talker"
                                                    if b.wire.fixed_authority is None else b.wire.fixed_authority)
-    assert b.wire.topic_of_key(every.wait()[0].key)[0] == b.resolve_topic_name("points")
+    # the pattern gets the points (the latched topic's sample may come to it too, before or after)
+    topic = b.resolve_topic_name("points")
+    assert every.wait_for(lambda s: b.wire.topic_of_key(s.key)[0] == topic).payload == plain.wait()[0].payload
 
     # the typed raw subscription is in the graph; the pattern is not (a token holds no wildcard)
     info = node_info(b.session, b.get_fully_qualified_name(), profile=b.wire)
