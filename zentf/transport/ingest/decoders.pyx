@@ -334,23 +334,29 @@ cdef object decode_msgpack(object payload, int64_t* newest, Batch batch, bint ca
         return None
     cdef Sample stack[_STACK_SAMPLES]
     cdef Sample* buf = stack
-    cdef Py_ssize_t cap = _STACK_SAMPLES, n, i
+    cdef Py_ssize_t cap = _STACK_SAMPLES, n
     cdef bint owned = False
     n = msgpack_walk(<const uint8_t*>PyBytes_AS_STRING(payload), PyBytes_GET_SIZE(payload), &buf, &cap, &owned,
                      canonical)
     try:
-        if n == -2:
-            raise MemoryError()
-        if n < 0:
-            return None
-        out = [] if batch is None else None
-        for i in range(n):
-            if not _emit(&buf[i], out, batch, newest):
-                return None
-        return True if batch is not None else out
+        return _emit_all(buf, n, batch, newest)
     finally:
         if owned:
             free(buf)
+
+
+cdef inline object _emit_all(Sample* buf, Py_ssize_t n, Batch batch, int64_t* newest):
+    """A walker's n samples as decode_* returns them: None if n says doubtful (MemoryError: out of memory)."""
+    cdef Py_ssize_t i
+    if n == -2:
+        raise MemoryError()
+    if n < 0:
+        return None
+    out = [] if batch is None else None
+    for i in range(n):
+        if not _emit(&buf[i], out, batch, newest):
+            return None
+    return True if batch is not None else out
 
 
 cdef Py_ssize_t msgpack_walk(const uint8_t* p, Py_ssize_t size, Sample** buf, Py_ssize_t* cap, bint* owned,
@@ -417,19 +423,11 @@ cdef object decode_cdr(object payload, int64_t* newest, Batch batch):
         return None
     cdef Sample stack[_STACK_SAMPLES]
     cdef Sample* buf = stack
-    cdef Py_ssize_t cap = _STACK_SAMPLES, n, i
+    cdef Py_ssize_t cap = _STACK_SAMPLES, n
     cdef bint owned = False
     n = cdr_walk(<const uint8_t*>PyBytes_AS_STRING(payload), PyBytes_GET_SIZE(payload), &buf, &cap, &owned)
     try:
-        if n == -2:
-            raise MemoryError()
-        if n < 0:
-            return None
-        out = [] if batch is None else None
-        for i in range(n):
-            if not _emit(&buf[i], out, batch, newest):
-                return None
-        return True if batch is not None else out
+        return _emit_all(buf, n, batch, newest)
     finally:
         if owned:
             free(buf)
@@ -513,20 +511,12 @@ def ros1_tf(payload):
         return None
     cdef Sample stack[_STACK_SAMPLES]
     cdef Sample* buf = stack
-    cdef Py_ssize_t cap = _STACK_SAMPLES, n, i
+    cdef Py_ssize_t cap = _STACK_SAMPLES, n
     cdef bint owned = False
     cdef int64_t newest = -1
     n = ros1_walk(<const uint8_t*>PyBytes_AS_STRING(payload), PyBytes_GET_SIZE(payload), &buf, &cap, &owned)
     try:
-        if n == -2:
-            raise MemoryError()
-        if n < 0:
-            return None
-        out = []
-        for i in range(n):
-            if not _emit(&buf[i], out, None, &newest):
-                return None
-        return out
+        return _emit_all(buf, n, None, &newest)
     finally:
         if owned:
             free(buf)

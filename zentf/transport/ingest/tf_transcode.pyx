@@ -159,6 +159,20 @@ cdef inline void _put_u32le(char* o, uint32_t v) noexcept nogil:
     o[3] = <char>(v >> 24)
 
 
+cdef inline Py_ssize_t _put_string(char* o, Py_ssize_t at, const uint8_t* p, Py_ssize_t n,
+                                   Py_ssize_t align) noexcept nogil:
+    """A CDR string at o + at (length with its NUL, bytes, NUL), zeros until at & align is 0: the new at."""
+    _put_u32le(o + at, <uint32_t>(n + 1))
+    memcpy(o + at + 4, p, n)
+    at += 4 + n
+    o[at] = 0
+    at += 1
+    while at & align:
+        o[at] = 0
+        at += 1
+    return at
+
+
 cdef object _write_cdr(Sample* s, Py_ssize_t n):
     """The CDR TFMessage (XCDR1 little-endian) of n walked samples, laid out as zentf.ros.tf.encode_tf lays it
     out (zero padding); None if a name is not UTF-8 (or has a NUL) or a sec does not fit CDR's int32."""
@@ -182,22 +196,8 @@ cdef object _write_cdr(Sample* s, Py_ssize_t n):
         _put_u32le(o + 4 + at, <uint32_t>s[i].sec)
         _put_u32le(o + 4 + at + 4, <uint32_t>s[i].nsec)
         at += 8
-        _put_u32le(o + 4 + at, <uint32_t>(s[i].parent_len + 1))
-        memcpy(o + 4 + at + 4, s[i].parent, s[i].parent_len)
-        at += 4 + s[i].parent_len
-        o[4 + at] = 0
-        at += 1
-        while at & 3:
-            o[4 + at] = 0
-            at += 1
-        _put_u32le(o + 4 + at, <uint32_t>(s[i].child_len + 1))
-        memcpy(o + 4 + at + 4, s[i].child, s[i].child_len)
-        at += 4 + s[i].child_len
-        o[4 + at] = 0
-        at += 1
-        while at & 7:
-            o[4 + at] = 0
-            at += 1
+        at = _put_string(o + 4, at, s[i].parent, s[i].parent_len, 3)
+        at = _put_string(o + 4, at, s[i].child, s[i].child_len, 7)
         memcpy(o + 4 + at, s[i].v, 56)  # little-endian hosts only (setup.py builds for x86-64 and arm64)
         at += 56
     if at + 4 != size:
