@@ -235,6 +235,19 @@ NAV2 = Path(__file__).resolve().parent.parent / "tests" / "data" / "nav2_turtleb
 TF_TOPICS = ("/tf", "/tf_static")
 
 
+def _interleaved(cases: dict, repeat: int, n_tf: int) -> dict:
+    """Each case's seconds over ``repeat`` rounds of all cases in turn (a load spike hits them alike); each
+    must return n_tf, the transforms it read."""
+    times: dict = {k: [] for k in cases}
+    for _ in range(repeat):
+        for k, fn in cases.items():
+            t = time.perf_counter()
+            got = fn()
+            times[k].append(time.perf_counter() - t)
+            assert got == n_tf, (k, got, n_tf)
+    return times
+
+
 def _best(fn, repeat: int) -> float:
     best = float("inf")
     for _ in range(repeat):
@@ -548,13 +561,7 @@ def bench_formats(repeat: int = 3, messages: int = 100_000) -> None:
                  ("rosbag2 SQLite", "zentf"): lambda: load(sqpath, False),
                  ("rosbag2 SQLite", "before"): lambda: load(sqpath, True),
                  ("rosbag2 SQLite", "ref"): rosbags_loop}
-        times: dict[tuple[str, str], list[float]] = {k: [] for k in cases}
-        for _ in range(repeat):
-            for k, fn in cases.items():
-                t = time.perf_counter()
-                got = fn()
-                times[k].append(time.perf_counter() - t)
-                assert got == n_tf, (k, got, n_tf)
+        times = _interleaved(cases, repeat, n_tf)
         at = 1_000 + messages * 0.01 / 2
         echo = {}
         for fmt, path in (("zentf MCAP", zpath), ("rosbag2 SQLite", sqpath)):
@@ -665,13 +672,7 @@ def bench_convert(repeat: int = 3, messages: int = 100_000) -> None:
             cases[(fmt, "zentf")] = lambda path=path: run(path, True)
             cases[(fmt, "before")] = lambda path=path: run(path, False)
             cases[(fmt, "ref")] = lambda path=path: rosbags_loop(path)
-        times: dict[tuple[str, str], list[float]] = {k: [] for k in cases}
-        for _ in range(repeat):
-            for k, fn in cases.items():
-                t = time.perf_counter()
-                got = fn()
-                times[k].append(time.perf_counter() - t)
-                assert got == n_tf, (k, got, n_tf)
+        times = _interleaved(cases, repeat, n_tf)
     print(f"bag convert to a zentf MCAP, 1M transforms, best of {repeat} interleaved runs (transforms/s; load "
           f"{os.getloadavg()[0]:.1f})")
     print(f"{'format':<14} {'zentf':>12} {'before (Python/msg)':>20} {'rosbags read + decode':>22} "
