@@ -38,5 +38,23 @@ cdef Py_ssize_t ros1_walk(const uint8_t* p, Py_ssize_t size, Sample** buf, Py_ss
                           bint* owned) noexcept nogil
 cdef Py_ssize_t msgpack_walk(const uint8_t* p, Py_ssize_t size, Sample** buf, Py_ssize_t* cap, bint* owned,
                              bint canonical) noexcept nogil
+
+cdef enum:
+    WALK_MSGPACK = 0
+    WALK_CDR = 1
+    WALK_ROS1 = 2
+
+
+cdef struct Walk:
+    # one walk's samples: buf is stack (a small message, the listener's common case: 13 KiB on the C stack)
+    # or a malloc'd buffer (owned) that walk_done frees
+    Sample* buf
+    Py_ssize_t cap
+    bint owned
+    Sample stack[128]
+
+
+cdef Py_ssize_t walk(Walk* w, int fmt, object payload, bint canonical=*) except -2
+cdef void walk_done(Walk* w) noexcept nogil
 cdef object decode_msgpack(object payload, int64_t* newest, Batch batch, bint canonical=*)
 cdef object decode_cdr(object payload, int64_t* newest, Batch batch)

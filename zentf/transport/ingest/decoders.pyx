@@ -322,34 +322,51 @@ def msgpack_tf(payload, bint canonical=True):
     return decode_msgpack(payload, &newest, None, canonical)
 
 
-cdef enum:
-    _STACK_SAMPLES = 128  # a message this small is decoded into the C stack (13 KiB; the listener's common case)
+cdef Py_ssize_t walk(Walk* w, int fmt, object payload, bint canonical=True) except -2:
+    """The samples of a TFMessage payload in fmt (WALK_*) into w.buf[0..n): n, -1 if anything is doubtful (a
+    payload that is not bytes too); MemoryError if memory ran out. walk_done(w) after, however it ends."""
+    w.buf = w.stack
+    w.cap = sizeof(w.stack) // sizeof(Sample)
+    w.owned = False
+    if type(payload) is not bytes:
+        return -1
+    cdef const uint8_t* p = <const uint8_t*>PyBytes_AS_STRING(payload)
+    cdef Py_ssize_t size = PyBytes_GET_SIZE(payload), n
+    if fmt == WALK_MSGPACK:
+        n = msgpack_walk(p, size, &w.buf, &w.cap, &w.owned, canonical)
+    elif fmt == WALK_CDR:
+        n = cdr_walk(p, size, &w.buf, &w.cap, &w.owned)
+    else:
+        n = ros1_walk(p, size, &w.buf, &w.cap, &w.owned)
+    if n == -2:
+        walk_done(w)
+        raise MemoryError()
+    return n
+
+
+cdef void walk_done(Walk* w) noexcept nogil:
+    """Free what walk malloc'd (once)."""
+    if w.owned:
+        free(w.buf)
+        w.owned = False
+        w.buf = w.stack
 
 
 cdef object decode_msgpack(object payload, int64_t* newest, Batch batch, bint canonical=True):
     """msgpack_tf, also giving the newest stamp (-1 if none); with a batch, the samples go into it
     (True returned) instead of a list of tuples."""
     newest[0] = -1
-    if type(payload) is not bytes:
-        return None
-    cdef Sample stack[_STACK_SAMPLES]
-    cdef Sample* buf = stack
-    cdef Py_ssize_t cap = _STACK_SAMPLES, n
-    cdef bint owned = False
-    n = msgpack_walk(<const uint8_t*>PyBytes_AS_STRING(payload), PyBytes_GET_SIZE(payload), &buf, &cap, &owned,
-                     canonical)
+    cdef Walk w
+    cdef Py_ssize_t n = walk(&w, WALK_MSGPACK, payload, canonical)
     try:
-        return _emit_all(buf, n, batch, newest)
+        return _emit_all(w.buf, n, batch, newest)
     finally:
-        if owned:
-            free(buf)
+        walk_done(&w)
 
 
 cdef inline object _emit_all(Sample* buf, Py_ssize_t n, Batch batch, int64_t* newest):
-    """A walker's n samples as decode_* returns them: None if n says doubtful (MemoryError: out of memory)."""
+    """A walk's n samples as decode_* returns them: None if n says doubtful."""
     cdef Py_ssize_t i
-    if n == -2:
-        raise MemoryError()
     if n < 0:
         return None
     out = [] if batch is None else None
@@ -419,18 +436,12 @@ def cdr_tf(payload):
 cdef object decode_cdr(object payload, int64_t* newest, Batch batch):
     """cdr_tf, also giving the newest stamp (-1 if none); with a batch, as decode_msgpack."""
     newest[0] = -1
-    if type(payload) is not bytes:
-        return None
-    cdef Sample stack[_STACK_SAMPLES]
-    cdef Sample* buf = stack
-    cdef Py_ssize_t cap = _STACK_SAMPLES, n
-    cdef bint owned = False
-    n = cdr_walk(<const uint8_t*>PyBytes_AS_STRING(payload), PyBytes_GET_SIZE(payload), &buf, &cap, &owned)
+    cdef Walk w
+    cdef Py_ssize_t n = walk(&w, WALK_CDR, payload)
     try:
-        return _emit_all(buf, n, batch, newest)
+        return _emit_all(w.buf, n, batch, newest)
     finally:
-        if owned:
-            free(buf)
+        walk_done(&w)
 
 
 cdef inline bint _room(Py_ssize_t count, Sample** buf, Py_ssize_t* cap, bint* owned) noexcept nogil:
@@ -507,19 +518,13 @@ cdef Py_ssize_t cdr_walk(const uint8_t* p, Py_ssize_t end, Sample** buf, Py_ssiz
 
 def ros1_tf(payload):
     """Samples of a well-formed ROS 1 tf2_msgs/TFMessage payload; None if anything is doubtful (ros1_walk)."""
-    if type(payload) is not bytes:
-        return None
-    cdef Sample stack[_STACK_SAMPLES]
-    cdef Sample* buf = stack
-    cdef Py_ssize_t cap = _STACK_SAMPLES, n
-    cdef bint owned = False
     cdef int64_t newest = -1
-    n = ros1_walk(<const uint8_t*>PyBytes_AS_STRING(payload), PyBytes_GET_SIZE(payload), &buf, &cap, &owned)
+    cdef Walk w
+    cdef Py_ssize_t n = walk(&w, WALK_ROS1, payload)
     try:
-        return _emit_all(buf, n, None, &newest)
+        return _emit_all(w.buf, n, None, &newest)
     finally:
-        if owned:
-            free(buf)
+        walk_done(&w)
 
 
 cdef Py_ssize_t ros1_walk(const uint8_t* p, Py_ssize_t end, Sample** buf, Py_ssize_t* cap,

@@ -10,12 +10,11 @@ caller takes its Python path, which says what is wrong.
 form): what ``bag convert`` wrote through rosbags' decoder and ``to_plain``. ``packb=False`` writes
 sec/nanosec as uint32, as zentf's broadcasters do (the DDS bridge).
 """
-from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize, PyBytes_GET_SIZE
+from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize
 from libc.stdint cimport int64_t, uint8_t, uint32_t, uint64_t
-from libc.stdlib cimport free
 from libc.string cimport memcpy
 
-from .decoders cimport Sample, cdr_walk, msgpack_walk, ros1_walk
+from .decoders cimport WALK_CDR, WALK_MSGPACK, WALK_ROS1, Sample, Walk, walk, walk_done
 from .msgpack_writer cimport _w_array, _w_be32, _w_f64, _w_uint
 
 __all__ = ["tf_cdr_to_msgpack", "tf_ros1_to_msgpack", "tf_msgpack_to_cdr"]
@@ -29,10 +28,6 @@ cdef const char* _TRANS = b"\xa9transform\x82\xabtranslation\x83\xa1x"  # 26, th
 cdef const char* _ROT = b"\xa8rotation\x84\xa1x"                        # 12, then x
 #: the constant bytes of one element: keys, float markers (7 x 9 bytes), the y/z/w keys (5 x 2)
 cdef Py_ssize_t _FIXED = 20 + 8 + 9 + 15 + 26 + 12 + 7 * 9 + 5 * 2
-
-cdef enum:
-    _STACK_SAMPLES = 128  # a message this small is walked into the C stack
-
 
 cdef bint _utf8(const uint8_t* p, Py_ssize_t n) noexcept nogil:
     """Well-formed UTF-8 (no overlongs, surrogates or code points past U+10FFFF), no NUL."""
@@ -209,48 +204,27 @@ def tf_msgpack_to_cdr(payload):
     """The ROS 2 CDR TFMessage (zentf.ros.tf.encode_tf's bytes) of a zentf msgpack TFMessage laid out as zentf writes
     it, read by the listener's walker; None if anything is doubtful or laid out otherwise (the caller's Python
     path reads it and says what is wrong)."""
-    if type(payload) is not bytes:
-        return None
-    cdef Sample stack[_STACK_SAMPLES]
-    cdef Sample* buf = stack
-    cdef Py_ssize_t cap = _STACK_SAMPLES, n
-    cdef bint owned = False
-    n = msgpack_walk(<const uint8_t*>PyBytes_AS_STRING(payload), PyBytes_GET_SIZE(payload), &buf, &cap, &owned,
-                     True)
+    cdef Walk w
+    cdef Py_ssize_t n = walk(&w, WALK_MSGPACK, payload)
     try:
-        if n == -2:
-            raise MemoryError()
         if n < 0:
             return None
         # only zentf's own layouts (its broadcasters' uint32 stamps, or msgpack.packb's): the walker skips unknown
         # fields and reads keys in any order, which the Python path's TFMessage.from_dict refuses or reads otherwise
-        if _write(buf, n, False) != payload and _write(buf, n, True) != payload:
+        if _write(w.buf, n, False) != payload and _write(w.buf, n, True) != payload:
             return None
-        return _write_cdr(buf, n)
+        return _write_cdr(w.buf, n)
     finally:
-        if owned:
-            free(buf)
+        walk_done(&w)
 
 
 cdef object _transcode(object payload, bint ros1, bint packb):
-    if type(payload) is not bytes:
-        return None
-    cdef Sample stack[_STACK_SAMPLES]
-    cdef Sample* buf = stack
-    cdef Py_ssize_t cap = _STACK_SAMPLES, n
-    cdef bint owned = False
-    cdef const uint8_t* p = <const uint8_t*>PyBytes_AS_STRING(payload)
-    cdef Py_ssize_t size = PyBytes_GET_SIZE(payload)
-    n = ros1_walk(p, size, &buf, &cap, &owned) if ros1 else cdr_walk(p, size, &buf, &cap, &owned)
+    cdef Walk w
+    cdef Py_ssize_t n = walk(&w, WALK_ROS1 if ros1 else WALK_CDR, payload)
     try:
-        if n == -2:
-            raise MemoryError()
-        if n < 0:
-            return None
-        return _write(buf, n, packb)
+        return _write(w.buf, n, packb) if n >= 0 else None
     finally:
-        if owned:
-            free(buf)
+        walk_done(&w)
 
 
 def tf_cdr_to_msgpack(payload, bint packb=False):
