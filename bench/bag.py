@@ -22,6 +22,7 @@ per transform), and ``tf echo --bag BIG --time T`` /
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import socket
 import subprocess
@@ -233,6 +234,17 @@ def bench_play(msgs: list[bytes], d: Path) -> tuple[float, float, int]:
 
 NAV2 = Path(__file__).resolve().parent.parent / "tests" / "data" / "nav2_turtlebot.mcap"
 TF_TOPICS = ("/tf", "/tf_static")
+
+
+def _rosbags_transforms(path: Path) -> int:
+    """The reference: rosbags reads and decodes every message of a tf-only bag; the transforms in it."""
+    from rosbags.highlevel import AnyReader
+
+    n = 0
+    with AnyReader([path]) as r:
+        for c, _, raw in r.messages():
+            n += len(r.deserialize(raw, c.msgtype).transforms)
+    return n
 
 
 def _interleaved(cases: dict, repeat: int, n_tf: int) -> dict:
@@ -463,7 +475,6 @@ def bench_big(target_mb: int, big_ref: bool = False) -> None:
 def bench_million(repeat: int = 3) -> None:
     """1M transforms (100k TFMessages of 10) from a rosbag2 MCAP into a Buffer, against rosbags' own decode
     loop over the same file (no buffer: the reference does less), interleaved runs."""
-    from rosbags.highlevel import AnyReader
 
     from zentf.tools.bag import load_buffer
 
@@ -471,12 +482,7 @@ def bench_million(repeat: int = 3) -> None:
         path = Path(tmp) / "million.mcap"
         n_msgs, n_tf = generate_big(path, 0, messages=100_000)
 
-        def rosbags_loop() -> int:
-            n = 0
-            with AnyReader([path]) as r:
-                for c, _, raw in r.messages():
-                    n += len(r.deserialize(raw, c.msgtype).transforms)
-            return n
+        rosbags_loop = functools.partial(_rosbags_transforms, path)
 
         ours, ref = [], []
         for _ in range(repeat):
@@ -520,7 +526,6 @@ def bench_formats(repeat: int = 3, messages: int = 100_000) -> None:
     own read + decode loop over the same file (no buffer: the references do less), interleaved runs."""
     import msgpack
     from mcap.reader import make_reader
-    from rosbags.highlevel import AnyReader
 
     from zentf.tools.bag import load_buffer
 
@@ -540,12 +545,7 @@ def bench_formats(repeat: int = 3, messages: int = 100_000) -> None:
                     n += len(msgpack.unpackb(m.data)["transforms"])
             return n
 
-        def rosbags_loop() -> int:
-            n = 0
-            with AnyReader([sqpath]) as r:
-                for c, _, raw in r.messages():
-                    n += len(r.deserialize(raw, c.msgtype).transforms)
-            return n
+        rosbags_loop = functools.partial(_rosbags_transforms, sqpath)
 
         def load(path: Path, python: bool) -> int:
             if python:
@@ -636,7 +636,6 @@ def bench_convert(repeat: int = 3, messages: int = 100_000) -> None:
     zentf MCAP: the compiled TFMessage writers, the Python path they replace (rosbags' decoder, to_plain,
     msgpack: before), and rosbags' own read + decode loop over the same file (no writing: the reference does
     less), interleaved runs."""
-    from rosbags.highlevel import AnyReader
 
     from zentf.tools.bag import source
     from zentf.tools.bag.convert import convert
@@ -660,18 +659,11 @@ def bench_convert(repeat: int = 3, messages: int = 100_000) -> None:
             out.unlink()
             return r["messages"] * 10
 
-        def rosbags_loop(path: Path) -> int:
-            n = 0
-            with AnyReader([path]) as r:
-                for c, _, raw in r.messages():
-                    n += len(r.deserialize(raw, c.msgtype).transforms)
-            return n
-
         cases = {}
         for fmt, path in (("rosbag2 MCAP", r2), ("ROS 1 bag", r1)):
             cases[(fmt, "zentf")] = lambda path=path: run(path, True)
             cases[(fmt, "before")] = lambda path=path: run(path, False)
-            cases[(fmt, "ref")] = lambda path=path: rosbags_loop(path)
+            cases[(fmt, "ref")] = functools.partial(_rosbags_transforms, path)
         times = _interleaved(cases, repeat, n_tf)
     print(f"bag convert to a zentf MCAP, 1M transforms, best of {repeat} interleaved runs (transforms/s; load "
           f"{os.getloadavg()[0]:.1f})")
