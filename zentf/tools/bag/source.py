@@ -121,9 +121,10 @@ class Bag:
         except Exception as e:  # noqa: BLE001
             raise ValueError(f"payload does not decode ({type(e).__name__})") from None
 
-    def _tf_transcoder(self, m: RawMessage) -> Callable[[bytes], bytes | None] | None:
+    def _tf_transcoder(self, m: RawMessage, as_cdr: bool) -> Callable[[bytes], bytes | None] | None:
         """The compiled TFMessage -> msgpack writer for m's topic (None if its type is not TFMessage as ROS
-        lays it out: that topic goes through rosbags)."""
+        lays it out: that topic goes through rosbags); ``as_cdr`` (a rosbag2 bag): the recorded CDR itself
+        where that writer would write it (checked, not written)."""
         from .tfdecode import TF_TYPE, standard_tf_layout
 
         if not COMPILED_TF or m.type_name != TF_TYPE or self._ros.ensure_type(m.conn):
@@ -132,9 +133,13 @@ class Bag:
             self._tf_layout = standard_tf_layout(self._ros)
         if not self._tf_layout:
             return None
-        from zentf.transport.ingest.tf_transcode import tf_cdr_to_msgpack, tf_ros1_to_msgpack
+        from zentf.transport.ingest.tf_transcode import tf_cdr_to_msgpack, tf_cdr_transcodes, tf_ros1_to_msgpack
 
-        return tf_ros1_to_msgpack if self._ros.ros1 else functools.partial(tf_cdr_to_msgpack, packb=True)
+        if self._ros.ros1:
+            return tf_ros1_to_msgpack
+        if as_cdr:
+            return lambda raw: raw if tf_cdr_transcodes(raw) else None
+        return functools.partial(tf_cdr_to_msgpack, packb=True)
 
     def zentf(self, topics: Collection[str] | None = None,
               on_skip: Callable[[str, str], None] | None = None, *, tf_as_cdr: bool = False) -> Iterator[BagMessage]:
@@ -159,14 +164,14 @@ class Bag:
                 continue
             kind = (m.topic, m.type_name)
             if kind not in fast:
-                fast[kind] = self._tf_transcoder(m)
+                fast[kind] = self._tf_transcoder(m, as_cdr)
             write = fast[kind]
             payload = write(m.payload) if write is not None else None
             encoding = f"application/msgpack;{m.type_name}"
             if payload is not None:
                 self.compiled_tf += 1
                 if as_cdr:
-                    payload, encoding = m.payload, CDR_TF
+                    encoding = CDR_TF
             else:
                 try:
                     payload = pack(self.decode(m))

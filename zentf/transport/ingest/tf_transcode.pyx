@@ -17,7 +17,7 @@ from libc.string cimport memcpy
 from .decoders cimport WALK_CDR, WALK_MSGPACK, WALK_ROS1, Sample, Walk, walk, walk_done
 from .msgpack_writer cimport _w_array, _w_be32, _w_f64, _w_uint
 
-__all__ = ["tf_cdr_to_msgpack", "tf_ros1_to_msgpack", "tf_msgpack_to_cdr"]
+__all__ = ["tf_cdr_to_msgpack", "tf_cdr_transcodes", "tf_ros1_to_msgpack", "tf_msgpack_to_cdr"]
 
 cdef const char* _HEAD = b"\x81\xaatransforms"                          # 12 bytes, then the array header
 cdef const char* _STAMP = b"\x83\xa6header\x82\xa5stamp\x82\xa3sec"     # 20 bytes, then sec
@@ -115,17 +115,25 @@ cdef inline char* _key_f64(char* o, char name, double v) noexcept:
     return _w_f64(o + 2, v)
 
 
-cdef object _write(Sample* s, Py_ssize_t n, bint packb):
-    """The msgpack TFMessage of n walked samples; None if a name is not UTF-8 (or has a NUL), or a stamp
-    does not fit the uint32 the broadcasters write."""
+cdef Py_ssize_t _size(Sample* s, Py_ssize_t n, bint packb) noexcept nogil:
+    """The bytes of the msgpack TFMessage of n walked samples; -1 if a name is not UTF-8 (or has a NUL), or a
+    stamp does not fit the uint32 the broadcasters write."""
     cdef Py_ssize_t i, size = 12 + (1 if n < 16 else 3 if n < 65536 else 5)
     for i in range(n):
         if not (_utf8(s[i].parent, s[i].parent_len) and _utf8(s[i].child, s[i].child_len)):
-            return None
+            return -1
         if s[i].sec > <int64_t>0xFFFFFFFF or s[i].nsec > <int64_t>0xFFFFFFFF:
-            return None
+            return -1
         size += (_FIXED + _str_size(s[i].parent_len) + _str_size(s[i].child_len) + _uint_size(s[i].sec, packb)
                  + _uint_size(s[i].nsec, packb))
+    return size
+
+
+cdef object _write(Sample* s, Py_ssize_t n, bint packb):
+    """The msgpack TFMessage of n walked samples; None where _size says -1."""
+    cdef Py_ssize_t i, size = _size(s, n, packb)
+    if size < 0:
+        return None
     out = PyBytes_FromStringAndSize(NULL, size)
     cdef char* o = PyBytes_AS_STRING(out)
     cdef char* start = o
@@ -223,6 +231,17 @@ cdef object _transcode(object payload, bint ros1, bint packb):
     cdef Py_ssize_t n = walk(&w, WALK_ROS1 if ros1 else WALK_CDR, payload)
     try:
         return _write(w.buf, n, packb) if n >= 0 else None
+    finally:
+        walk_done(&w)
+
+
+def tf_cdr_transcodes(payload):
+    """tf_cdr_to_msgpack would write this CDR TFMessage (well-formed, names UTF-8, stamps uint32), without
+    writing it: a recorded one that may go out as it is."""
+    cdef Walk w
+    cdef Py_ssize_t n = walk(&w, WALK_CDR, payload)
+    try:
+        return n >= 0 and _size(w.buf, n, True) >= 0
     finally:
         walk_done(&w)
 
