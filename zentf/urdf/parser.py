@@ -109,11 +109,12 @@ def _origin(ctx: _Ctx, parent: XElement) -> Pose:
     return _shared(ctx, key, Pose)  # type: ignore[return-value]
 
 
-def _shared(ctx: _Ctx, key: tuple, make) -> object:
-    """``make(*key)``, one object per distinct key (the objects are frozen)."""
+def _shared(ctx: _Ctx, key: tuple, make, args: tuple | None = None) -> object:
+    """``make(*args)`` (args: the key's own values by default), one object per distinct key (the objects are
+    frozen)."""
     got = ctx.shared.get(key)
     if got is None:
-        got = make(*key)
+        got = make(*(key if args is None else args))
         if len(ctx.shared) < _NUMBERS_KEPT:
             ctx.shared[key] = got
     return got
@@ -225,12 +226,7 @@ def _parse(text: str | bytes, source: str | None, package_path: list[str] | None
         if a is not None:
             axis = _floats(ctx, a, "xyz", 3, (1.0, 0.0, 0.0), el)
         if jtype in ("revolute", "continuous", "prismatic", "planar"):
-            unit = ctx.shared.get(("axis", axis))
-            if unit is None:
-                unit = _unit_axis(ctx, axis, a or el)
-                if len(ctx.shared) < _NUMBERS_KEPT:
-                    ctx.shared[("axis", axis)] = unit
-            axis = unit  # type: ignore[assignment]
+            axis = _shared(ctx, ("axis", axis), _unit_axis, (ctx, axis, a or el))  # type: ignore[assignment]
         limit = None
         le = el.find("limit")
         if le is not None:
