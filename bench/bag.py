@@ -25,6 +25,7 @@ import argparse
 import functools
 import os
 import socket
+import struct
 import subprocess
 import sys
 import tempfile
@@ -307,10 +308,21 @@ def bench_nav2(repeat: int = 5) -> list[tuple[str, float]]:
     return [(k, n / min(v)) for k, v in times.items()]
 
 
+def _marker_offsets(template: bytes, marker: int, per_msg: int) -> list[int]:
+    """Where a template message's per_msg stamps (sec = marker, little-endian) are, to stamp copies of it."""
+    packed = struct.pack("<I", marker)
+    offsets = []
+    i = template.find(packed)
+    while i >= 0:
+        offsets.append(i)
+        i = template.find(packed, i + 4)
+    assert len(offsets) == per_msg, offsets
+    return offsets
+
+
 def _cdr_template(per_msg: int) -> tuple[bytes, list[int], str]:
     """A CDR TFMessage of ``per_msg`` transforms (a chain of links), the offsets of its stamps, the type's
     definition."""
-    import struct
 
     from rosbags.typesys import Stores, get_typestore
 
@@ -323,12 +335,7 @@ def _cdr_template(per_msg: int) -> tuple[bytes, list[int], str]:
               "transform": {"translation": {"x": 0.1 * i, "y": 0.0, "z": 0.05},
                             "rotation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}} for i in range(per_msg)]
     template = encode_tf(items)
-    offsets = []
-    i = template.find(struct.pack("<i", marker))
-    while i >= 0:
-        offsets.append(i)
-        i = template.find(struct.pack("<i", marker), i + 4)
-    assert len(offsets) == per_msg, offsets
+    offsets = _marker_offsets(template, marker, per_msg)
     store = get_typestore(Stores.ROS2_HUMBLE)
     msgdef, _ = store.generate_msgdef("tf2_msgs/msg/TFMessage", ros_version=2)
     return template, offsets, msgdef
@@ -336,7 +343,6 @@ def _cdr_template(per_msg: int) -> tuple[bytes, list[int], str]:
 
 def _stamped(template: bytes, offsets: list[int], n: int):
     """(stamp ns, payload) of n messages at 100 Hz from 1000 s, the template's stamps patched."""
-    import struct
 
     pack = struct.Struct("<iI").pack_into
     buf = bytearray(template)
@@ -591,7 +597,6 @@ def bench_formats(repeat: int = 3, messages: int = 100_000) -> None:
 def _ros1_template(per_msg: int) -> tuple[bytes, list[int], object]:
     """A ROS 1 TFMessage of ``per_msg`` transforms (the chain of _cdr_template), its stamps' offsets, and a
     rosbags typestore holding tf2_msgs/TFMessage as ROS 1 defines it."""
-    import struct
 
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
@@ -608,12 +613,7 @@ def _ros1_template(per_msg: int) -> tuple[bytes, list[int], object]:
             translation=T["geometry_msgs/msg/Vector3"](x=0.1 * i, y=0.0, z=0.05),
             rotation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0))) for i in range(per_msg)]
     template = bytes(store.serialize_ros1(T["tf2_msgs/msg/TFMessage"](transforms=items), "tf2_msgs/msg/TFMessage"))
-    offsets = []
-    i = template.find(struct.pack("<I", marker))
-    while i >= 0:
-        offsets.append(i)
-        i = template.find(struct.pack("<I", marker), i + 4)
-    assert len(offsets) == per_msg, offsets
+    offsets = _marker_offsets(template, marker, per_msg)
     return template, offsets, store
 
 
